@@ -1,0 +1,260 @@
+//! The error type of this crate.
+
+/// Everything that can go wrong reading or writing a measurement file.
+///
+/// The message (`Display`) always starts with the file (path or label), followed where it
+/// applies by the physical 1-based line and the column, e.g.
+/// `data.csv:17: column "q3": "abc" is not a number`.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum MeasurementError {
+    /// The file could not be read or written.
+    #[error("{file}: {source}")]
+    Io {
+        /// File path.
+        file: String,
+        /// The underlying I/O error.
+        #[source]
+        source: std::io::Error,
+    },
+
+    /// The file is not valid UTF-8.
+    #[error("{file}:{line}: not valid UTF-8")]
+    NotUtf8 {
+        /// File path or label.
+        file: String,
+        /// Line holding the first invalid byte.
+        line: usize,
+    },
+
+    /// The file has no header: it is empty or holds only comments and blank lines.
+    #[error("{file}: no header line (the file is empty or holds only comments and blank lines)")]
+    NoHeader {
+        /// File path or label.
+        file: String,
+    },
+
+    /// A required column is absent from the header.
+    #[error("{file}:{line}: missing required column \"{column}\"")]
+    MissingColumn {
+        /// File path or label.
+        file: String,
+        /// Line of the header.
+        line: usize,
+        /// Name of the missing column.
+        column: String,
+    },
+
+    /// A known column appears twice in the header.
+    #[error(
+        "{file}:{line}: duplicate column \"{column}\" (header fields {first_field} and {second_field})"
+    )]
+    DuplicateColumn {
+        /// File path or label.
+        file: String,
+        /// Line of the header.
+        line: usize,
+        /// The duplicated column name.
+        column: String,
+        /// 1-based position of its first occurrence in the header.
+        first_field: usize,
+        /// 1-based position of its second occurrence in the header.
+        second_field: usize,
+    },
+
+    /// The header's joint columns are not exactly `q1…qN` for the expected N (e.g. a 7-joint
+    /// file read as a 6-joint robot, or only `q1…q5`).
+    #[error(
+        "{file}:{line}: column \"{column}\": the header has {} joint column(s) ({}) but {expected} joints are expected (q1..q{expected})",
+        .found.len(), describe_joint_columns(.found)
+    )]
+    JointCountMismatch {
+        /// File path or label.
+        file: String,
+        /// Line of the header.
+        line: usize,
+        /// The first offending column: an unexpected joint column (e.g. `q7`) or the first
+        /// missing one (e.g. `q6`).
+        column: String,
+        /// Expected number of joints.
+        expected: usize,
+        /// Joint-like columns found in the header, sorted by joint index.
+        found: Vec<String>,
+    },
+
+    /// A field that must be a number is not one (including an empty field).
+    #[error("{file}:{line}: column \"{column}\": \"{text}\" is not a number")]
+    NotANumber {
+        /// File path or label.
+        file: String,
+        /// Line of the row.
+        line: usize,
+        /// Column name.
+        column: String,
+        /// The offending text (trimmed, possibly shortened).
+        text: String,
+    },
+
+    /// A field is `NaN`, an infinity, or overflows `f64`.
+    #[error(
+        "{file}:{line}: column \"{column}\": \"{text}\" is not a finite number (NaN and infinity are not allowed)"
+    )]
+    NonFinite {
+        /// File path or label.
+        file: String,
+        /// Line of the row.
+        line: usize,
+        /// Column name.
+        column: String,
+        /// The offending text (trimmed, possibly shortened).
+        text: String,
+    },
+
+    /// A row does not have as many fields as the header.
+    #[error(
+        "{file}:{line}: row has {found} field(s) but the header has {expected}{}",
+        ragged_hint(.first_missing_column)
+    )]
+    RaggedRow {
+        /// File path or label.
+        file: String,
+        /// Line of the row.
+        line: usize,
+        /// Number of header fields.
+        expected: usize,
+        /// Number of fields in this row.
+        found: usize,
+        /// If the row is short: the header name of its first missing field.
+        first_missing_column: Option<String>,
+    },
+
+    /// A joint value lies outside its limits.
+    #[error(
+        "{file}:{line}: column \"{column}\": joint value {value_deg} deg is outside its limits [{min_deg}, {max_deg}] deg"
+    )]
+    JointOutOfLimits {
+        /// File path or label.
+        file: String,
+        /// Line of the row.
+        line: usize,
+        /// Joint column name (`q1`…).
+        column: String,
+        /// The value read, degrees.
+        value_deg: f64,
+        /// Lower limit, degrees.
+        min_deg: f64,
+        /// Upper limit, degrees.
+        max_deg: f64,
+    },
+
+    /// The file has fewer data rows than required.
+    #[error(
+        "{file}: {found} data row(s), but at least {needed} are needed (fewer rows than the free parameters need)"
+    )]
+    TooFewRows {
+        /// File path or label.
+        file: String,
+        /// Data rows found.
+        found: usize,
+        /// Data rows required ([`ReadOptions::min_rows`](crate::ReadOptions::min_rows)).
+        needed: usize,
+    },
+
+    /// The [`ReadOptions`](crate::ReadOptions) themselves are unusable (a caller bug).
+    #[error("{file}: invalid read options: {reason}")]
+    InvalidOptions {
+        /// File path or label being read.
+        file: String,
+        /// What is wrong.
+        reason: String,
+    },
+
+    /// A set cannot be written as a valid measurement file (the result would not read back
+    /// identically).
+    #[error("{file}: cannot write row {row}: {reason}")]
+    Unwritable {
+        /// Target file path (or the set's source label for [`to_csv_string`](crate::to_csv_string)).
+        file: String,
+        /// 1-based index of the offending row in [`MeasurementSet::rows`](crate::MeasurementSet::rows)
+        /// (0 if the problem is not in a row).
+        row: usize,
+        /// What is wrong.
+        reason: String,
+    },
+}
+
+impl MeasurementError {
+    /// The file path or label the error is about.
+    pub fn file(&self) -> &str {
+        match self {
+            Self::Io { file, .. }
+            | Self::NotUtf8 { file, .. }
+            | Self::NoHeader { file }
+            | Self::MissingColumn { file, .. }
+            | Self::DuplicateColumn { file, .. }
+            | Self::JointCountMismatch { file, .. }
+            | Self::NotANumber { file, .. }
+            | Self::NonFinite { file, .. }
+            | Self::RaggedRow { file, .. }
+            | Self::JointOutOfLimits { file, .. }
+            | Self::TooFewRows { file, .. }
+            | Self::InvalidOptions { file, .. }
+            | Self::Unwritable { file, .. } => file,
+        }
+    }
+
+    /// The physical 1-based line the error is about, if any.
+    pub fn line(&self) -> Option<usize> {
+        match self {
+            Self::NotUtf8 { line, .. }
+            | Self::MissingColumn { line, .. }
+            | Self::DuplicateColumn { line, .. }
+            | Self::JointCountMismatch { line, .. }
+            | Self::NotANumber { line, .. }
+            | Self::NonFinite { line, .. }
+            | Self::RaggedRow { line, .. }
+            | Self::JointOutOfLimits { line, .. } => Some(*line),
+            _ => None,
+        }
+    }
+
+    /// The column the error is about, if any.
+    pub fn column(&self) -> Option<&str> {
+        match self {
+            Self::MissingColumn { column, .. }
+            | Self::DuplicateColumn { column, .. }
+            | Self::JointCountMismatch { column, .. }
+            | Self::NotANumber { column, .. }
+            | Self::NonFinite { column, .. }
+            | Self::JointOutOfLimits { column, .. } => Some(column),
+            Self::RaggedRow {
+                first_missing_column,
+                ..
+            } => first_missing_column.as_deref(),
+            _ => None,
+        }
+    }
+}
+
+/// `q1..q5` if the columns are exactly `q1…qk`, else a comma-separated list.
+fn describe_joint_columns(found: &[String]) -> String {
+    let contiguous = !found.is_empty()
+        && found
+            .iter()
+            .enumerate()
+            .all(|(i, name)| *name == format!("q{}", i + 1));
+    if contiguous && found.len() > 1 {
+        format!("q1..q{}", found.len())
+    } else if found.is_empty() {
+        "none".to_owned()
+    } else {
+        found.join(", ")
+    }
+}
+
+fn ragged_hint(first_missing_column: &Option<String>) -> String {
+    match first_missing_column {
+        Some(c) => format!(" (first missing column \"{c}\")"),
+        None => String::new(),
+    }
+}

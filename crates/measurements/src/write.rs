@@ -1,0 +1,212 @@
+//! The writer and the atomic file write used by every kincal output.
+
+use std::fmt::Write as _;
+use std::fs::{self, File, OpenOptions};
+use std::io::{self, Write as _};
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicU64, Ordering};
+
+use crate::{MeasurementError, MeasurementSet};
+
+/// Format `set` as a measurement file (spec §8).
+///
+/// Layout: the optional `header_comment`, each of its lines prefixed with `# `; then the header
+/// `id,q1,…,qN,x,y,z`, where `id` appears only if some row has an id (rows without one get an
+/// empty field) and `x,y,z` only if the rows have points; then one line per row, all lines
+/// ending in `\n`. Numbers use Rust's shortest round-trip `{}` formatting, so the output is
+/// byte-deterministic and [`read_str`](crate::read_str) gives back bit-identical values.
+///
+/// Errors ([`MeasurementError::Unwritable`], naming `set.source`) if the set could not be read
+/// back identically: a row with the wrong number of joints, a NaN or infinite value, some rows
+/// with points and some without, or an id that is empty, has surrounding whitespace, starts
+/// with `#`, or contains a comma, quote or control character.
+pub fn to_csv_string(
+    set: &MeasurementSet,
+    header_comment: Option<&str>,
+) -> Result<String, MeasurementError> {
+    format_set(set, header_comment, &set.source)
+}
+
+/// Write `set` to `path` as a measurement file ([`to_csv_string`]), atomically
+/// ([`write_atomically`]): on any error nothing is written and any previous file at `path` is
+/// left untouched. Errors name `path`.
+pub fn write_file(
+    path: &Path,
+    set: &MeasurementSet,
+    header_comment: Option<&str>,
+) -> Result<(), MeasurementError> {
+    let file = path.display().to_string();
+    let text = format_set(set, header_comment, &file)?;
+    write_atomically_inner(path, text.as_bytes())
+        .map_err(|source| MeasurementError::Io { file, source })
+}
+
+/// Write `bytes` to `path` atomically: write a temporary file in the same directory, flush it
+/// to disk, then rename it over `path`. Readers see either the old file or the complete new
+/// one; on failure the temporary file is removed and nothing half-written is left behind.
+///
+/// An existing file at `path` is replaced (if `path` is a symbolic link, the link itself is
+/// replaced). The new file gets default permissions, not those of the file it replaces.
+/// The error message names `path`; the [`io::ErrorKind`] is kept.
+pub fn write_atomically(path: &Path, bytes: &[u8]) -> Result<(), io::Error> {
+    write_atomically_inner(path, bytes)
+        .map_err(|e| io::Error::new(e.kind(), format!("writing {}: {e}", path.display())))
+}
+
+fn write_atomically_inner(path: &Path, bytes: &[u8]) -> io::Result<()> {
+    let file_name = path
+        .file_name()
+        .ok_or_else(|| io::Error::new(io::ErrorKind::InvalidInput, "path does not name a file"))?;
+    let dir = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    };
+    let (tmp_path, file) = create_temp_file(dir, &file_name.to_string_lossy())?;
+    if let Err(e) = fill_and_rename(file, bytes, &tmp_path, path) {
+        let _ = fs::remove_file(&tmp_path);
+        return Err(e);
+    }
+    sync_dir(dir);
+    Ok(())
+}
+
+fn fill_and_rename(mut file: File, bytes: &[u8], tmp_path: &Path, path: &Path) -> io::Result<()> {
+    file.write_all(bytes)?;
+    file.sync_all()?;
+    drop(file);
+    fs::rename(tmp_path, path)
+}
+
+/// Create a new, uniquely named hidden file `.<name>.<pid>.<n>.tmp` in `dir`.
+fn create_temp_file(dir: &Path, name: &str) -> io::Result<(PathBuf, File)> {
+    static COUNTER: AtomicU64 = AtomicU64::new(0);
+    let pid = std::process::id();
+    let mut attempt = 0;
+    loop {
+        let n = COUNTER.fetch_add(1, Ordering::Relaxed);
+        let tmp_path = dir.join(format!(".{name}.{pid}.{n}.tmp"));
+        match OpenOptions::new()
+            .write(true)
+            .create_new(true)
+            .open(&tmp_path)
+        {
+            Ok(f) => return Ok((tmp_path, f)),
+            Err(e) if e.kind() == io::ErrorKind::AlreadyExists && attempt < 100 => attempt += 1,
+            Err(e) => return Err(e),
+        }
+    }
+}
+
+/// Make the rename durable (best effort; only meaningful on Unix).
+fn sync_dir(dir: &Path) {
+    #[cfg(unix)]
+    if let Ok(d) = File::open(dir) {
+        let _ = d.sync_all();
+    }
+    #[cfg(not(unix))]
+    let _ = dir;
+}
+
+fn format_set(
+    set: &MeasurementSet,
+    header_comment: Option<&str>,
+    file: &str,
+) -> Result<String, MeasurementError> {
+    let unwritable = |row: usize, reason: String| MeasurementError::Unwritable {
+        file: file.to_owned(),
+        row,
+        reason,
+    };
+    let n = set.n_joints;
+    if n == 0 {
+        return Err(unwritable(0, "the set has n_joints = 0".to_owned()));
+    }
+    let with_points = set.rows.first().is_some_and(|r| r.point_mm.is_some());
+    let with_id = set.rows.iter().any(|r| r.id.is_some());
+
+    for (i, r) in set.rows.iter().enumerate() {
+        let row = i + 1;
+        if r.q_deg.len() != n {
+            return Err(unwritable(
+                row,
+                format!("{} joint values for a {n}-joint set", r.q_deg.len()),
+            ));
+        }
+        if r.point_mm.is_some() != with_points {
+            return Err(unwritable(
+                row,
+                "some rows have a measured point and some do not".to_owned(),
+            ));
+        }
+        let names = (1..=n)
+            .map(|j| format!("q{j}"))
+            .chain(["x", "y", "z"].map(String::from));
+        let values = r.q_deg.iter().chain(r.point_mm.iter().flatten());
+        if let Some((name, v)) = names.zip(values).find(|(_, v)| !v.is_finite()) {
+            return Err(unwritable(row, format!("column \"{name}\" is {v}")));
+        }
+        if let Some(id) = &r.id
+            && let Some(problem) = id_problem(id)
+        {
+            return Err(unwritable(row, format!("id {id:?} {problem}")));
+        }
+    }
+
+    let mut out = String::new();
+    if let Some(comment) = header_comment {
+        for l in comment.lines() {
+            if l.is_empty() {
+                out.push_str("#\n");
+            } else {
+                let _ = writeln!(out, "# {l}");
+            }
+        }
+    }
+    let mut header: Vec<String> = Vec::with_capacity(n + 4);
+    if with_id {
+        header.push("id".to_owned());
+    }
+    header.extend((1..=n).map(|j| format!("q{j}")));
+    if with_points {
+        header.extend(["x", "y", "z"].map(String::from));
+    }
+    out.push_str(&header.join(","));
+    out.push('\n');
+
+    for r in &set.rows {
+        let mut first = true;
+        let mut sep = |out: &mut String| {
+            if !first {
+                out.push(',');
+            }
+            first = false;
+        };
+        if with_id {
+            sep(&mut out);
+            out.push_str(r.id.as_deref().unwrap_or(""));
+        }
+        for v in r.q_deg.iter().chain(r.point_mm.iter().flatten()) {
+            sep(&mut out);
+            let _ = write!(out, "{v}");
+        }
+        out.push('\n');
+    }
+    Ok(out)
+}
+
+/// Why an id would not read back identically, if it would not.
+fn id_problem(id: &str) -> Option<&'static str> {
+    if id.is_empty() {
+        Some("is empty (use None)")
+    } else if id.trim() != id {
+        Some("has surrounding whitespace")
+    } else if id.starts_with('#') {
+        Some("starts with '#' (the line would read as a comment)")
+    } else if id.contains([',', '"']) {
+        Some("contains a comma or a quote")
+    } else if id.chars().any(char::is_control) {
+        Some("contains a control character")
+    } else {
+        None
+    }
+}

@@ -1,0 +1,247 @@
+//! Writer and atomic-write tests.
+
+use std::path::{Path, PathBuf};
+
+use measurements::{
+    Measurement, MeasurementError, MeasurementSet, ReadOptions, read_file, read_str, to_csv_string,
+    write_atomically, write_file,
+};
+
+/// A fresh, empty scratch directory for one test.
+fn scratch(name: &str) -> PathBuf {
+    let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join(format!("measurements-write-{name}"));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+fn entries(dir: &Path) -> Vec<String> {
+    let mut v: Vec<String> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    v.sort();
+    v
+}
+
+fn awkward_set() -> MeasurementSet {
+    let awkward = [
+        0.1 + 0.2,
+        1e-17,
+        -0.0,
+        f64::MIN_POSITIVE,
+        f64::MAX,
+        -123.456_789_012_345_67,
+        5e-324,
+        1.0 / 3.0,
+    ];
+    let rows = (0..6)
+        .map(|i| {
+            let q: Vec<f64> = (0..3).map(|j| awkward[(i + j) % awkward.len()]).collect();
+            let p = [
+                awkward[(i + 3) % 8],
+                awkward[(i + 4) % 8],
+                awkward[(i + 5) % 8],
+            ];
+            let m = Measurement::new(q, Some(p));
+            if i % 2 == 0 {
+                m.with_id(format!("pose {i}"))
+            } else {
+                m
+            }
+        })
+        .collect();
+    MeasurementSet::new("awkward", 3, rows)
+}
+
+fn bits(set: &MeasurementSet) -> Vec<u64> {
+    set.rows
+        .iter()
+        .flat_map(|r| r.q_deg.iter().chain(r.point_mm.iter().flatten()))
+        .map(|v| v.to_bits())
+        .collect()
+}
+
+#[test]
+fn round_trip_is_bit_exact() {
+    let dir = scratch("roundtrip");
+    let path = dir.join("out.csv");
+    let set = awkward_set();
+    write_file(&path, &set, Some("awkward values\n\nsecond line")).unwrap();
+    let back = read_file(&path, &ReadOptions::new(3)).unwrap();
+    assert_eq!(back.rows.len(), set.rows.len());
+    assert_eq!(bits(&back), bits(&set));
+    for (a, b) in set.rows.iter().zip(&back.rows) {
+        assert_eq!(a.id, b.id);
+    }
+    // -0.0 keeps its sign.
+    assert!(
+        back.rows
+            .iter()
+            .any(|r| r.q_deg.iter().any(|v| v.to_bits() == (-0.0f64).to_bits()))
+    );
+    // Comment lines (3) + header: first row is on line 5.
+    assert_eq!(back.rows[0].line, 5);
+    assert!(back.notices.is_empty());
+
+    // Byte-deterministic: writing what was read gives the same bytes.
+    let bytes = std::fs::read_to_string(&path).unwrap();
+    assert_eq!(
+        to_csv_string(&back, Some("awkward values\n\nsecond line")).unwrap(),
+        bytes
+    );
+    assert!(bytes.starts_with("# awkward values\n#\n# second line\nid,q1,q2,q3,x,y,z\n"));
+    assert!(bytes.contains("0.30000000000000004"), "{bytes}");
+    assert!(!bytes.contains('\r'));
+    assert_eq!(entries(&dir), vec!["out.csv"]);
+}
+
+#[test]
+fn header_shape_follows_the_data() {
+    let rows = vec![
+        Measurement::new(vec![1.5, -2.0], None),
+        Measurement::new(vec![0.1 + 0.2, 1e-17], None),
+    ];
+    let set = MeasurementSet::new("j", 2, rows);
+    let text = to_csv_string(&set, None).unwrap();
+    assert_eq!(
+        text,
+        "q1,q2\n1.5,-2\n0.30000000000000004,0.00000000000000001\n"
+    );
+    let back = read_str(&text, "j", &ReadOptions::new(2).joints_only()).unwrap();
+    assert_eq!(bits(&back), bits(&set));
+
+    let set = MeasurementSet::new(
+        "p",
+        1,
+        vec![Measurement::new(vec![-0.0], Some([1.0, 2.0, 3.0])).with_id("a")],
+    );
+    assert_eq!(
+        to_csv_string(&set, None).unwrap(),
+        "id,q1,x,y,z\na,-0,1,2,3\n"
+    );
+}
+
+#[test]
+fn unwritable_sets_are_rejected() {
+    let good = || Measurement::new(vec![1.0, 2.0], Some([1.0, 2.0, 3.0]));
+    let cases: Vec<(Vec<Measurement>, &str)> = vec![
+        (
+            vec![good(), Measurement::new(vec![1.0], Some([1.0, 2.0, 3.0]))],
+            "1 joint values",
+        ),
+        (
+            vec![good(), Measurement::new(vec![1.0, 2.0], None)],
+            "some rows have a measured point",
+        ),
+        (
+            vec![
+                good(),
+                Measurement::new(vec![1.0, f64::NAN], Some([1.0, 2.0, 3.0])),
+            ],
+            "column \"q2\" is NaN",
+        ),
+        (
+            vec![
+                good(),
+                Measurement::new(vec![1.0, 2.0], Some([1.0, f64::INFINITY, 3.0])),
+            ],
+            "column \"y\" is inf",
+        ),
+        (vec![good(), good().with_id("a,b")], "comma"),
+        (vec![good(), good().with_id("#1")], "comment"),
+        (vec![good(), good().with_id(" a")], "whitespace"),
+        (vec![good(), good().with_id("")], "empty"),
+        (vec![good(), good().with_id("a\nb")], "control"),
+    ];
+    let dir = scratch("unwritable");
+    let path = dir.join("bad.csv");
+    for (rows, why) in cases {
+        let set = MeasurementSet::new("label", 2, rows);
+        let err = to_csv_string(&set, None).unwrap_err();
+        assert!(
+            matches!(err, MeasurementError::Unwritable { row: 2, .. }),
+            "{err:?}"
+        );
+        let msg = err.to_string();
+        assert!(msg.starts_with("label: cannot write row 2: "), "{msg}");
+        assert!(msg.contains(why), "{msg} lacks {why}");
+        // write_file names the target and writes nothing.
+        let err = write_file(&path, &set, None).unwrap_err();
+        assert!(
+            err.to_string()
+                .starts_with(&format!("{}: ", path.display())),
+            "{err}"
+        );
+        assert!(entries(&dir).is_empty());
+    }
+}
+
+#[test]
+fn write_into_missing_directory_fails_and_leaves_nothing() {
+    let dir = scratch("missing-dir");
+    let path = dir.join("no-such-dir").join("out.csv");
+    let err = write_file(&path, &awkward_set(), None).unwrap_err();
+    match &err {
+        MeasurementError::Io { source, .. } => {
+            assert_eq!(source.kind(), std::io::ErrorKind::NotFound)
+        }
+        other => panic!("{other:?}"),
+    }
+    assert!(
+        err.to_string()
+            .starts_with(&format!("{}: ", path.display())),
+        "{err}"
+    );
+    assert!(entries(&dir).is_empty());
+
+    let err = write_atomically(&path, b"x").unwrap_err();
+    assert_eq!(err.kind(), std::io::ErrorKind::NotFound);
+    assert!(
+        err.to_string().contains(&path.display().to_string()),
+        "{err}"
+    );
+    assert!(entries(&dir).is_empty());
+}
+
+#[test]
+fn failed_rename_removes_the_temp_file() {
+    // The target is an existing non-empty directory: the temp file is created and written,
+    // the rename fails, and the temp file must be gone afterwards.
+    let dir = scratch("rename-fails");
+    let target = dir.join("out.csv");
+    std::fs::create_dir(&target).unwrap();
+    std::fs::write(target.join("keep"), b"keep").unwrap();
+    let err = write_atomically(&target, b"new contents").unwrap_err();
+    assert!(err.to_string().contains("out.csv"), "{err}");
+    assert_eq!(entries(&dir), vec!["out.csv"]);
+    assert_eq!(std::fs::read(target.join("keep")).unwrap(), b"keep");
+}
+
+#[test]
+fn write_atomically_replaces_an_existing_file() {
+    let dir = scratch("replace");
+    let path = dir.join("report.json");
+    std::fs::write(&path, b"old contents that are longer than the new ones").unwrap();
+    write_atomically(&path, b"new").unwrap();
+    assert_eq!(std::fs::read(&path).unwrap(), b"new");
+    write_atomically(&path, b"").unwrap();
+    assert_eq!(std::fs::read(&path).unwrap(), b"");
+    assert_eq!(entries(&dir), vec!["report.json"]);
+}
+
+#[test]
+fn write_atomically_relative_path_without_directory() {
+    // A bare file name is written in the current directory (the package root under cargo test);
+    // use a unique name and clean up.
+    let name = format!("measurements-test-{}.tmp-out", std::process::id());
+    write_atomically(Path::new(&name), b"ok").unwrap();
+    assert_eq!(std::fs::read(&name).unwrap(), b"ok");
+    std::fs::remove_file(&name).unwrap();
+}
+
+#[test]
+fn write_atomically_rejects_a_path_without_file_name() {
+    let err = write_atomically(Path::new("/"), b"x").unwrap_err();
+    assert_eq!(err.kind(), std::io::ErrorKind::InvalidInput);
+}
