@@ -1,0 +1,413 @@
+//! Inverse kinematics by damped Newton (Levenberg–Marquardt) on the full model.
+//!
+//! Works for any parameter values — after calibration the closed-form IK of the nominal
+//! robot no longer holds. The target is a point fixed in the flange frame (the flange origin,
+//! or the measured point) with its position and the flange orientation. Each iteration:
+//!
+//! `e = [p* − p(q); L·log(R*·R(q)ᵀ)]`, `J = [z_i × (p − o_i); L·z_i]` (6×N),
+//! `Δq = Jᵀ (J Jᵀ + λ I)⁻¹ e` (6×6 Cholesky, no heap allocation),
+//!
+//! with `L` = [`IkOptions::orientation_scale_mm`] to weigh radians against millimetres, and
+//! λ = μ·max diag(J Jᵀ) adapted as in Levenberg's method (÷10 on success, ×10 on failure).
+//! Steps are clamped to the joint limits.
+
+use nalgebra::{Matrix3, Matrix6, Rotation3, Vector3, Vector6};
+
+use crate::model::MAX_JOINTS;
+use crate::robot::{Frame, Robot};
+
+/// What the IK must reach: a point fixed in the flange frame at a position, with the flange at
+/// an orientation (both in the measurement frame).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct IkTarget {
+    /// The point, in the flange frame, mm (zero = flange origin).
+    pub point_in_flange_mm: Vector3<f64>,
+    /// Where that point must be, mm.
+    pub position_mm: Vector3<f64>,
+    /// The flange orientation required.
+    pub rotation: Matrix3<f64>,
+}
+
+impl IkTarget {
+    /// The full flange pose `frame` (position of the flange origin and its orientation).
+    pub fn flange(frame: &Frame) -> Self {
+        IkTarget {
+            point_in_flange_mm: Vector3::zeros(),
+            position_mm: frame.pos_mm,
+            rotation: frame.rot,
+        }
+    }
+
+    /// The measured point of `robot` at `q_rad`, with the flange orientation held: the target
+    /// compensation uses (nominal model at the commanded joints).
+    pub fn point_with_orientation(robot: &Robot, q_rad: &[f64]) -> Self {
+        let f = robot.flange(q_rad);
+        IkTarget {
+            point_in_flange_mm: robot.tool_mm(),
+            position_mm: f.transform_point(&robot.tool_mm()),
+            rotation: f.rot,
+        }
+    }
+}
+
+/// Options of [`Robot::solve_ik`]. Defaults in brackets.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct IkOptions {
+    /// Iteration cap, counting rejected steps [100].
+    pub max_iterations: usize,
+    /// Position error accepted as converged, mm [1e-6].
+    pub tol_pos_mm: f64,
+    /// Orientation error accepted as converged, rad [1e-9].
+    pub tol_rot_rad: f64,
+    /// Length that converts radians of orientation error into mm in the damped solve [1000 mm,
+    /// the order of a large robot's reach, so that both parts of the error weigh alike].
+    pub orientation_scale_mm: f64,
+    /// Initial relative damping μ0 [1e-9: the start is usually close, so begin near Newton].
+    pub mu0: f64,
+    /// Largest change of any joint in one step, rad [0.2 ≈ 11°]. The whole step is scaled
+    /// down to respect it, so that an ill-conditioned Jacobian near a singularity cannot
+    /// throw the solve into another branch or against a limit.
+    pub max_step_rad: f64,
+    /// Stages of the path fallback when the direct solve fails [8; < 2 disables it].
+    pub path_stages: usize,
+}
+
+impl Default for IkOptions {
+    fn default() -> Self {
+        IkOptions {
+            max_iterations: 100,
+            tol_pos_mm: 1e-6,
+            tol_rot_rad: 1e-9,
+            orientation_scale_mm: 1000.0,
+            mu0: 1e-9,
+            max_step_rad: 0.2,
+            path_stages: 8,
+        }
+    }
+}
+
+/// A converged IK solve.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct IkReport {
+    /// Iterations used (accepted and rejected steps).
+    pub iterations: usize,
+    /// Final position error, mm.
+    pub pos_err_mm: f64,
+    /// Final orientation error, rad.
+    pub rot_err_rad: f64,
+}
+
+/// Why IK failed. The joint vector passed in holds the best configuration found.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum IkError {
+    /// The joint vector has the wrong length.
+    #[error("IK: expected {expected} joint values, got {found}")]
+    Length {
+        /// Joints of the robot.
+        expected: usize,
+        /// Values given.
+        found: usize,
+    },
+    /// A start value or target is not finite.
+    #[error("IK: non-finite start configuration or target")]
+    NotFinite,
+    /// The target was not reached within tolerance (unreachable, outside the joint limits,
+    /// or too far from the start).
+    #[error(
+        "IK did not converge after {iterations} iterations: position error {pos_err_mm:.3e} mm, orientation error {rot_err_rad:.3e} rad"
+    )]
+    NotConverged {
+        /// Iterations used.
+        iterations: usize,
+        /// Best position error reached, mm.
+        pos_err_mm: f64,
+        /// Best orientation error reached, rad.
+        rot_err_rad: f64,
+    },
+}
+
+/// Rotation vector (axis · angle) of `r`, accurate for small angles (uses the skew part
+/// rather than `acos` of the trace, which loses half the digits near zero).
+fn log_so3(r: &Matrix3<f64>) -> Vector3<f64> {
+    let v = Vector3::new(
+        r[(2, 1)] - r[(1, 2)],
+        r[(0, 2)] - r[(2, 0)],
+        r[(1, 0)] - r[(0, 1)],
+    ) * 0.5;
+    let s = v.norm();
+    let c = ((r.trace() - 1.0) * 0.5).clamp(-1.0, 1.0);
+    let angle = s.atan2(c);
+    if s > 1e-8 || c > 0.0 {
+        if s == 0.0 {
+            return Vector3::zeros();
+        }
+        if angle < 1e-6 {
+            // sin θ ≈ θ: v itself is the rotation vector to machine precision.
+            return v * (1.0 + angle * angle / 6.0);
+        }
+        return v * (angle / s);
+    }
+    // Near π: axis from the symmetric part, R + I = 2 a aᵀ (for θ = π).
+    let b = (r + Matrix3::identity()) * 0.5;
+    let k = (0..3)
+        .max_by(|&i, &j| b[(i, i)].total_cmp(&b[(j, j)]))
+        .unwrap_or(0);
+    let axis = b.column(k).into_owned() / b[(k, k)].max(1e-300).sqrt();
+    axis.normalize() * angle
+}
+
+/// Damping beyond which steps are too small to matter: the solve has stalled.
+const MU_GIVE_UP: f64 = 1e8;
+
+struct Residual {
+    e: Vector6<f64>,
+    pos_err_mm: f64,
+    rot_err_rad: f64,
+    cost: f64,
+}
+
+impl Robot {
+    fn ik_residual(&self, target: &IkTarget, q_rad: &[f64], scale: f64) -> (Residual, Frame) {
+        let f = self.flange(q_rad);
+        let p = f.transform_point(&target.point_in_flange_mm);
+        let ep = target.position_mm - p;
+        let er = log_so3(&(target.rotation * f.rot.transpose()));
+        let e = Vector6::new(ep.x, ep.y, ep.z, er.x * scale, er.y * scale, er.z * scale);
+        (
+            Residual {
+                e,
+                pos_err_mm: ep.norm(),
+                rot_err_rad: er.norm(),
+                cost: e.norm_squared(),
+            },
+            f,
+        )
+    }
+
+    /// Solves IK for `target` starting from `q_rad` (radians), which is overwritten with the
+    /// solution (or, on failure, the best configuration found). See the module docs.
+    ///
+    /// If the direct solve fails, the target is approached along a path instead: the pose of
+    /// the start is moved to the target in [`IkOptions::path_stages`] equal steps (position
+    /// linearly, orientation along the geodesic `exp(s·log(R*·R0ᵀ))·R0`), each solved from
+    /// the previous solution. This keeps the solve on the start's branch where a single
+    /// Newton step from far away would jump to another one (near shoulder or wrist
+    /// singularities). Iterations of all stages are counted.
+    pub fn solve_ik(
+        &self,
+        target: &IkTarget,
+        q_rad: &mut [f64],
+        opts: &IkOptions,
+    ) -> Result<IkReport, IkError> {
+        let start: [f64; MAX_JOINTS] = {
+            let mut s = [0.0; MAX_JOINTS];
+            if q_rad.len() <= MAX_JOINTS {
+                s[..q_rad.len()].copy_from_slice(q_rad);
+            }
+            s
+        };
+        let direct = self.solve_ik_direct(target, q_rad, opts);
+        let Err(IkError::NotConverged { iterations, .. }) = direct else {
+            return direct;
+        };
+        if opts.path_stages < 2 {
+            return direct;
+        }
+        let n = q_rad.len();
+        q_rad.copy_from_slice(&start[..n]);
+        let f0 = self.flange(q_rad);
+        let p0 = f0.transform_point(&target.point_in_flange_mm);
+        let w = log_so3(&(target.rotation * f0.rot.transpose()));
+        let mut total = iterations;
+        let mut last = direct;
+        for k in 1..=opts.path_stages {
+            let s = k as f64 / opts.path_stages as f64;
+            let stage = IkTarget {
+                point_in_flange_mm: target.point_in_flange_mm,
+                position_mm: p0 + (target.position_mm - p0) * s,
+                rotation: if k == opts.path_stages {
+                    target.rotation
+                } else {
+                    Rotation3::new(w * s).matrix() * f0.rot
+                },
+            };
+            last = self.solve_ik_direct(&stage, q_rad, opts);
+            total += match &last {
+                Ok(r) => r.iterations,
+                Err(IkError::NotConverged { iterations, .. }) => *iterations,
+                Err(_) => 0,
+            };
+        }
+        match last {
+            Ok(r) => Ok(IkReport {
+                iterations: total,
+                ..r
+            }),
+            Err(IkError::NotConverged {
+                pos_err_mm,
+                rot_err_rad,
+                ..
+            }) => Err(IkError::NotConverged {
+                iterations: total,
+                pos_err_mm,
+                rot_err_rad,
+            }),
+            Err(e) => Err(e),
+        }
+    }
+
+    fn solve_ik_direct(
+        &self,
+        target: &IkTarget,
+        q_rad: &mut [f64],
+        opts: &IkOptions,
+    ) -> Result<IkReport, IkError> {
+        let n = self.n_joints();
+        if q_rad.len() != n {
+            return Err(IkError::Length {
+                expected: n,
+                found: q_rad.len(),
+            });
+        }
+        if q_rad.iter().any(|q| !q.is_finite())
+            || !target.position_mm.iter().all(|v| v.is_finite())
+            || !target.rotation.iter().all(|v| v.is_finite())
+            || !target.point_in_flange_mm.iter().all(|v| v.is_finite())
+        {
+            return Err(IkError::NotFinite);
+        }
+        let scale = opts.orientation_scale_mm;
+        let clamp = |q: &mut [f64]| {
+            for (i, v) in q.iter_mut().enumerate() {
+                let [lo, hi] = self.limits_rad(i);
+                *v = v.clamp(lo, hi);
+            }
+        };
+        clamp(q_rad);
+        // Stop refining once well inside the tolerance: Newton's last step then costs nothing.
+        let tight_pos = opts.tol_pos_mm * 1e-3;
+        let tight_rot = opts.tol_rot_rad * 1e-3;
+        let (mut res, _) = self.ik_residual(target, q_rad, scale);
+        let mut mu = opts.mu0;
+        let mut trial = [0.0; MAX_JOINTS];
+        let mut axes = [(Vector3::zeros(), Vector3::zeros()); MAX_JOINTS];
+        let mut cols = [Vector6::zeros(); MAX_JOINTS];
+        let mut iterations = 0;
+        let mut need_jacobian = true;
+        while iterations < opts.max_iterations {
+            if res.pos_err_mm <= tight_pos && res.rot_err_rad <= tight_rot {
+                break;
+            }
+            if need_jacobian {
+                let f = self.joint_axes(q_rad, &mut axes);
+                let p = f.transform_point(&target.point_in_flange_mm);
+                for i in 0..n {
+                    let (z, o) = axes[i];
+                    let lin = z.cross(&(p - o));
+                    cols[i] =
+                        Vector6::new(lin.x, lin.y, lin.z, z.x * scale, z.y * scale, z.z * scale);
+                }
+                need_jacobian = false;
+            }
+            // Active set: a joint at a limit whose step points outward is frozen and the step
+            // is solved again without it, so the remaining joints still make progress.
+            let mut frozen = [false; MAX_JOINTS];
+            let mut solved = false;
+            iterations += 1;
+            for _pass in 0..=n {
+                let mut a = Matrix6::zeros();
+                for (c, _) in cols[..n].iter().zip(&frozen).filter(|(_, f)| !**f) {
+                    a += c * c.transpose();
+                }
+                let lambda = mu * a.diagonal().max().max(1e-300);
+                for k in 0..6 {
+                    a[(k, k)] += lambda;
+                }
+                let Some(chol) = a.cholesky() else {
+                    break;
+                };
+                let y = chol.solve(&res.e);
+                let mut steps = [0.0; MAX_JOINTS];
+                for i in 0..n {
+                    steps[i] = if frozen[i] { 0.0 } else { cols[i].dot(&y) };
+                }
+                let largest = steps[..n].iter().fold(0.0f64, |m, s| m.max(s.abs()));
+                let shrink = if largest > opts.max_step_rad {
+                    opts.max_step_rad / largest
+                } else {
+                    1.0
+                };
+                let mut newly_frozen = false;
+                for i in 0..n {
+                    let step = steps[i] * shrink;
+                    let [lo, hi] = self.limits_rad(i);
+                    if (q_rad[i] <= lo && step < 0.0) || (q_rad[i] >= hi && step > 0.0) {
+                        frozen[i] = true;
+                        newly_frozen = true;
+                    }
+                    trial[i] = q_rad[i] + step;
+                }
+                if !newly_frozen {
+                    solved = true;
+                    break;
+                }
+            }
+            if !solved {
+                mu *= 10.0;
+                if mu > MU_GIVE_UP {
+                    break;
+                }
+                continue;
+            }
+            clamp(&mut trial[..n]);
+            let (new_res, _) = self.ik_residual(target, &trial[..n], scale);
+            if new_res.cost < res.cost {
+                q_rad.copy_from_slice(&trial[..n]);
+                res = new_res;
+                mu = (mu * 0.1).max(1e-15);
+                need_jacobian = true;
+            } else {
+                mu *= 10.0;
+                if mu > MU_GIVE_UP {
+                    break;
+                }
+            }
+        }
+        if res.pos_err_mm <= opts.tol_pos_mm && res.rot_err_rad <= opts.tol_rot_rad {
+            Ok(IkReport {
+                iterations,
+                pos_err_mm: res.pos_err_mm,
+                rot_err_rad: res.rot_err_rad,
+            })
+        } else {
+            Err(IkError::NotConverged {
+                iterations,
+                pos_err_mm: res.pos_err_mm,
+                rot_err_rad: res.rot_err_rad,
+            })
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn log_so3_matches_axis_angle_small_medium_and_near_pi() {
+        for (axis, angle) in [
+            (Vector3::new(1.0, 2.0, 3.0), 1e-11),
+            (Vector3::new(-1.0, 0.5, 0.2), 1e-4),
+            (Vector3::new(0.3, -0.2, 0.9), 1.3),
+            (Vector3::new(0.0, 1.0, 1.0), std::f64::consts::PI - 1e-7),
+        ] {
+            let v = axis.normalize() * angle;
+            let r = Rotation3::new(v);
+            let back = log_so3(r.matrix());
+            assert!(
+                (back - v).norm() <= 1e-12 * angle.max(1e-3) + 1e-15,
+                "angle {angle}: {back:?} vs {v:?}"
+            );
+        }
+    }
+}

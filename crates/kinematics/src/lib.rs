@@ -1,0 +1,20 @@
+//! Kinematics of serial revolute robots in the Hayati-modified DH convention of
+//! `shared/spec/calibration-model.md` §2: robot model files, the identification parameter
+//! vector with names and units, forward kinematics of the flange and of the measured point,
+//! the analytic identification Jacobian, and damped-Newton inverse kinematics valid for any
+//! parameter values.
+//!
+//! No randomness and no I/O but the model file. Internally angles are radians and lengths
+//! millimetres; interfaces (files, reports) use degrees and millimetres.
+
+mod error;
+mod ik;
+mod model;
+mod params;
+mod robot;
+
+pub use error::ModelError;
+pub use ik::{IkError, IkOptions, IkReport, IkTarget};
+pub use model::{BaseSpec, JointSpec, MAX_JOINTS, RobotSpec};
+pub use params::{BETA_ALPHA_TOL_DEG, ParamInfo, ParamKind, ParamLayout, Unit};
+pub use robot::{Frame, MAX_PARAMS, Robot};

@@ -1,0 +1,176 @@
+//! The robot model file (JSON) and its validation.
+//!
+//! ```json
+//! {
+//!   "name": "KUKA KR1000 Titan",
+//!   "joints": [
+//!     { "theta_deg": 0, "d_mm": 1100, "a_mm": 600, "alpha_deg": -90, "beta_deg": 0,
+//!       "limits_deg": [-150, 150] }
+//!   ],
+//!   "base": { "rx_deg": 0, "ry_deg": 0, "rz_deg": 0, "dx_mm": 0, "dy_mm": 0, "dz_mm": 0 },
+//!   "tool_mm": [60, 20, 150]
+//! }
+//! ```
+//!
+//! Every field is required and unknown fields are errors. Values are in the interface units
+//! (degrees, millimetres); [`crate::Robot`] converts to radians inside.
+
+use std::path::Path;
+
+use serde::{Deserialize, Serialize};
+
+use crate::error::ModelError;
+
+/// Largest number of joints a chain may have (frames live in fixed-size arrays on the stack).
+pub const MAX_JOINTS: usize = 16;
+
+/// One revolute joint in the Hayati-modified standard DH convention (spec §2):
+/// `T_i = Rz(θ_i + q_i) · Tz(d_i) · Tx(a_i) · Rx(α_i) · Ry(β_i)`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct JointSpec {
+    /// Constant joint-angle offset θ_i, degrees.
+    pub theta_deg: f64,
+    /// Link offset d_i along the previous z axis, mm.
+    pub d_mm: f64,
+    /// Link length a_i along the new x axis, mm.
+    pub a_mm: f64,
+    /// Link twist α_i about the new x axis, degrees.
+    pub alpha_deg: f64,
+    /// Hayati's β_i about the new y axis, degrees (a parameter only where the axis is
+    /// parallel to the next one, see [`crate::ParamLayout`]).
+    pub beta_deg: f64,
+    /// Joint limits `[min, max]` of the joint variable q_i, degrees.
+    pub limits_deg: [f64; 2],
+}
+
+/// Pose of the robot base in the measurement frame:
+/// `T_base = Trans(dx, dy, dz) · Rz(rz) · Ry(ry) · Rx(rx)`.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BaseSpec {
+    /// Rotation about x, degrees.
+    pub rx_deg: f64,
+    /// Rotation about y, degrees.
+    pub ry_deg: f64,
+    /// Rotation about z, degrees.
+    pub rz_deg: f64,
+    /// Translation along x, mm.
+    pub dx_mm: f64,
+    /// Translation along y, mm.
+    pub dy_mm: f64,
+    /// Translation along z, mm.
+    pub dz_mm: f64,
+}
+
+/// The robot model file.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RobotSpec {
+    /// Human-readable name.
+    pub name: String,
+    /// Joints from base to flange.
+    pub joints: Vec<JointSpec>,
+    /// Base pose in the measurement frame.
+    pub base: BaseSpec,
+    /// Measured point (tracker ball, probe) in the flange frame, mm.
+    pub tool_mm: [f64; 3],
+}
+
+impl RobotSpec {
+    /// Parses and validates a model from JSON text; `source_name` labels errors.
+    pub fn from_json_str(text: &str, source_name: &str) -> Result<Self, ModelError> {
+        let de = &mut serde_json::Deserializer::from_str(text);
+        let spec: RobotSpec = serde_path_to_error::deserialize(de).map_err(|e| {
+            let field = e.path().to_string();
+            ModelError::Parse {
+                source_name: source_name.to_string(),
+                field,
+                message: e.into_inner().to_string(),
+            }
+        })?;
+        spec.validate(source_name)?;
+        Ok(spec)
+    }
+
+    /// Reads and validates a model file.
+    pub fn from_file(path: &Path) -> Result<Self, ModelError> {
+        let text = std::fs::read_to_string(path).map_err(|source| ModelError::Io {
+            file: path.to_path_buf(),
+            source,
+        })?;
+        Self::from_json_str(&text, &path.display().to_string())
+    }
+
+    /// Pretty JSON of the model, deterministic for the same values.
+    pub fn to_json_string(&self) -> String {
+        let mut s = serde_json::to_string_pretty(self).expect("a RobotSpec always serialises");
+        s.push('\n');
+        s
+    }
+
+    /// Checks every value: finite numbers, `min < max` limits, 1 ≤ joints ≤ [`MAX_JOINTS`].
+    pub fn validate(&self, source_name: &str) -> Result<(), ModelError> {
+        let invalid = |field: String, message: String| ModelError::Invalid {
+            source_name: source_name.to_string(),
+            field,
+            message,
+        };
+        if self.joints.is_empty() || self.joints.len() > MAX_JOINTS {
+            return Err(invalid(
+                "joints".into(),
+                format!(
+                    "a chain needs 1 to {MAX_JOINTS} joints, this one has {}",
+                    self.joints.len()
+                ),
+            ));
+        }
+        let finite = |field: String, v: f64| {
+            if v.is_finite() {
+                Ok(())
+            } else {
+                Err(invalid(field, format!("{v} is not a finite number")))
+            }
+        };
+        for (i, j) in self.joints.iter().enumerate() {
+            let f = |name: &str| format!("joints[{i}].{name}");
+            finite(f("theta_deg"), j.theta_deg)?;
+            finite(f("d_mm"), j.d_mm)?;
+            finite(f("a_mm"), j.a_mm)?;
+            finite(f("alpha_deg"), j.alpha_deg)?;
+            finite(f("beta_deg"), j.beta_deg)?;
+            finite(f("limits_deg[0]"), j.limits_deg[0])?;
+            finite(f("limits_deg[1]"), j.limits_deg[1])?;
+            if j.limits_deg[0] >= j.limits_deg[1] {
+                return Err(invalid(
+                    f("limits_deg"),
+                    format!(
+                        "minimum {} must be below maximum {}",
+                        j.limits_deg[0], j.limits_deg[1]
+                    ),
+                ));
+            }
+            if j.beta_deg.abs() >= 90.0 {
+                return Err(invalid(
+                    f("beta_deg"),
+                    format!("{} is not a small Hayati angle (|β| < 90°)", j.beta_deg),
+                ));
+            }
+        }
+        let b = &self.base;
+        for (name, v) in [
+            ("base.rx_deg", b.rx_deg),
+            ("base.ry_deg", b.ry_deg),
+            ("base.rz_deg", b.rz_deg),
+            ("base.dx_mm", b.dx_mm),
+            ("base.dy_mm", b.dy_mm),
+            ("base.dz_mm", b.dz_mm),
+        ] {
+            finite(name.into(), v)?;
+        }
+        for (k, v) in self.tool_mm.iter().enumerate() {
+            finite(format!("tool_mm[{k}]"), *v)?;
+        }
+        Ok(())
+    }
+}

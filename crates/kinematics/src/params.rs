@@ -1,0 +1,228 @@
+//! The identification parameter vector: names, units, order, and subsets.
+//!
+//! Order (spec §2), for an N-joint chain: for i = 1..N `theta_i, d_i, a_i, alpha_i`; then
+//! `beta_i` for every joint i < N whose nominal α_i is zero (|α_i| < [`BETA_ALPHA_TOL_DEG`]:
+//! the axis is parallel to the next one, Hayati's case); then `base_rx, base_ry, base_rz,
+//! base_dx, base_dy, base_dz`; then `tool_x, tool_y, tool_z`. The KR1000 gets 34 parameters
+//! (β2 only), a UR10 35 (β2, β3).
+//!
+//! Values in a parameter vector are in internal units: radians and millimetres. Use
+//! [`ParamInfo::to_display`] / [`ParamInfo::from_display`] at interfaces (degrees, mm).
+
+use serde::{Deserialize, Serialize};
+
+use crate::error::ModelError;
+
+/// |α_i| below this (degrees) makes β_i a parameter: consecutive axes are parallel.
+pub const BETA_ALPHA_TOL_DEG: f64 = 1.0;
+
+/// What a parameter is.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub enum ParamKind {
+    /// Joint-angle offset θ of joint `i` (0-based).
+    Theta(usize),
+    /// Link offset d of joint `i`.
+    D(usize),
+    /// Link length a of joint `i`.
+    A(usize),
+    /// Link twist α of joint `i`.
+    Alpha(usize),
+    /// Hayati β of joint `i`.
+    Beta(usize),
+    /// Base rotation about x.
+    BaseRx,
+    /// Base rotation about y.
+    BaseRy,
+    /// Base rotation about z.
+    BaseRz,
+    /// Base translation x.
+    BaseDx,
+    /// Base translation y.
+    BaseDy,
+    /// Base translation z.
+    BaseDz,
+    /// Measured point in the flange frame, x.
+    ToolX,
+    /// Measured point in the flange frame, y.
+    ToolY,
+    /// Measured point in the flange frame, z.
+    ToolZ,
+}
+
+/// The interface unit of a parameter.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Unit {
+    /// An angle: degrees outside, radians inside.
+    Deg,
+    /// A length: millimetres everywhere.
+    Mm,
+}
+
+impl Unit {
+    /// `"deg"` or `"mm"`.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Unit::Deg => "deg",
+            Unit::Mm => "mm",
+        }
+    }
+}
+
+/// One entry of the parameter vector.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ParamInfo {
+    /// Stable name used in every output (`theta1`, `beta2`, `base_dz`, `tool_x`, …).
+    pub name: String,
+    /// What it is.
+    pub kind: ParamKind,
+    /// Its interface unit.
+    pub unit: Unit,
+}
+
+impl ParamInfo {
+    fn new(kind: ParamKind) -> Self {
+        let (name, unit) = match kind {
+            ParamKind::Theta(i) => (format!("theta{}", i + 1), Unit::Deg),
+            ParamKind::D(i) => (format!("d{}", i + 1), Unit::Mm),
+            ParamKind::A(i) => (format!("a{}", i + 1), Unit::Mm),
+            ParamKind::Alpha(i) => (format!("alpha{}", i + 1), Unit::Deg),
+            ParamKind::Beta(i) => (format!("beta{}", i + 1), Unit::Deg),
+            ParamKind::BaseRx => ("base_rx".into(), Unit::Deg),
+            ParamKind::BaseRy => ("base_ry".into(), Unit::Deg),
+            ParamKind::BaseRz => ("base_rz".into(), Unit::Deg),
+            ParamKind::BaseDx => ("base_dx".into(), Unit::Mm),
+            ParamKind::BaseDy => ("base_dy".into(), Unit::Mm),
+            ParamKind::BaseDz => ("base_dz".into(), Unit::Mm),
+            ParamKind::ToolX => ("tool_x".into(), Unit::Mm),
+            ParamKind::ToolY => ("tool_y".into(), Unit::Mm),
+            ParamKind::ToolZ => ("tool_z".into(), Unit::Mm),
+        };
+        ParamInfo { name, kind, unit }
+    }
+
+    /// Internal value (rad or mm) → interface value (deg or mm).
+    pub fn to_display(&self, internal: f64) -> f64 {
+        match self.unit {
+            Unit::Deg => internal.to_degrees(),
+            Unit::Mm => internal,
+        }
+    }
+
+    /// Interface value (deg or mm) → internal value (rad or mm).
+    pub fn from_display(&self, display: f64) -> f64 {
+        match self.unit {
+            Unit::Deg => display.to_radians(),
+            Unit::Mm => display,
+        }
+    }
+}
+
+/// The ordered parameter vector of one robot.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ParamLayout {
+    params: Vec<ParamInfo>,
+    n_joints: usize,
+}
+
+impl ParamLayout {
+    /// The layout for a chain with the given nominal twists α_i (degrees).
+    pub fn new(alpha_deg: &[f64]) -> Self {
+        let n = alpha_deg.len();
+        let mut params = Vec::with_capacity(4 * n + n + 9);
+        for i in 0..n {
+            for kind in [
+                ParamKind::Theta(i),
+                ParamKind::D(i),
+                ParamKind::A(i),
+                ParamKind::Alpha(i),
+            ] {
+                params.push(ParamInfo::new(kind));
+            }
+        }
+        for (i, a) in alpha_deg.iter().enumerate().take(n.saturating_sub(1)) {
+            if a.abs() < BETA_ALPHA_TOL_DEG {
+                params.push(ParamInfo::new(ParamKind::Beta(i)));
+            }
+        }
+        for kind in [
+            ParamKind::BaseRx,
+            ParamKind::BaseRy,
+            ParamKind::BaseRz,
+            ParamKind::BaseDx,
+            ParamKind::BaseDy,
+            ParamKind::BaseDz,
+            ParamKind::ToolX,
+            ParamKind::ToolY,
+            ParamKind::ToolZ,
+        ] {
+            params.push(ParamInfo::new(kind));
+        }
+        ParamLayout {
+            params,
+            n_joints: n,
+        }
+    }
+
+    /// Number of parameters.
+    pub fn len(&self) -> usize {
+        self.params.len()
+    }
+
+    /// Always false: every layout has at least the 9 base and tool parameters.
+    pub fn is_empty(&self) -> bool {
+        self.params.is_empty()
+    }
+
+    /// Number of joints of the chain this layout belongs to.
+    pub fn n_joints(&self) -> usize {
+        self.n_joints
+    }
+
+    /// All parameters in order.
+    pub fn params(&self) -> &[ParamInfo] {
+        &self.params
+    }
+
+    /// Parameter `k`.
+    pub fn get(&self, k: usize) -> &ParamInfo {
+        &self.params[k]
+    }
+
+    /// Names in order.
+    pub fn names(&self) -> Vec<&str> {
+        self.params.iter().map(|p| p.name.as_str()).collect()
+    }
+
+    /// Index of the parameter called `name`.
+    pub fn index_of(&self, name: &str) -> Result<usize, ModelError> {
+        self.params
+            .iter()
+            .position(|p| p.name == name)
+            .ok_or_else(|| ModelError::UnknownParameter {
+                name: name.to_string(),
+                known: self.names().join(", "),
+            })
+    }
+
+    /// Indices of the named parameters, sorted in layout order, duplicates removed.
+    pub fn select<S: AsRef<str>>(&self, names: &[S]) -> Result<Vec<usize>, ModelError> {
+        let mut idx = names
+            .iter()
+            .map(|n| self.index_of(n.as_ref().trim()))
+            .collect::<Result<Vec<_>, _>>()?;
+        idx.sort_unstable();
+        idx.dedup();
+        Ok(idx)
+    }
+
+    /// Indices of the β parameters' joints (0-based).
+    pub fn beta_joints(&self) -> Vec<usize> {
+        self.params
+            .iter()
+            .filter_map(|p| match p.kind {
+                ParamKind::Beta(i) => Some(i),
+                _ => None,
+            })
+            .collect()
+    }
+}

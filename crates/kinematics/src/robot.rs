@@ -1,0 +1,518 @@
+//! The robot: parameters in internal units, forward kinematics and the identification
+//! Jacobian. One implementation of each; everything else in the workspace calls these.
+
+use nalgebra::{DMatrix, Matrix3, Rotation3, Vector3};
+
+use crate::error::ModelError;
+use crate::model::{BaseSpec, JointSpec, MAX_JOINTS, RobotSpec};
+use crate::params::{ParamKind, ParamLayout};
+
+/// Largest parameter-vector length: 5 per joint plus base and tool.
+pub const MAX_PARAMS: usize = 5 * MAX_JOINTS + 9;
+
+/// A rigid transform `x ↦ rot · x + pos_mm` (rotation matrix and translation in mm).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Frame {
+    /// Rotation (orthonormal, det +1).
+    pub rot: Matrix3<f64>,
+    /// Translation, mm.
+    pub pos_mm: Vector3<f64>,
+}
+
+impl Frame {
+    /// The identity transform.
+    pub fn identity() -> Self {
+        Frame {
+            rot: Matrix3::identity(),
+            pos_mm: Vector3::zeros(),
+        }
+    }
+
+    /// `self · other`.
+    #[inline]
+    pub fn compose(&self, other: &Frame) -> Frame {
+        Frame {
+            rot: self.rot * other.rot,
+            pos_mm: self.rot * other.pos_mm + self.pos_mm,
+        }
+    }
+
+    /// Maps a point given in this frame into the parent frame.
+    #[inline]
+    pub fn transform_point(&self, p_mm: &Vector3<f64>) -> Vector3<f64> {
+        self.rot * p_mm + self.pos_mm
+    }
+
+    /// The inverse transform.
+    pub fn inverse(&self) -> Frame {
+        let rt = self.rot.transpose();
+        Frame {
+            rot: rt,
+            pos_mm: -(rt * self.pos_mm),
+        }
+    }
+}
+
+/// One joint in internal units, with the trigonometry of its constant angles cached.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Link {
+    theta_rad: f64,
+    d_mm: f64,
+    a_mm: f64,
+    alpha_rad: f64,
+    beta_rad: f64,
+    limits_rad: [f64; 2],
+    sin_alpha: f64,
+    cos_alpha: f64,
+    sin_beta: f64,
+    cos_beta: f64,
+}
+
+impl Link {
+    fn refresh(&mut self) {
+        (self.sin_alpha, self.cos_alpha) = self.alpha_rad.sin_cos();
+        (self.sin_beta, self.cos_beta) = self.beta_rad.sin_cos();
+    }
+
+    /// Columns 0 and 1 of `Rz(θ+q)·Rx(α)` and the sin/cos of θ+q, the pieces both the
+    /// link frame and the Jacobian need.
+    #[inline]
+    fn frame(&self, q_rad: f64) -> Frame {
+        let (st, ct) = (self.theta_rad + q_rad).sin_cos();
+        let (sa, ca) = (self.sin_alpha, self.cos_alpha);
+        let (sb, cb) = (self.sin_beta, self.cos_beta);
+        // R_dh = Rz(θ+q)·Rx(α) = [[ct, -st·ca, st·sa], [st, ct·ca, -ct·sa], [0, sa, ca]]
+        // R = R_dh · Ry(β):  c0 = cb·r0 − sb·r2,  c1 = r1,  c2 = sb·r0 + cb·r2
+        let r0 = Vector3::new(ct, st, 0.0);
+        let r1 = Vector3::new(-st * ca, ct * ca, sa);
+        let r2 = Vector3::new(st * sa, -ct * sa, ca);
+        Frame {
+            rot: Matrix3::from_columns(&[r0 * cb - r2 * sb, r1, r0 * sb + r2 * cb]),
+            pos_mm: Vector3::new(self.a_mm * ct, self.a_mm * st, self.d_mm),
+        }
+    }
+}
+
+/// Base pose parameters in internal units.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Base {
+    r_rad: [f64; 3],
+    d_mm: [f64; 3],
+}
+
+impl Base {
+    /// `Trans(d) · Rz(rz) · Ry(ry) · Rx(rx)`.
+    fn frame(&self) -> Frame {
+        let [rx, ry, rz] = self.r_rad;
+        Frame {
+            rot: *Rotation3::from_euler_angles(rx, ry, rz).matrix(),
+            pos_mm: Vector3::from(self.d_mm),
+        }
+    }
+}
+
+/// A serial revolute robot with its full geometric parameter set.
+///
+/// FK of the measured point (spec §2):
+/// `p = T_base · T_1(q_1) ··· T_N(q_N) · [t, 1]ᵀ`, with
+/// `T_i = Rz(θ_i + q_i) · Tz(d_i) · Tx(a_i) · Rx(α_i) · Ry(β_i)`.
+/// Joint values `q` are radians, lengths mm.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Robot {
+    name: String,
+    links: Vec<Link>,
+    base: Base,
+    base_frame: Frame,
+    tool_mm: Vector3<f64>,
+    layout: ParamLayout,
+    /// Parameter index of β for each joint (`None` where β is not a parameter).
+    beta_index: [Option<usize>; MAX_JOINTS],
+    /// Index of `base_rx` (base and tool parameters follow in order).
+    base_index: usize,
+}
+
+impl Robot {
+    /// Builds a robot from a validated model file.
+    pub fn from_spec(spec: &RobotSpec) -> Result<Robot, ModelError> {
+        spec.validate(&spec.name)?;
+        let alphas: Vec<f64> = spec.joints.iter().map(|j| j.alpha_deg).collect();
+        let layout = ParamLayout::new(&alphas);
+        let mut beta_index = [None; MAX_JOINTS];
+        for (k, p) in layout.params().iter().enumerate() {
+            if let ParamKind::Beta(i) = p.kind {
+                beta_index[i] = Some(k);
+            }
+        }
+        let links = spec
+            .joints
+            .iter()
+            .map(|j| {
+                let mut l = Link {
+                    theta_rad: j.theta_deg.to_radians(),
+                    d_mm: j.d_mm,
+                    a_mm: j.a_mm,
+                    alpha_rad: j.alpha_deg.to_radians(),
+                    beta_rad: j.beta_deg.to_radians(),
+                    limits_rad: [j.limits_deg[0].to_radians(), j.limits_deg[1].to_radians()],
+                    sin_alpha: 0.0,
+                    cos_alpha: 1.0,
+                    sin_beta: 0.0,
+                    cos_beta: 1.0,
+                };
+                l.refresh();
+                l
+            })
+            .collect();
+        let b = &spec.base;
+        let base = Base {
+            r_rad: [
+                b.rx_deg.to_radians(),
+                b.ry_deg.to_radians(),
+                b.rz_deg.to_radians(),
+            ],
+            d_mm: [b.dx_mm, b.dy_mm, b.dz_mm],
+        };
+        let base_index = layout.len() - 9;
+        Ok(Robot {
+            name: spec.name.clone(),
+            links,
+            base,
+            base_frame: base.frame(),
+            tool_mm: Vector3::from(spec.tool_mm),
+            layout,
+            beta_index,
+            base_index,
+        })
+    }
+
+    /// Reads a model file (see [`RobotSpec`]).
+    pub fn from_file(path: &std::path::Path) -> Result<Robot, ModelError> {
+        Robot::from_spec(&RobotSpec::from_file(path)?)
+    }
+
+    /// The model file of this robot (degrees and mm), e.g. to save a calibrated robot.
+    pub fn to_spec(&self) -> RobotSpec {
+        RobotSpec {
+            name: self.name.clone(),
+            joints: self
+                .links
+                .iter()
+                .map(|l| JointSpec {
+                    theta_deg: l.theta_rad.to_degrees(),
+                    d_mm: l.d_mm,
+                    a_mm: l.a_mm,
+                    alpha_deg: l.alpha_rad.to_degrees(),
+                    beta_deg: l.beta_rad.to_degrees(),
+                    limits_deg: [l.limits_rad[0].to_degrees(), l.limits_rad[1].to_degrees()],
+                })
+                .collect(),
+            base: BaseSpec {
+                rx_deg: self.base.r_rad[0].to_degrees(),
+                ry_deg: self.base.r_rad[1].to_degrees(),
+                rz_deg: self.base.r_rad[2].to_degrees(),
+                dx_mm: self.base.d_mm[0],
+                dy_mm: self.base.d_mm[1],
+                dz_mm: self.base.d_mm[2],
+            },
+            tool_mm: self.tool_mm.into(),
+        }
+    }
+
+    /// The robot's name.
+    pub fn name(&self) -> &str {
+        &self.name
+    }
+
+    /// Renames the robot (e.g. "… (calibrated)").
+    pub fn set_name(&mut self, name: impl Into<String>) {
+        self.name = name.into();
+    }
+
+    /// Number of joints N.
+    pub fn n_joints(&self) -> usize {
+        self.links.len()
+    }
+
+    /// The parameter vector's layout.
+    pub fn layout(&self) -> &ParamLayout {
+        &self.layout
+    }
+
+    /// Number of parameters.
+    pub fn n_params(&self) -> usize {
+        self.layout.len()
+    }
+
+    /// Joint limits `[min, max]` of joint `i`, radians.
+    pub fn limits_rad(&self, i: usize) -> [f64; 2] {
+        self.links[i].limits_rad
+    }
+
+    /// True if every joint value lies within its limits (inclusive).
+    pub fn in_limits(&self, q_rad: &[f64]) -> bool {
+        q_rad.len() == self.links.len()
+            && q_rad
+                .iter()
+                .zip(&self.links)
+                .all(|(q, l)| *q >= l.limits_rad[0] && *q <= l.limits_rad[1])
+    }
+
+    /// The measured point in the flange frame, mm.
+    pub fn tool_mm(&self) -> Vector3<f64> {
+        self.tool_mm
+    }
+
+    /// Replaces the measured point in the flange frame.
+    pub fn set_tool_mm(&mut self, tool_mm: Vector3<f64>) {
+        self.tool_mm = tool_mm;
+    }
+
+    /// The base frame `T_base` (measurement frame ← robot base).
+    pub fn base_frame(&self) -> Frame {
+        self.base_frame
+    }
+
+    /// The parameter vector in internal units (rad, mm), in layout order.
+    pub fn params(&self) -> Vec<f64> {
+        self.layout
+            .params()
+            .iter()
+            .map(|p| match p.kind {
+                ParamKind::Theta(i) => self.links[i].theta_rad,
+                ParamKind::D(i) => self.links[i].d_mm,
+                ParamKind::A(i) => self.links[i].a_mm,
+                ParamKind::Alpha(i) => self.links[i].alpha_rad,
+                ParamKind::Beta(i) => self.links[i].beta_rad,
+                ParamKind::BaseRx => self.base.r_rad[0],
+                ParamKind::BaseRy => self.base.r_rad[1],
+                ParamKind::BaseRz => self.base.r_rad[2],
+                ParamKind::BaseDx => self.base.d_mm[0],
+                ParamKind::BaseDy => self.base.d_mm[1],
+                ParamKind::BaseDz => self.base.d_mm[2],
+                ParamKind::ToolX => self.tool_mm.x,
+                ParamKind::ToolY => self.tool_mm.y,
+                ParamKind::ToolZ => self.tool_mm.z,
+            })
+            .collect()
+    }
+
+    /// Sets every parameter from a vector in internal units, in layout order.
+    pub fn set_params(&mut self, p: &[f64]) -> Result<(), ModelError> {
+        if p.len() != self.layout.len() {
+            return Err(ModelError::Length {
+                what: "parameter vector",
+                expected: self.layout.len(),
+                found: p.len(),
+            });
+        }
+        for (k, info) in self.layout.params().iter().enumerate() {
+            let v = p[k];
+            match info.kind {
+                ParamKind::Theta(i) => self.links[i].theta_rad = v,
+                ParamKind::D(i) => self.links[i].d_mm = v,
+                ParamKind::A(i) => self.links[i].a_mm = v,
+                ParamKind::Alpha(i) => self.links[i].alpha_rad = v,
+                ParamKind::Beta(i) => self.links[i].beta_rad = v,
+                ParamKind::BaseRx => self.base.r_rad[0] = v,
+                ParamKind::BaseRy => self.base.r_rad[1] = v,
+                ParamKind::BaseRz => self.base.r_rad[2] = v,
+                ParamKind::BaseDx => self.base.d_mm[0] = v,
+                ParamKind::BaseDy => self.base.d_mm[1] = v,
+                ParamKind::BaseDz => self.base.d_mm[2] = v,
+                ParamKind::ToolX => self.tool_mm.x = v,
+                ParamKind::ToolY => self.tool_mm.y = v,
+                ParamKind::ToolZ => self.tool_mm.z = v,
+            }
+        }
+        for l in &mut self.links {
+            l.refresh();
+        }
+        self.base_frame = self.base.frame();
+        Ok(())
+    }
+
+    /// A copy with the given parameter vector (internal units).
+    pub fn with_params(&self, p: &[f64]) -> Result<Robot, ModelError> {
+        let mut r = self.clone();
+        r.set_params(p)?;
+        Ok(r)
+    }
+
+    /// Frames `T_base · T_1 ··· T_i` for i = 0..N written to `frames[0..=N]`.
+    #[inline]
+    fn chain(&self, q_rad: &[f64], frames: &mut [Frame; MAX_JOINTS + 1]) {
+        debug_assert_eq!(q_rad.len(), self.links.len(), "joint vector length");
+        frames[0] = self.base_frame;
+        for (i, (l, q)) in self.links.iter().zip(q_rad).enumerate() {
+            frames[i + 1] = frames[i].compose(&l.frame(*q));
+        }
+    }
+
+    /// The flange frame in the measurement frame: `T_base · T_1(q_1) ··· T_N(q_N)`.
+    ///
+    /// Panics if `q_rad.len() != n_joints()` (a programming error; file readers check
+    /// joint counts with a named error before this point).
+    pub fn flange(&self, q_rad: &[f64]) -> Frame {
+        assert_eq!(q_rad.len(), self.links.len(), "joint vector length");
+        let mut f = self.base_frame;
+        for (l, q) in self.links.iter().zip(q_rad) {
+            f = f.compose(&l.frame(*q));
+        }
+        f
+    }
+
+    /// The measured point `p = T_flange · t` in the measurement frame, mm.
+    pub fn point(&self, q_rad: &[f64]) -> Vector3<f64> {
+        self.flange(q_rad).transform_point(&self.tool_mm)
+    }
+
+    /// Measured points for a batch of poses stored row after row (`poses_rad.len() = m·N`).
+    pub fn points(&self, poses_rad: &[f64]) -> Vec<Vector3<f64>> {
+        poses_rad
+            .chunks_exact(self.n_joints())
+            .map(|q| self.point(q))
+            .collect()
+    }
+
+    /// The measured point and its exact derivative with respect to every parameter.
+    ///
+    /// `cols[k] = ∂p/∂param_k` (mm per rad or mm per mm), `cols.len() == n_params()`.
+    /// With `z_{i−1}`, `o_{i−1}` the z axis and origin of frame i−1, `x'_i`, `y'_i` the x and y
+    /// axes after `Rz(θ_i+q_i)·Rx(α_i)` and `o_i` the origin of frame i:
+    /// - `∂p/∂θ_i = z_{i−1} × (p − o_{i−1})`, `∂p/∂d_i = z_{i−1}`,
+    /// - `∂p/∂a_i = x'_i`, `∂p/∂α_i = x'_i × (p − o_i)`, `∂p/∂β_i = y'_i × (p − o_i)`,
+    /// - base (`p = d + Rz·Ry·Rx·p_b`): `∂p/∂rz = e_z × (p − d)`, `∂p/∂ry = (Rz e_y) × (p − d)`,
+    ///   `∂p/∂rx = (Rz Ry e_x) × (p − d)`, `∂p/∂d = I`,
+    /// - tool: `∂p/∂t = R_flange`.
+    ///
+    /// No heap allocation.
+    pub fn point_jacobian_into(&self, q_rad: &[f64], cols: &mut [Vector3<f64>]) -> Vector3<f64> {
+        assert_eq!(
+            cols.len(),
+            self.layout.len(),
+            "Jacobian column buffer length"
+        );
+        assert_eq!(q_rad.len(), self.links.len(), "joint vector length");
+        let mut frames = [Frame::identity(); MAX_JOINTS + 1];
+        self.chain(q_rad, &mut frames);
+        let n = self.links.len();
+        let p = frames[n].transform_point(&self.tool_mm);
+        for (i, (l, q)) in self.links.iter().zip(q_rad).enumerate() {
+            let prev = &frames[i];
+            let z = prev.rot.column(2).into_owned();
+            let (st, ct) = (l.theta_rad + q).sin_cos();
+            let x = prev.rot * Vector3::new(ct, st, 0.0);
+            let r_prev = p - prev.pos_mm;
+            let r_this = p - frames[i + 1].pos_mm;
+            cols[4 * i] = z.cross(&r_prev);
+            cols[4 * i + 1] = z;
+            cols[4 * i + 2] = x;
+            cols[4 * i + 3] = x.cross(&r_this);
+            if let Some(k) = self.beta_index[i] {
+                let y = prev.rot * Vector3::new(-st * l.cos_alpha, ct * l.cos_alpha, l.sin_alpha);
+                cols[k] = y.cross(&r_this);
+            }
+        }
+        let b = self.base_index;
+        let [_, ry, rz] = self.base.r_rad;
+        let rzm = Rotation3::from_axis_angle(&Vector3::z_axis(), rz);
+        let ax_z = Vector3::z();
+        let ax_y = rzm * Vector3::y();
+        let ax_x = rzm * Rotation3::from_axis_angle(&Vector3::y_axis(), ry) * Vector3::x();
+        let r_base = p - self.base_frame.pos_mm;
+        cols[b] = ax_x.cross(&r_base);
+        cols[b + 1] = ax_y.cross(&r_base);
+        cols[b + 2] = ax_z.cross(&r_base);
+        cols[b + 3] = Vector3::x();
+        cols[b + 4] = Vector3::y();
+        cols[b + 5] = Vector3::z();
+        let rf = &frames[n].rot;
+        cols[b + 6] = rf.column(0).into_owned();
+        cols[b + 7] = rf.column(1).into_owned();
+        cols[b + 8] = rf.column(2).into_owned();
+        p
+    }
+
+    /// Stacked identification Jacobian for `m` poses (rows `3j..3j+3` belong to pose j) and
+    /// the predicted points, written into caller-owned storage (no per-pose allocation).
+    ///
+    /// `jac` must be `3m × n_params()` and `points.len() == m`.
+    pub fn jacobian_batch_into(
+        &self,
+        poses_rad: &[f64],
+        points: &mut [Vector3<f64>],
+        jac: &mut DMatrix<f64>,
+    ) {
+        let n = self.n_joints();
+        let np = self.n_params();
+        let m = poses_rad.len() / n;
+        assert_eq!(poses_rad.len(), m * n, "pose buffer is not a multiple of N");
+        assert_eq!(points.len(), m, "points buffer length");
+        assert_eq!(jac.shape(), (3 * m, np), "Jacobian shape");
+        let mut cols = [Vector3::zeros(); MAX_PARAMS];
+        for (j, q) in poses_rad.chunks_exact(n).enumerate() {
+            points[j] = self.point_jacobian_into(q, &mut cols[..np]);
+            for (k, c) in cols[..np].iter().enumerate() {
+                jac[(3 * j, k)] = c.x;
+                jac[(3 * j + 1, k)] = c.y;
+                jac[(3 * j + 2, k)] = c.z;
+            }
+        }
+    }
+
+    /// Allocating convenience form of [`Robot::jacobian_batch_into`].
+    pub fn jacobian_batch(&self, poses_rad: &[f64]) -> (Vec<Vector3<f64>>, DMatrix<f64>) {
+        let m = poses_rad.len() / self.n_joints();
+        let mut points = vec![Vector3::zeros(); m];
+        let mut jac = DMatrix::zeros(3 * m, self.n_params());
+        self.jacobian_batch_into(poses_rad, &mut points, &mut jac);
+        (points, jac)
+    }
+
+    /// Geometric Jacobian (6×N) of a point fixed in the flange frame: rows 0–2 are
+    /// `∂p/∂q_i = z_{i−1} × (p − o_{i−1})` (mm/rad), rows 3–5 the angular velocity `z_{i−1}`
+    /// multiplied by `orientation_scale_mm` so both halves share units.
+    pub fn geometric_jacobian(
+        &self,
+        q_rad: &[f64],
+        point_in_flange_mm: &Vector3<f64>,
+        orientation_scale_mm: f64,
+    ) -> DMatrix<f64> {
+        let mut axes = [(Vector3::zeros(), Vector3::zeros()); MAX_JOINTS];
+        let f = self.joint_axes(q_rad, &mut axes);
+        let p = f.transform_point(point_in_flange_mm);
+        DMatrix::from_fn(6, self.n_joints(), |row, i| {
+            let (z, o) = axes[i];
+            if row < 3 {
+                z.cross(&(p - o))[row]
+            } else {
+                z[row - 3] * orientation_scale_mm
+            }
+        })
+    }
+
+    /// Condition number σ_max/σ_min of [`Robot::geometric_jacobian`] for the flange origin
+    /// (∞ at a singularity). Pose samplers use it to keep away from singular configurations.
+    pub fn singularity_condition(&self, q_rad: &[f64], orientation_scale_mm: f64) -> f64 {
+        let j = self.geometric_jacobian(q_rad, &Vector3::zeros(), orientation_scale_mm);
+        let sv = j.singular_values();
+        let max = sv.max();
+        let min = sv.min();
+        if min > 0.0 { max / min } else { f64::INFINITY }
+    }
+
+    /// The flange frame and, for every joint, the axis `z_{i−1}` and a point `o_{i−1}` on
+    /// it (measurement frame): what the geometric Jacobian of any point on the flange needs.
+    pub(crate) fn joint_axes(
+        &self,
+        q_rad: &[f64],
+        axes: &mut [(Vector3<f64>, Vector3<f64>); MAX_JOINTS],
+    ) -> Frame {
+        let mut frames = [Frame::identity(); MAX_JOINTS + 1];
+        self.chain(q_rad, &mut frames);
+        for i in 0..self.links.len() {
+            axes[i] = (frames[i].rot.column(2).into_owned(), frames[i].pos_mm);
+        }
+        frames[self.links.len()]
+    }
+}

@@ -1,0 +1,66 @@
+//! `cargo xtask …`: the kincal command line. Parses arguments, calls the library crates,
+//! prints. No calibration logic lives here.
+
+use std::path::PathBuf;
+
+use anyhow::{Context, Result};
+use clap::{Parser, Subcommand};
+use kinematics::Robot;
+
+#[derive(Parser)]
+#[command(name = "xtask", about = "kincal: kinematic calibration harness")]
+struct Cli {
+    #[command(subcommand)]
+    cmd: Cmd,
+}
+
+#[derive(Subcommand)]
+enum Cmd {
+    /// Print the forward kinematics of a robot model at a few reference poses.
+    Poses {
+        /// Robot model file (JSON).
+        #[arg(long, default_value = "scenarios/robots/kr1000-titan.json")]
+        robot: PathBuf,
+    },
+}
+
+fn main() -> Result<()> {
+    let cli = Cli::parse();
+    match cli.cmd {
+        Cmd::Poses { robot } => poses(&robot),
+    }
+}
+
+fn poses(path: &std::path::Path) -> Result<()> {
+    let robot = Robot::from_file(path).with_context(|| format!("loading {}", path.display()))?;
+    let n = robot.n_joints();
+    println!(
+        "{} — {} joints, {} parameters",
+        robot.name(),
+        n,
+        robot.n_params()
+    );
+    println!(
+        "{:>40} | {:>10} {:>10} {:>10}",
+        "q (deg)", "x (mm)", "y (mm)", "z (mm)"
+    );
+    let mut rows: Vec<Vec<f64>> = vec![vec![0.0; n]];
+    for j in 0..n {
+        let [lo, hi] = robot.limits_rad(j);
+        let mut q = vec![0.0; n];
+        q[j] = (0.5 * hi).max(0.5 * lo).min(hi);
+        rows.push(q);
+    }
+    for q in rows {
+        let p = robot.point(&q);
+        let qs: Vec<String> = q.iter().map(|v| format!("{:.1}", v.to_degrees())).collect();
+        println!(
+            "{:>40} | {:>10.3} {:>10.3} {:>10.3}",
+            qs.join(" "),
+            p.x,
+            p.y,
+            p.z
+        );
+    }
+    Ok(())
+}
