@@ -338,7 +338,13 @@ impl Robot {
         Ok(r)
     }
 
-    /// Frames `T_base · T_1 ··· T_i` for i = 0..N written to `frames[0..=N]`.
+    /// Frames `T_base · T_1 ··· T_i` for i = 0..N written to `frames[0..=N]` (frame 0 is the
+    /// base; frame i the link frame after joint i; frame N the flange). No allocation.
+    #[inline]
+    pub fn frames_into(&self, q_rad: &[f64], frames: &mut [Frame; MAX_JOINTS + 1]) {
+        self.chain(q_rad, frames)
+    }
+
     #[inline]
     fn chain(&self, q_rad: &[f64], frames: &mut [Frame; MAX_JOINTS + 1]) {
         debug_assert_eq!(q_rad.len(), self.links.len(), "joint vector length");
