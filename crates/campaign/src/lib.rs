@@ -1,0 +1,3 @@
+//! Monte Carlo campaigns: scenarios, trials, sweeps, deterministic aggregation and plots.
+
+pub mod aggregate;
