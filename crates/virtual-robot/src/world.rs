@@ -1,0 +1,543 @@
+//! [`World`]: one trial's truth and its measuring process.
+
+use std::sync::Arc;
+
+use kinematics::{Frame, MAX_JOINTS, Robot, RobotSpec};
+use nalgebra::{Rotation3, Vector3};
+use rand::RngExt;
+use rand::rngs::ChaCha8Rng;
+use rand_distr::StandardNormal;
+use serde::{Deserialize, Serialize};
+
+use crate::config::VirtualRobotConfig;
+use crate::error::{NotMeasurable, SimError};
+use crate::poses::{PoseSet, SamplingReport, SamplingStats, sample};
+use crate::rng::{MAX_TRIAL, Purpose, stream};
+use crate::tracker::Tracker;
+use crate::truth::{ScaleOutcome, solve_scale};
+use crate::unmodelled::Unmodelled;
+
+/// One parameter of the truth, display units (deg or mm).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TrueParameter {
+    /// Stable parameter name (`theta1`, `beta2`, `base_dz`, …).
+    pub name: String,
+    /// `"deg"` or `"mm"`.
+    pub unit: String,
+    /// Nominal value.
+    pub nominal: f64,
+    /// Injected error, true − nominal.
+    pub error: f64,
+    /// True value of the robot's geometry.
+    pub true_value: f64,
+    /// What the identification can recover: the true value with the tracker's base-frame
+    /// residual folded into the six base parameters (equal to `true_value` elsewhere).
+    pub effective: f64,
+}
+
+/// Everything `truth.json` holds: the true parameters by name, the nominal robot, the seed
+/// and trial, and the full configuration (tracker placement, unmodelled settings, …).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Truth {
+    /// Format tag, `"kincal-truth/1"`.
+    pub format: String,
+    /// Master seed.
+    pub seed: u64,
+    /// Trial number.
+    pub trial: u64,
+    /// The nominal robot (model file).
+    pub nominal_robot: RobotSpec,
+    /// The true geometry as a model file (residual not folded in).
+    pub true_robot: RobotSpec,
+    /// Every parameter in layout order.
+    pub parameters: Vec<TrueParameter>,
+    /// The error scaling, if `truth.scale_to` was given.
+    pub scale: Option<ScaleOutcome>,
+    /// Phases used by the gear terms, degrees (drawn with `random_phase`; empty if off).
+    pub gear_phases_deg: Vec<f64>,
+    /// Pose sampling statistics.
+    pub sampling: SamplingReport,
+    /// Moves made so far (measurements attempted).
+    pub moves: u64,
+    /// The configuration the world was built from.
+    pub config: VirtualRobotConfig,
+}
+
+/// One trial's truth: the nominal and true robots, the tracker, the unmodelled errors with
+/// their random streams, the pose sets and a move counter.
+#[derive(Debug)]
+pub struct World {
+    seed: u64,
+    trial: u64,
+    config: VirtualRobotConfig,
+    nominal: Robot,
+    true_robot: Robot,
+    effective_robot: Robot,
+    errors_rad_mm: Vec<f64>,
+    scale: Option<ScaleOutcome>,
+    scale_poses_rad: Arc<[f64]>,
+    tracker: Tracker,
+    unmodelled: Unmodelled,
+    tracker_rng: ChaCha8Rng,
+    scatter_rng: ChaCha8Rng,
+    moves: u64,
+    id_deg: Vec<f64>,
+    id_rad: Vec<f64>,
+    val_deg: Vec<f64>,
+    val_rad: Vec<f64>,
+    report: SamplingReport,
+    true_params: Vec<f64>,
+    drift_params: Vec<f64>,
+    drift_robot: Robot,
+}
+
+/// The point the robot reaches without scatter, drift or residual (robot base frame).
+fn reached_point(robot: &Robot, unmodelled: &Unmodelled, q_cmd: &[f64]) -> Vector3<f64> {
+    if !unmodelled.perturbs_joints() {
+        return robot.point(q_cmd);
+    }
+    let n = q_cmd.len();
+    let mut q = [0.0; MAX_JOINTS];
+    unmodelled.actual_joints(robot, q_cmd, &mut q[..n]);
+    robot.point(&q[..n])
+}
+
+/// Everything of a simulation that does not depend on the trial: the validated
+/// configuration, the nominal robot, the tracker and the fixed pose set of the error
+/// scaling (sampled once per seed). Build it once and call [`Setup::world`] per trial;
+/// it is `Sync`, so trials can run in parallel.
+#[derive(Clone, Debug)]
+pub struct Setup {
+    seed: u64,
+    config: VirtualRobotConfig,
+    nominal: Robot,
+    tracker: Tracker,
+    scale_poses_rad: Arc<[f64]>,
+    scale_points: Vec<Vector3<f64>>,
+    scale_stats: Option<SamplingStats>,
+}
+
+impl Setup {
+    /// Validates `cfg` against `nominal` and samples the scaling poses (stream
+    /// `SCALE_POSES`, trial 0) if `truth.scale_to` is given.
+    pub fn new(nominal: &Robot, cfg: &VirtualRobotConfig, seed: u64) -> Result<Setup, SimError> {
+        cfg.validate(nominal)?;
+        let tracker = Tracker::new(&cfg.tracker)?;
+        let (scale_poses_rad, scale_stats) = match &cfg.truth.scale_to {
+            Some(target) => {
+                let nominal_point = |q: &[f64]| nominal.point(q);
+                let (_, rad, stats) = sample(
+                    "truth.scale_to.poses",
+                    target.poses,
+                    &cfg.poses,
+                    nominal,
+                    &tracker,
+                    &nominal_point,
+                    &mut stream(seed, 0, Purpose::ScalePoses),
+                )?;
+                (Arc::from(rad), Some(stats))
+            }
+            None => (Arc::from(Vec::new()), None),
+        };
+        let scale_points = nominal.points(&scale_poses_rad);
+        Ok(Setup {
+            seed,
+            config: cfg.clone(),
+            nominal: nominal.clone(),
+            tracker,
+            scale_poses_rad,
+            scale_points,
+            scale_stats,
+        })
+    }
+
+    /// The master seed.
+    pub fn seed(&self) -> u64 {
+        self.seed
+    }
+
+    /// The validated configuration.
+    pub fn config(&self) -> &VirtualRobotConfig {
+        &self.config
+    }
+
+    /// The nominal robot.
+    pub fn nominal(&self) -> &Robot {
+        &self.nominal
+    }
+
+    /// Builds trial `trial`: draws the truth (and scales it), builds the unmodelled errors
+    /// and samples the pose sets, each from its own stream ([`crate::stream`]).
+    pub fn world(&self, trial: u64) -> Result<World, SimError> {
+        if trial > MAX_TRIAL {
+            return Err(SimError::Trial {
+                trial,
+                max: MAX_TRIAL,
+            });
+        }
+        let (seed, cfg, nominal, tracker) = (self.seed, &self.config, &self.nominal, &self.tracker);
+        let layout = nominal.layout();
+        let p_nom = nominal.params();
+
+        // Truth: draw, then scale on the seed's fixed pose set.
+        let mut delta = cfg
+            .truth
+            .draw_internal(layout, &mut stream(seed, trial, Purpose::Truth));
+        let mut report = SamplingReport {
+            scale: self.scale_stats,
+            ..SamplingReport::default()
+        };
+        let mut scale = None;
+        if let Some(target) = &cfg.truth.scale_to {
+            let outcome = solve_scale(
+                nominal,
+                &delta,
+                &self.scale_poses_rad,
+                &self.scale_points,
+                target.mean_error_mm,
+            )?;
+            for d in &mut delta {
+                *d *= outcome.factor;
+            }
+            scale = Some(outcome);
+        }
+        let true_params: Vec<f64> = p_nom.iter().zip(&delta).map(|(p, d)| p + d).collect();
+        let true_robot = nominal
+            .with_params(&true_params)
+            .map_err(|e| SimError::Scale {
+                message: e.to_string(),
+            })?;
+        let effective_robot = fold_residual(&true_robot, tracker.residual_frame());
+        let unmodelled = Unmodelled::new(
+            &cfg.unmodelled,
+            nominal,
+            &mut stream(seed, trial, Purpose::GearPhases),
+        )?;
+
+        // Pose sets, checked on where the true robot puts the point.
+        let reached = |q: &[f64]| reached_point(&true_robot, &unmodelled, q);
+        let mut sets = Vec::with_capacity(2);
+        for (field, set, purpose) in [
+            (
+                "poses.identification",
+                &cfg.poses.identification,
+                Purpose::IdentificationPoses,
+            ),
+            (
+                "poses.validation",
+                &cfg.poses.validation,
+                Purpose::ValidationPoses,
+            ),
+        ] {
+            sets.push(match set {
+                PoseSet::Count(count) => sample(
+                    field,
+                    *count,
+                    &cfg.poses,
+                    nominal,
+                    tracker,
+                    &reached,
+                    &mut stream(seed, trial, purpose),
+                )?,
+                PoseSet::ListDeg(rows) => {
+                    let deg: Vec<f64> = rows.iter().flatten().copied().collect();
+                    let rad: Vec<f64> = deg.iter().map(|d| d.to_radians()).collect();
+                    for (index, q) in rad.chunks_exact(nominal.n_joints()).enumerate() {
+                        tracker.check_visible(&reached(q)).map_err(|source| {
+                            SimError::NotMeasurable {
+                                field: field.to_string(),
+                                index,
+                                source,
+                            }
+                        })?;
+                    }
+                    let stats = SamplingStats {
+                        wanted: rows.len(),
+                        accepted: rows.len(),
+                        ..SamplingStats::default()
+                    };
+                    (deg, rad, stats)
+                }
+            });
+        }
+        let (val_deg, val_rad, val_stats) = sets.pop().unwrap_or_default();
+        let (id_deg, id_rad, id_stats) = sets.pop().unwrap_or_default();
+        report.identification = id_stats;
+        report.validation = val_stats;
+
+        Ok(World {
+            seed,
+            trial,
+            config: cfg.clone(),
+            nominal: nominal.clone(),
+            drift_robot: true_robot.clone(),
+            drift_params: true_params.clone(),
+            true_params,
+            true_robot,
+            effective_robot,
+            errors_rad_mm: delta,
+            scale,
+            scale_poses_rad: Arc::clone(&self.scale_poses_rad),
+            tracker: tracker.clone(),
+            unmodelled,
+            tracker_rng: stream(seed, trial, Purpose::TrackerNoise),
+            scatter_rng: stream(seed, trial, Purpose::Repeatability),
+            moves: 0,
+            id_deg,
+            id_rad,
+            val_deg,
+            val_rad,
+            report,
+        })
+    }
+}
+
+impl World {
+    /// Builds trial `trial` of `seed`: `Setup::new(nominal, cfg, seed)?.world(trial)`.
+    /// Validates `cfg` against `nominal`, draws the truth (and scales it), builds the
+    /// tracker and the unmodelled errors, and samples the pose sets.
+    pub fn new(
+        nominal: &Robot,
+        cfg: &VirtualRobotConfig,
+        seed: u64,
+        trial: u64,
+    ) -> Result<World, SimError> {
+        Setup::new(nominal, cfg, seed)?.world(trial)
+    }
+
+    /// Measures the point at commanded joints `q_cmd_rad`: the true robot (drifted to the
+    /// current move) reaches `q_cmd + Δq_compliance + Δq_gears`, repeatability scatter is
+    /// added at the point, then the tracker checks visibility, adds its noise and maps the
+    /// reading into the measurement frame (base-frame residual). Every call counts as one
+    /// move, measurable or not, except calls rejected for the joint count or limits. No heap
+    /// allocation.
+    pub fn measure(&mut self, q_cmd_rad: &[f64]) -> Result<Vector3<f64>, NotMeasurable> {
+        self.check_joints(q_cmd_rad)?;
+        let k = self.moves;
+        self.moves += 1;
+        let robot = match self.unmodelled.drift_per_move() {
+            Some(rates) => {
+                let kf = k as f64;
+                for ((d, p), r) in self
+                    .drift_params
+                    .iter_mut()
+                    .zip(&self.true_params)
+                    .zip(rates)
+                {
+                    *d = p + kf * r;
+                }
+                // The parameter vector has the layout's length by construction.
+                let _ = self.drift_robot.set_params(&self.drift_params);
+                &self.drift_robot
+            }
+            None => &self.true_robot,
+        };
+        let mut p = reached_point(robot, &self.unmodelled, q_cmd_rad);
+        let sigma = self.unmodelled.scatter_sigma_mm();
+        if sigma > 0.0 {
+            let e0: f64 = self.scatter_rng.sample(StandardNormal);
+            let e1: f64 = self.scatter_rng.sample(StandardNormal);
+            let e2: f64 = self.scatter_rng.sample(StandardNormal);
+            p += Vector3::new(e0, e1, e2) * sigma;
+        }
+        self.tracker.observe(&p, &mut self.tracker_rng)
+    }
+
+    /// Where the true robot puts the point at commanded joints `q_cmd_rad`, in the
+    /// measurement frame, without scatter, drift or tracker noise (but with compliance,
+    /// gears and the base-frame residual): the reference for evaluating accuracy. No
+    /// visibility or limit check; errors only for a wrong joint count.
+    pub fn true_point(&self, q_cmd_rad: &[f64]) -> Result<Vector3<f64>, NotMeasurable> {
+        if q_cmd_rad.len() != self.nominal.n_joints() {
+            return Err(NotMeasurable::JointCount {
+                expected: self.nominal.n_joints(),
+                found: q_cmd_rad.len(),
+            });
+        }
+        let p = reached_point(&self.true_robot, &self.unmodelled, q_cmd_rad);
+        Ok(match self.tracker.residual_frame() {
+            Some(f) => f.transform_point(&p),
+            None => p,
+        })
+    }
+
+    fn check_joints(&self, q: &[f64]) -> Result<(), NotMeasurable> {
+        let n = self.nominal.n_joints();
+        if q.len() != n {
+            return Err(NotMeasurable::JointCount {
+                expected: n,
+                found: q.len(),
+            });
+        }
+        for (i, v) in q.iter().enumerate() {
+            let [lo, hi] = self.nominal.limits_rad(i);
+            if !(*v >= lo && *v <= hi) {
+                return Err(NotMeasurable::JointLimits {
+                    joint: i + 1,
+                    value_deg: v.to_degrees(),
+                    min_deg: lo.to_degrees(),
+                    max_deg: hi.to_degrees(),
+                });
+            }
+        }
+        Ok(())
+    }
+
+    /// Master seed.
+    pub fn seed(&self) -> u64 {
+        self.seed
+    }
+
+    /// Trial number.
+    pub fn trial(&self) -> u64 {
+        self.trial
+    }
+
+    /// The configuration.
+    pub fn config(&self) -> &VirtualRobotConfig {
+        &self.config
+    }
+
+    /// The nominal robot.
+    pub fn nominal(&self) -> &Robot {
+        &self.nominal
+    }
+
+    /// The true geometry (nominal + injected errors; no drift, no residual).
+    pub fn true_robot(&self) -> &Robot {
+        &self.true_robot
+    }
+
+    /// The true geometry with the tracker's base-frame residual folded into the base
+    /// parameters: what a perfect identification recovers. Without unmodelled errors and
+    /// noise its `point` equals the measurements up to rounding.
+    pub fn effective_true_robot(&self) -> &Robot {
+        &self.effective_robot
+    }
+
+    /// Injected errors, internal units (rad, mm), layout order.
+    pub fn errors_internal(&self) -> &[f64] {
+        &self.errors_rad_mm
+    }
+
+    /// Injected errors, display units (deg, mm), layout order.
+    pub fn errors_display(&self) -> Vec<f64> {
+        self.nominal
+            .layout()
+            .params()
+            .iter()
+            .zip(&self.errors_rad_mm)
+            .map(|(info, e)| info.to_display(*e))
+            .collect()
+    }
+
+    /// The error scaling, if configured.
+    pub fn scale_outcome(&self) -> Option<&ScaleOutcome> {
+        self.scale.as_ref()
+    }
+
+    /// The poses the scaling averaged over (flat, stride N, radians; empty without scaling).
+    pub fn scale_poses_rad(&self) -> &[f64] {
+        &self.scale_poses_rad
+    }
+
+    /// The tracker.
+    pub fn tracker(&self) -> &Tracker {
+        &self.tracker
+    }
+
+    /// The unmodelled-error model.
+    pub fn unmodelled(&self) -> &Unmodelled {
+        &self.unmodelled
+    }
+
+    /// Moves made so far.
+    pub fn moves(&self) -> u64 {
+        self.moves
+    }
+
+    /// Identification poses, radians, flat with stride N.
+    pub fn identification_poses_rad(&self) -> &[f64] {
+        &self.id_rad
+    }
+
+    /// Identification poses, degrees, flat with stride N (`to_radians` of these gives
+    /// [`World::identification_poses_rad`] exactly).
+    pub fn identification_poses_deg(&self) -> &[f64] {
+        &self.id_deg
+    }
+
+    /// Validation poses, radians, flat with stride N.
+    pub fn validation_poses_rad(&self) -> &[f64] {
+        &self.val_rad
+    }
+
+    /// Validation poses, degrees, flat with stride N.
+    pub fn validation_poses_deg(&self) -> &[f64] {
+        &self.val_deg
+    }
+
+    /// Sampling statistics (draws and rejections by reason, per set).
+    pub fn sampling_report(&self) -> &SamplingReport {
+        &self.report
+    }
+
+    /// The truth of this world (for `truth.json`).
+    pub fn truth(&self) -> Truth {
+        let layout = self.nominal.layout();
+        let p_nom = self.nominal.params();
+        let p_eff = self.effective_robot.params();
+        let parameters = layout
+            .params()
+            .iter()
+            .enumerate()
+            .map(|(k, info)| TrueParameter {
+                name: info.name.clone(),
+                unit: info.unit.as_str().to_string(),
+                nominal: info.to_display(p_nom[k]),
+                error: info.to_display(self.errors_rad_mm[k]),
+                true_value: info.to_display(self.true_params[k]),
+                effective: info.to_display(p_eff[k]),
+            })
+            .collect();
+        Truth {
+            format: "kincal-truth/1".to_string(),
+            seed: self.seed,
+            trial: self.trial,
+            nominal_robot: self.nominal.to_spec(),
+            true_robot: self.true_robot.to_spec(),
+            parameters,
+            scale: self.scale.clone(),
+            gear_phases_deg: self.unmodelled.gear_phases_deg(),
+            sampling: self.report.clone(),
+            moves: self.moves,
+            config: self.config.clone(),
+        }
+    }
+}
+
+/// `robot` with its base replaced by `residual ∘ base` (ZYX angles re-extracted).
+fn fold_residual(robot: &Robot, residual: Option<Frame>) -> Robot {
+    let Some(res) = residual else {
+        return robot.clone();
+    };
+    let base = res.compose(&robot.base_frame());
+    let (rx, ry, rz) = Rotation3::from_matrix_unchecked(base.rot).euler_angles();
+    let layout = robot.layout();
+    let mut p = robot.params();
+    for (name, v) in [
+        ("base_rx", rx),
+        ("base_ry", ry),
+        ("base_rz", rz),
+        ("base_dx", base.pos_mm.x),
+        ("base_dy", base.pos_mm.y),
+        ("base_dz", base.pos_mm.z),
+    ] {
+        if let Ok(k) = layout.index_of(name) {
+            p[k] = v;
+        }
+    }
+    robot.with_params(&p).unwrap_or_else(|_| robot.clone())
+}
