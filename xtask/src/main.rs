@@ -1,6 +1,8 @@
 //! `cargo xtask …`: the kincal command line. Parses arguments, calls the library crates,
 //! prints. No calibration logic lives here.
 
+mod identifiability;
+
 use std::path::PathBuf;
 
 use anyhow::{Context, Result};
@@ -22,12 +24,16 @@ enum Cmd {
         #[arg(long, default_value = "scenarios/robots/kr1000-titan.json")]
         robot: PathBuf,
     },
+    /// Identifiability of a robot's parameters on a pose set: rank, redundant parameters and
+    /// what they are confounded with, condition number, observability indices O1–O5.
+    Identifiability(identifiability::IdentifiabilityArgs),
 }
 
 fn main() -> Result<()> {
     let cli = Cli::parse();
     match cli.cmd {
         Cmd::Poses { robot } => poses(&robot),
+        Cmd::Identifiability(args) => identifiability::run(&args),
     }
 }
 

@@ -1,0 +1,213 @@
+//! The whole identification: optional base registration, damped least squares, covariance.
+
+use kinematics::{Robot, Unit};
+use serde::{Deserialize, Serialize, Serializer};
+
+use crate::covariance::{Covariance, covariance};
+use crate::error::IdentifyError;
+use crate::identifiability::IdentifiabilityOptions;
+use crate::lm::{Damping, LmOptions, StopReason, TraceEntry, solve};
+use crate::problem::{Problem, weighted_rss};
+use crate::registration::{
+    RegistrationPolicy, RegistrationReport, mean_point_error, not_applied, register_base,
+};
+
+/// Options of [`identify`]. Defaults in brackets.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct IdentifyOptions {
+    /// The damped least-squares solver [`LmOptions::default`].
+    pub lm: LmOptions,
+    /// Base registration before solving [`RegistrationPolicy::Auto`] at 10 mm.
+    pub registration: RegistrationPolicy,
+    /// Rank decisions for the covariance's identifiable subset
+    /// [`IdentifiabilityOptions::default`].
+    pub identifiability: IdentifiabilityOptions,
+    /// Correlations with |ρ| above this are flagged [0.9, the customary threshold].
+    pub correlation_flag: f64,
+}
+
+impl Default for IdentifyOptions {
+    fn default() -> Self {
+        IdentifyOptions {
+            lm: LmOptions::default(),
+            registration: RegistrationPolicy::default(),
+            identifiability: IdentifiabilityOptions::default(),
+            correlation_flag: 0.9,
+        }
+    }
+}
+
+/// One free parameter's estimate, display units (deg, mm).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ParamEstimate {
+    /// Name.
+    pub name: String,
+    /// Unit of `start`, `value`, `change`, `std_error`.
+    pub unit: Unit,
+    /// Value in the start model (after registration).
+    pub start: f64,
+    /// Identified value.
+    pub value: f64,
+    /// value − start.
+    pub change: f64,
+    /// Standard error, for identifiable parameters (`None` for redundant ones, whose value is
+    /// arbitrary along their null-space direction).
+    pub std_error: Option<f64>,
+}
+
+fn serialize_robot<S: Serializer>(robot: &Robot, s: S) -> Result<S::Ok, S::Error> {
+    robot.to_spec().serialize(s)
+}
+
+/// The result of [`identify`].
+#[derive(Clone, Debug, Serialize)]
+pub struct Fit {
+    /// The identified robot (serialised as its model file).
+    #[serde(serialize_with = "serialize_robot")]
+    pub robot: Robot,
+    /// Its full parameter vector, internal units (rad, mm), layout order.
+    pub params: Vec<f64>,
+    /// Free parameters, layout order.
+    pub free: Vec<String>,
+    /// Per free parameter: start, value, change, standard error (display units).
+    pub estimates: Vec<ParamEstimate>,
+    /// The schedule used.
+    pub damping: Damping,
+    /// Whether columns were scaled.
+    pub column_scaling: bool,
+    /// Iterations (accepted + rejected).
+    pub iterations: usize,
+    /// Accepted steps.
+    pub accepted_steps: usize,
+    /// Why the solver stopped.
+    pub stop: StopReason,
+    /// Per-iteration trace.
+    pub trace: Vec<TraceEntry>,
+    /// Number of poses m.
+    pub n_poses: usize,
+    /// Equations 3m.
+    pub n_equations: usize,
+    /// RMS 3-D point error √(Σ‖e_j‖²/m) at the LM start (after registration), mm.
+    pub initial_rms_mm: f64,
+    /// Unweighted residual sum of squares Σ‖e_j‖² at the solution, mm².
+    pub rss_mm2: f64,
+    /// RMS 3-D point error √(rss/m) at the solution, mm.
+    pub rms_mm: f64,
+    /// The cost minimised (weighted RSS; equals `rss_mm2` when unweighted).
+    pub weighted_rss: f64,
+    /// σ̂ = √(weighted_rss / dof) (mm per axis unweighted); `None` when dof = 0.
+    pub sigma_hat: Option<f64>,
+    /// Degrees of freedom 3m − r, r the number of identifiable free parameters (0 when the
+    /// covariance could not be formed).
+    pub dof: usize,
+    /// Covariance of the identifiable free parameters.
+    pub covariance: Option<Covariance>,
+    /// What registration did (`None` under [`RegistrationPolicy::Never`]).
+    pub registration: Option<RegistrationReport>,
+}
+
+impl Fit {
+    /// The estimate of the named free parameter.
+    pub fn estimate(&self, name: &str) -> Option<&ParamEstimate> {
+        self.estimates.iter().find(|e| e.name == name)
+    }
+}
+
+/// Identifies the free parameters of `problem`: registers the base if the policy says so,
+/// runs [`solve`], and forms the covariance of the identifiable free parameters.
+///
+/// Registration only re-expresses the base parameters of the start model (whether or not
+/// they are free); the free set is kept as given. A `minimal` set resolved on the
+/// unregistered model (it keeps `base_rx, base_ry, theta1` of the base-rotation group) stays
+/// minimal unless the registered base has rx near ±90° (θ1's axis then lies in the plane of
+/// the base_rx and base_ry axes) or ry near ±90° (the Euler singularity); when in doubt,
+/// call [`register_base`] first and resolve the set on the registered model. The covariance
+/// picks its identifiable subset afresh at the solution.
+pub fn identify(problem: &Problem, options: &IdentifyOptions) -> Result<Fit, IdentifyError> {
+    options.lm.validate()?;
+    if !(options.correlation_flag.is_finite()
+        && options.correlation_flag > 0.0
+        && options.correlation_flag <= 1.0)
+    {
+        return Err(IdentifyError::InvalidOption {
+            name: "correlation_flag",
+            value: options.correlation_flag.to_string(),
+            reason: "must lie in (0, 1]",
+        });
+    }
+    let (poses, points, weights) = (problem.poses_rad(), problem.points_mm(), problem.weights());
+    let start = problem.robot();
+    let (registered, registration) = match options.registration {
+        RegistrationPolicy::Never => (None, None),
+        RegistrationPolicy::Always => {
+            let (r, rep) = register_base(start, poses, points)?;
+            (Some(r), Some(rep))
+        }
+        RegistrationPolicy::Auto { threshold_mm } => {
+            let before = mean_point_error(start, poses, points);
+            if before > threshold_mm {
+                let (r, rep) = register_base(start, poses, points)?;
+                (Some(r), Some(rep))
+            } else {
+                (None, Some(not_applied(start, before)))
+            }
+        }
+    };
+    let start = registered.as_ref().unwrap_or(start);
+    let problem = problem.with_robot(start);
+    let sol = solve(&problem, &options.lm)?;
+
+    let m = problem.n_poses();
+    let free = problem.free();
+    let cov = covariance(
+        &sol.robot,
+        poses,
+        points,
+        weights,
+        free,
+        &options.identifiability,
+        options.correlation_flag,
+    )?;
+    let rss_mm2 = weighted_rss(&sol.robot, poses, points, None);
+    let initial_rss = weighted_rss(start, poses, points, None);
+    let layout = start.layout();
+    let x0 = start.params();
+    let estimates = free
+        .iter()
+        .map(|&k| {
+            let info = layout.get(k);
+            let (s, v) = (info.to_display(x0[k]), info.to_display(sol.params[k]));
+            ParamEstimate {
+                name: info.name.clone(),
+                unit: info.unit,
+                start: s,
+                value: v,
+                change: v - s,
+                std_error: cov.as_ref().and_then(|c| c.std_error(&info.name)),
+            }
+        })
+        .collect();
+    Ok(Fit {
+        params: sol.params,
+        free: problem.free_names(),
+        estimates,
+        damping: options.lm.damping,
+        column_scaling: options.lm.column_scaling,
+        iterations: sol.iterations,
+        accepted_steps: sol.accepted_steps,
+        stop: sol.stop,
+        trace: sol.trace,
+        n_poses: m,
+        n_equations: 3 * m,
+        initial_rms_mm: (initial_rss / m as f64).sqrt(),
+        rss_mm2,
+        rms_mm: (rss_mm2 / m as f64).sqrt(),
+        weighted_rss: sol.cost,
+        sigma_hat: cov.as_ref().map(|c| c.sigma_hat),
+        dof: cov.as_ref().map_or(0, |c| c.dof),
+        covariance: cov,
+        registration,
+        robot: sol.robot,
+    })
+}

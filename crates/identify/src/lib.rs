@@ -1,0 +1,69 @@
+//! Kinematic parameter identification (spec `calibration-model.md` §3 and §7).
+//!
+//! * [`Problem`]: a start model, poses, measured points, optional per-row weights, the free
+//!   parameters; residual `e = p^meas − p(x; q)`.
+//! * [`solve`]: damped least squares with the schedules of spec §7 ([`Damping`]: the paper's
+//!   Levenberg, Marquardt, Nielsen), optional column scaling, five stopping tests with the
+//!   reason reported ([`StopReason`]) and a per-iteration trace. Normal equations are
+//!   accumulated per pose from [`kinematics::Robot::point_jacobian_into`] on the free
+//!   parameters only and solved by Cholesky.
+//! * [`identify`]: registration (when the data are far from the start model), [`solve`], and
+//!   the covariance of the identifiable free parameters ([`Covariance`]) in a [`Fit`].
+//! * [`analyze`]: identifiability — singular values of the column-scaled Jacobian, rank,
+//!   redundant parameters and what they are confounded with, the minimal set, condition
+//!   number, O1–O5. [`ParamSet`] resolves `paper`, `minimal` or a list of names.
+//! * [`register_base`] / [`kabsch`]: closed-form rigid registration re-expressed in the base
+//!   parameters.
+//! * [`random_poses`]: admissible random poses (stand-in for scenario pose sets).
+//!
+//! Units: internally radians and millimetres (the kinematics crate's parameter vector);
+//! every report converts to degrees and millimetres. Kinematics is never re-implemented here.
+//!
+//! ```
+//! use identify::{IdentifyOptions, ParamSet, Problem, identify, random_poses};
+//! use kinematics::{Robot, RobotSpec};
+//!
+//! let text = std::fs::read_to_string(concat!(
+//!     env!("CARGO_MANIFEST_DIR"),
+//!     "/../../scenarios/robots/kr1000-titan.json"
+//! ))?;
+//! let nominal = Robot::from_spec(&RobotSpec::from_json_str(&text, "kr1000")?)?;
+//! // A "true" robot 0.3 mm longer in a2, measured noise-free at 40 poses.
+//! let mut x = nominal.params();
+//! x[nominal.layout().index_of("a2")?] += 0.3;
+//! let truth = nominal.with_params(&x)?;
+//! let poses = random_poses(&nominal, 40, 7)?;
+//! let points = truth.points(&poses);
+//!
+//! let free = ParamSet::Minimal.resolve(&nominal, &poses, None, &Default::default())?;
+//! let problem = Problem::new(&nominal, &poses, &points, free)?;
+//! let fit = identify(&problem, &IdentifyOptions::default())?;
+//! assert!(fit.stop.converged());
+//! assert!((fit.estimate("a2").unwrap().value - 1400.3).abs() < 1e-6);
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+
+#![warn(missing_docs)]
+
+pub mod covariance;
+mod error;
+mod fit;
+pub mod identifiability;
+pub mod lm;
+mod problem;
+pub mod registration;
+pub mod sampling;
+
+pub use covariance::{CorrelatedPair, Covariance, covariance};
+pub use error::IdentifyError;
+pub use fit::{Fit, IdentifyOptions, ParamEstimate, identify};
+pub use identifiability::{
+    ConfoundTerm, IdentifiabilityOptions, IdentifiabilityReport, Observability, ParamSet,
+    Redundancy, analyze, keep_priority,
+};
+pub use lm::{Damping, LmOptions, LmSolution, StopReason, TraceEntry, solve};
+pub use problem::{Problem, SAME_POSE_TOL_RAD};
+pub use registration::{
+    RegistrationPolicy, RegistrationReport, RigidTransform, kabsch, mean_point_error, register_base,
+};
+pub use sampling::{PoseSampler, random_poses};

@@ -1,0 +1,659 @@
+//! Damped least squares (Levenberg–Marquardt) on the free parameters, instrumented.
+//!
+//! # The iteration
+//!
+//! With the weighted Jacobian `J = diag(w)·∂p/∂x_free` (3m × P), the residual `e` and the cost
+//! `F = ‖e‖²` (see [`Problem`]), each iteration solves the damped normal equations in the
+//! *solver variables* `x̃ = S⁻¹ x` (S = diag(s_k), the column scaling, see
+//! [`LmOptions::column_scaling`]):
+//!
+//! `(Ã + μ·D) δ̃ = g̃`, with `Ã = S JᵀJ S`, `g̃ = S Jᵀe`, and `δ = S δ̃`,
+//!
+//! where `D = I` (Levenberg, Nielsen) or `D = diag(Ã)` (Marquardt). The system is formed by
+//! accumulating the 3 × P block of every pose (no stacked Jacobian is stored) and solved by
+//! Cholesky. A trial point `x + δ` is accepted when the cost decreases; the gain ratio
+//! `ρ = (F(x) − F(x + δ)) / (F(x) − ‖e − Jδ‖²)` (actual over predicted decrease, where the
+//! predicted decrease is `2δ̃ᵀg̃ − δ̃ᵀÃδ̃`) drives Nielsen's schedule and is traced for all.
+//!
+//! # Redundant parameters
+//!
+//! With the paper's 34 parameters `Ã` is singular (7 exact redundancies for the KR1000). The
+//! damping keeps the system positive definite and, because `g̃` lies in the row space of J,
+//! steps carry no null-space component: predictions converge, the redundant parameters stay
+//! where they started up to second-order drift. To keep this true after many successful
+//! iterations, μ never drops below a floor ([`LmOptions::mu_min_rel`]).
+//!
+//! # Failures
+//!
+//! A damped matrix that is not positive definite, or a non-finite step or cost, is an error
+//! ([`IdentifyError::Singular`], [`IdentifyError::NonFiniteStep`]); no NaN is ever returned.
+
+use nalgebra::{DMatrix, DVector, Dyn, linalg::Cholesky};
+use serde::{Deserialize, Serialize};
+
+use kinematics::Robot;
+
+use crate::error::IdentifyError;
+use crate::problem::{Problem, assemble_normal, weighted_rss};
+
+/// A column whose squared norm is below this fraction of the largest squared column norm is
+/// treated as zero (the parameter does not move the measured point): it is not scaled
+/// [1e-20, i.e. a column norm ratio of 1e-10, well above rounding (≈1e-16) in columns that
+/// are exactly zero, e.g. θ6 with the ball on the flange axis].
+pub const ZERO_COLUMN_RTOL_SQ: f64 = 1e-20;
+
+/// When the damped matrix fails to factorise, μ is raised to at least this fraction of
+/// max diag(Ã) (and by ×10 each further failure) [1e-12: a thousand times the rounding level
+/// of an exactly singular Ã].
+const RESCUE_MU_REL: f64 = 1e-12;
+
+/// Largest diagonal scaling D_kk of the damping term.
+fn max_dk(damping: Damping, sys: &Scaled) -> f64 {
+    match damping {
+        Damping::Marquardt { .. } => sys.max_diag(),
+        _ => 1.0,
+    }
+}
+
+fn default_mu0() -> f64 {
+    1e-3
+}
+fn default_factor() -> f64 {
+    10.0
+}
+fn default_tau() -> f64 {
+    1e-3
+}
+fn default_nu0() -> f64 {
+    2.0
+}
+
+/// How the damping μ starts and adapts (spec §7). Serialised with a `kind` tag, e.g.
+/// `{"kind": "levenberg", "mu0": 0.001}`; omitted fields take the defaults below.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "lowercase", deny_unknown_fields)]
+pub enum Damping {
+    /// The paper's schedule: `(JᵀJ + μI) δ = Jᵀe`, μ ÷ `decrease` after a successful step,
+    /// μ × `increase` after a failed one.
+    Levenberg {
+        /// Initial damping μ0 [1e-3, the paper's value]. In the solver variables: with column
+        /// scaling on, diag(Ã) = 1, so μ0 is relative to the curvature of every parameter.
+        #[serde(default = "default_mu0")]
+        mu0: f64,
+        /// Divisor after a successful step [10, the paper].
+        #[serde(default = "default_factor")]
+        decrease: f64,
+        /// Multiplier after a failed step [10, the paper].
+        #[serde(default = "default_factor")]
+        increase: f64,
+    },
+    /// Marquardt's scale-invariant form `(JᵀJ + μ·diag(JᵀJ)) δ = Jᵀe`, same updates.
+    Marquardt {
+        /// Initial damping μ0, relative to each diagonal entry [1e-3].
+        #[serde(default = "default_mu0")]
+        mu0: f64,
+        /// Divisor after a successful step [10, as in Levenberg's].
+        #[serde(default = "default_factor")]
+        decrease: f64,
+        /// Multiplier after a failed step [10, as in Levenberg's].
+        #[serde(default = "default_factor")]
+        increase: f64,
+    },
+    /// Nielsen's gain-ratio schedule on `(JᵀJ + μI)`: μ0 = τ·max diag(JᵀJ); after a
+    /// successful step μ ← μ·max(1/3, 1 − (2ρ − 1)³) and ν ← ν0; after a failed one
+    /// μ ← μ·ν, ν ← 2ν.
+    Nielsen {
+        /// τ [1e-3, Madsen–Nielsen–Tingleff's recommendation for a start near the solution].
+        #[serde(default = "default_tau")]
+        tau: f64,
+        /// ν0, the first growth factor after a failure and its reset value [2, Nielsen's].
+        #[serde(default = "default_nu0")]
+        nu0: f64,
+    },
+}
+
+impl Default for Damping {
+    /// The paper's: Levenberg, μ0 = 1e-3, ÷10 / ×10.
+    fn default() -> Self {
+        Damping::levenberg()
+    }
+}
+
+impl Damping {
+    /// Levenberg with the paper's constants.
+    pub fn levenberg() -> Self {
+        Damping::Levenberg {
+            mu0: default_mu0(),
+            decrease: default_factor(),
+            increase: default_factor(),
+        }
+    }
+
+    /// Marquardt with μ0 = 1e-3, ÷10 / ×10.
+    pub fn marquardt() -> Self {
+        Damping::Marquardt {
+            mu0: default_mu0(),
+            decrease: default_factor(),
+            increase: default_factor(),
+        }
+    }
+
+    /// Nielsen with τ = 1e-3, ν0 = 2.
+    pub fn nielsen() -> Self {
+        Damping::Nielsen {
+            tau: default_tau(),
+            nu0: default_nu0(),
+        }
+    }
+
+    /// `"levenberg"`, `"marquardt"` or `"nielsen"`.
+    pub fn name(&self) -> &'static str {
+        match self {
+            Damping::Levenberg { .. } => "levenberg",
+            Damping::Marquardt { .. } => "marquardt",
+            Damping::Nielsen { .. } => "nielsen",
+        }
+    }
+
+    fn validate(&self) -> Result<(), IdentifyError> {
+        let pos = |name: &'static str, v: f64| {
+            if v.is_finite() && v > 0.0 {
+                Ok(())
+            } else {
+                Err(IdentifyError::InvalidOption {
+                    name,
+                    value: v.to_string(),
+                    reason: "must be finite and > 0",
+                })
+            }
+        };
+        let above_one = |name: &'static str, v: f64| {
+            if v.is_finite() && v > 1.0 {
+                Ok(())
+            } else {
+                Err(IdentifyError::InvalidOption {
+                    name,
+                    value: v.to_string(),
+                    reason: "must be finite and > 1",
+                })
+            }
+        };
+        match *self {
+            Damping::Levenberg {
+                mu0,
+                decrease,
+                increase,
+            }
+            | Damping::Marquardt {
+                mu0,
+                decrease,
+                increase,
+            } => {
+                pos("damping.mu0", mu0)?;
+                above_one("damping.decrease", decrease)?;
+                above_one("damping.increase", increase)
+            }
+            Damping::Nielsen { tau, nu0 } => {
+                pos("damping.tau", tau)?;
+                above_one("damping.nu0", nu0)
+            }
+        }
+    }
+}
+
+/// Options of [`solve`]. Defaults in brackets, with the reason.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct LmOptions {
+    /// The damping schedule [[`Damping::levenberg`], the paper's].
+    pub damping: Damping,
+    /// Scale every Jacobian column to unit norm (computed once, at the start point) before
+    /// damping [true]. Without it μI adds the same number to the curvature of an angle
+    /// (‖∂p/∂θ‖² ~ 10⁸ mm²/rad² over 50 poses) and of a length (~10² for the same poses), so
+    /// one μ over-damps lengths while leaving angles undamped. Scaled, μ is relative for every
+    /// parameter, stopping tests become unit-free, and the solver variable x̃_k = x_k·‖J_k‖ is
+    /// "mm of point motion". Set false to reproduce the paper's verbatim `JᵀJ + μI`.
+    pub column_scaling: bool,
+    /// Iteration cap, counting accepted and rejected steps [100: converging runs take < 20;
+    /// the paper iterates "a finite number of times"].
+    pub max_iterations: usize,
+    /// Small-step test after an accepted step: stop when ‖δ̃‖ ≤ step_tol·(‖x̃‖ + step_tol)
+    /// [1e-10: with scaling ‖x̃‖ ≈ 10⁴ mm for the KR1000, i.e. a step moving the points by
+    /// ≈ 1e-6 mm].
+    pub step_tol: f64,
+    /// Small-cost-change test after an accepted step: stop when
+    /// F_old − F_new ≤ cost_rel_tol·F_old [1e-10: just above rounding of F at the noise floor
+    /// (≈ 1e-11 relative for coordinates of 10³ mm and residuals of 10⁻² mm)]. Also applied to
+    /// a rejected step, |F_trial − F| ≤ cost_rel_tol·F: the cost can no longer be told apart,
+    /// and further damping only repeats the rejection.
+    pub cost_rel_tol: f64,
+    /// Small-gradient test: stop when every free column is nearly orthogonal to the residual,
+    /// max_k |J_kᵀe| / (‖J_k‖‖e‖) ≤ gradient_tol (scale-invariant; also checked at the start)
+    /// [1e-10]. A zero residual passes.
+    pub gradient_tol: f64,
+    /// Stop after this many consecutive rejected steps [10: μ has then grown by 10¹⁰ under
+    /// Levenberg/Marquardt, 2⁵⁵ under Nielsen; the step is negligible].
+    pub max_rejections: usize,
+    /// Damping floor relative to max diag(Ã) [1e-15]. Every diagonal entry receives at least
+    /// mu_min_rel·max diag(Ã), and μ never falls below that (Levenberg, Nielsen) or below
+    /// mu_min_rel (Marquardt). With exactly redundant parameters (the paper's set) Ã has
+    /// eigenvalues at rounding level (≈ 1e-16·max diag·P); the floor bounds the null-space
+    /// part of the step (rounding in g̃ divided by μ) and does not move the fixed point, which
+    /// depends only on the gradient. It is low enough that the paper's unscaled schedule
+    /// (μ0 = 1e-3 on max diag(JᵀJ) ≈ 4e8 for the KR1000) follows ÷10 for six iterations. If
+    /// rounding still makes the damped matrix indefinite, μ is raised (at least to 1e-12·max
+    /// diag, ×10 per retry) and the system refactorised; failing even at μ ≥ max diag is
+    /// [`IdentifyError::Singular`].
+    pub mu_min_rel: f64,
+}
+
+impl Default for LmOptions {
+    fn default() -> Self {
+        LmOptions {
+            damping: Damping::default(),
+            column_scaling: true,
+            max_iterations: 100,
+            step_tol: 1e-10,
+            cost_rel_tol: 1e-10,
+            gradient_tol: 1e-10,
+            max_rejections: 10,
+            mu_min_rel: 1e-15,
+        }
+    }
+}
+
+impl LmOptions {
+    /// Default options with the given schedule.
+    pub fn with_damping(damping: Damping) -> Self {
+        LmOptions {
+            damping,
+            ..LmOptions::default()
+        }
+    }
+
+    /// Checks every option's range.
+    pub fn validate(&self) -> Result<(), IdentifyError> {
+        self.damping.validate()?;
+        for (name, v) in [
+            ("step_tol", self.step_tol),
+            ("cost_rel_tol", self.cost_rel_tol),
+            ("gradient_tol", self.gradient_tol),
+        ] {
+            if !(v.is_finite() && v >= 0.0) {
+                return Err(IdentifyError::InvalidOption {
+                    name,
+                    value: v.to_string(),
+                    reason: "must be finite and ≥ 0",
+                });
+            }
+        }
+        if !(self.mu_min_rel.is_finite() && self.mu_min_rel > 0.0 && self.mu_min_rel < 1.0) {
+            return Err(IdentifyError::InvalidOption {
+                name: "mu_min_rel",
+                value: self.mu_min_rel.to_string(),
+                reason: "must lie in (0, 1)",
+            });
+        }
+        if self.max_rejections == 0 {
+            return Err(IdentifyError::InvalidOption {
+                name: "max_rejections",
+                value: "0".into(),
+                reason: "must be ≥ 1",
+            });
+        }
+        Ok(())
+    }
+}
+
+/// Why the iteration stopped.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum StopReason {
+    /// The residual is orthogonal to every free column ([`LmOptions::gradient_tol`]).
+    SmallGradient,
+    /// The last step changed the cost by less than [`LmOptions::cost_rel_tol`] (relative).
+    SmallCostChange,
+    /// The last accepted step was below [`LmOptions::step_tol`].
+    SmallStep,
+    /// [`LmOptions::max_iterations`] reached.
+    MaxIterations,
+    /// [`LmOptions::max_rejections`] consecutive steps failed to lower the cost.
+    TooManyRejections,
+}
+
+impl StopReason {
+    /// True for the three convergence tests.
+    pub fn converged(self) -> bool {
+        matches!(
+            self,
+            StopReason::SmallGradient | StopReason::SmallCostChange | StopReason::SmallStep
+        )
+    }
+
+    /// Snake-case name, as serialised.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            StopReason::SmallGradient => "small_gradient",
+            StopReason::SmallCostChange => "small_cost_change",
+            StopReason::SmallStep => "small_step",
+            StopReason::MaxIterations => "max_iterations",
+            StopReason::TooManyRejections => "too_many_rejections",
+        }
+    }
+}
+
+impl std::fmt::Display for StopReason {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.as_str())
+    }
+}
+
+/// One iteration of the trace.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct TraceEntry {
+    /// 1-based iteration (accepted and rejected steps both count).
+    pub iteration: usize,
+    /// Damping μ used to compute this step.
+    pub mu: f64,
+    /// ‖δ̃‖, the step in solver variables (mm of point motion with column scaling).
+    pub step_norm: f64,
+    /// Cost (weighted RSS) before the step.
+    pub cost_before: f64,
+    /// Cost at the trial point.
+    pub cost_trial: f64,
+    /// Gain ratio ρ = actual / predicted decrease (0 when the model predicts none).
+    pub gain_ratio: f64,
+    /// Whether the step was taken.
+    pub accepted: bool,
+}
+
+/// What [`solve`] returns.
+#[derive(Clone, Debug)]
+pub struct LmSolution {
+    /// The start robot with the identified parameters.
+    pub robot: Robot,
+    /// Its full parameter vector, internal units (rad, mm).
+    pub params: Vec<f64>,
+    /// Iterations made (accepted + rejected).
+    pub iterations: usize,
+    /// Accepted steps.
+    pub accepted_steps: usize,
+    /// Why it stopped.
+    pub stop: StopReason,
+    /// One entry per iteration.
+    pub trace: Vec<TraceEntry>,
+    /// Cost (weighted RSS) at the start.
+    pub initial_cost: f64,
+    /// Cost at the solution.
+    pub cost: f64,
+    /// Column scale s_k of each free parameter (1 when scaling is off or the column is zero).
+    pub column_scale: Vec<f64>,
+    /// max_k |J_kᵀe| / (‖J_k‖‖e‖) at the solution (0 for a zero residual).
+    pub gradient_cosine: f64,
+}
+
+/// Reusable buffers of the scaled system.
+struct Scaled {
+    a: DMatrix<f64>,
+    g: DVector<f64>,
+}
+
+impl Scaled {
+    fn set(&mut self, a: &DMatrix<f64>, g: &DVector<f64>, s: &[f64]) {
+        let p = s.len();
+        for l in 0..p {
+            for k in 0..p {
+                self.a[(k, l)] = s[k] * a[(k, l)] * s[l];
+            }
+            self.g[l] = s[l] * g[l];
+        }
+    }
+
+    fn max_diag(&self) -> f64 {
+        (0..self.g.len()).fold(0.0, |m: f64, k| m.max(self.a[(k, k)]))
+    }
+
+    /// max_k |g̃_k| / (√Ã_kk · √F) (scale-invariant).
+    fn gradient_cosine(&self, cost: f64) -> f64 {
+        if cost <= 0.0 {
+            return 0.0;
+        }
+        let e_norm = cost.sqrt();
+        let mut worst: f64 = 0.0;
+        for k in 0..self.g.len() {
+            let d = self.a[(k, k)];
+            if d > 0.0 {
+                worst = worst.max(self.g[k].abs() / (d.sqrt() * e_norm));
+            }
+        }
+        worst
+    }
+
+    fn finite(&self) -> bool {
+        self.a.iter().all(|v| v.is_finite()) && self.g.iter().all(|v| v.is_finite())
+    }
+}
+
+/// Cholesky factor of the damped matrix `Ã + diag(max(μ·D_kk, floor))`, built in `work`
+/// (taken, so the caller must put `chol.unpack()` back). If rounding makes the matrix
+/// indefinite (exactly redundant parameters at a tiny μ), μ is raised and the matrix
+/// refactorised; once μ·max D exceeds max diag(Ã) only a non-SPD Ã can fail, which is
+/// [`IdentifyError::Singular`].
+fn factorize(
+    sys: &Scaled,
+    damping: Damping,
+    mu: &mut f64,
+    floor: f64,
+    work: &mut DMatrix<f64>,
+    iteration: usize,
+) -> Result<Cholesky<f64, Dyn>, IdentifyError> {
+    let pf = sys.g.len();
+    loop {
+        if work.shape() != (pf, pf) {
+            *work = DMatrix::zeros(pf, pf);
+        }
+        work.copy_from(&sys.a);
+        for k in 0..pf {
+            let dk = match damping {
+                Damping::Marquardt { .. } => sys.a[(k, k)],
+                _ => 1.0,
+            };
+            work[(k, k)] += (*mu * dk).max(floor);
+        }
+        if let Some(c) = Cholesky::new(std::mem::replace(work, DMatrix::zeros(0, 0))) {
+            return Ok(c);
+        }
+        if *mu * max_dk(damping, sys) >= sys.max_diag().max(f64::MIN_POSITIVE) {
+            return Err(IdentifyError::Singular { iteration, mu: *mu });
+        }
+        *mu = (*mu * 10.0).max(RESCUE_MU_REL * sys.max_diag());
+    }
+}
+
+/// Solves the problem by damped least squares from the start model. See the module docs for
+/// the iteration and [`LmOptions`] for every option.
+pub fn solve(problem: &Problem, options: &LmOptions) -> Result<LmSolution, IdentifyError> {
+    options.validate()?;
+    let free = problem.free();
+    let pf = free.len();
+    let (poses, points, weights) = (problem.poses_rad(), problem.points_mm(), problem.weights());
+
+    let mut robot = problem.robot().clone();
+    let mut trial = robot.clone();
+    let mut x = robot.params();
+    let mut xt = x.clone();
+
+    let mut a = DMatrix::zeros(pf, pf);
+    let mut g = DVector::zeros(pf);
+    let mut cost = assemble_normal(&robot, poses, points, weights, free, &mut a, &mut g);
+    let initial_cost = cost;
+
+    let max_col_sq = a.diagonal().iter().fold(0.0, |m: f64, &d| m.max(d));
+    let scale: Vec<f64> = (0..pf)
+        .map(|k| {
+            let d = a[(k, k)];
+            if options.column_scaling && d > ZERO_COLUMN_RTOL_SQ * max_col_sq {
+                1.0 / d.sqrt()
+            } else {
+                1.0
+            }
+        })
+        .collect();
+    let mut sys = Scaled {
+        a: DMatrix::zeros(pf, pf),
+        g: DVector::zeros(pf),
+    };
+    sys.set(&a, &g, &scale);
+    if !cost.is_finite() || !sys.finite() {
+        return Err(IdentifyError::NonFiniteStep {
+            iteration: 0,
+            what: "residual or Jacobian at the start point",
+        });
+    }
+
+    let mut mu = match options.damping {
+        Damping::Levenberg { mu0, .. } | Damping::Marquardt { mu0, .. } => mu0,
+        Damping::Nielsen { tau, .. } => tau * sys.max_diag(),
+    };
+    let mut nu = match options.damping {
+        Damping::Nielsen { nu0, .. } => nu0,
+        _ => 0.0,
+    };
+
+    let mut work = DMatrix::zeros(pf, pf);
+    let mut step = DVector::zeros(pf);
+    let mut a_step = DVector::zeros(pf);
+    let mut trace = Vec::new();
+    let mut iterations = 0;
+    let mut accepted_steps = 0;
+    let mut rejections = 0;
+
+    let stop =
+        if sys.gradient_cosine(cost) <= options.gradient_tol {
+            StopReason::SmallGradient
+        } else {
+            loop {
+                if iterations >= options.max_iterations {
+                    break StopReason::MaxIterations;
+                }
+                iterations += 1;
+
+                let floor = options.mu_min_rel * sys.max_diag();
+                mu = mu.max(match options.damping {
+                    Damping::Marquardt { .. } => options.mu_min_rel,
+                    _ => floor,
+                });
+                let chol = factorize(&sys, options.damping, &mut mu, floor, &mut work, iterations)?;
+                step.copy_from(&sys.g);
+                chol.solve_mut(&mut step);
+                work = chol.unpack();
+                if !step.iter().all(|v| v.is_finite()) {
+                    return Err(IdentifyError::NonFiniteStep {
+                        iteration: iterations,
+                        what: "step",
+                    });
+                }
+
+                for (c, &k) in free.iter().enumerate() {
+                    xt[k] = x[k] + scale[c] * step[c];
+                }
+                trial.set_params(&xt)?;
+                let cost_trial = weighted_rss(&trial, poses, points, weights);
+                if !cost_trial.is_finite() {
+                    return Err(IdentifyError::NonFiniteStep {
+                        iteration: iterations,
+                        what: "cost at the trial point",
+                    });
+                }
+                sys.a.mul_to(&step, &mut a_step);
+                let predicted = 2.0 * step.dot(&sys.g) - step.dot(&a_step);
+                let actual = cost - cost_trial;
+                let accepted = actual > 0.0 && predicted > 0.0;
+                let gain_ratio = if predicted > 0.0 {
+                    actual / predicted
+                } else {
+                    0.0
+                };
+                let step_norm = step.norm();
+                trace.push(TraceEntry {
+                    iteration: iterations,
+                    mu,
+                    step_norm,
+                    cost_before: cost,
+                    cost_trial,
+                    gain_ratio,
+                    accepted,
+                });
+
+                if accepted {
+                    accepted_steps += 1;
+                    rejections = 0;
+                    std::mem::swap(&mut x, &mut xt);
+                    std::mem::swap(&mut robot, &mut trial);
+                    let cost_old = cost;
+                    cost = assemble_normal(&robot, poses, points, weights, free, &mut a, &mut g);
+                    sys.set(&a, &g, &scale);
+                    if !cost.is_finite() || !sys.finite() {
+                        return Err(IdentifyError::NonFiniteStep {
+                            iteration: iterations,
+                            what: "residual or Jacobian",
+                        });
+                    }
+                    match options.damping {
+                        Damping::Levenberg { decrease, .. }
+                        | Damping::Marquardt { decrease, .. } => mu /= decrease,
+                        Damping::Nielsen { nu0, .. } => {
+                            mu *= (1.0 / 3.0_f64).max(1.0 - (2.0 * gain_ratio - 1.0).powi(3));
+                            nu = nu0;
+                        }
+                    }
+                    let x_norm = free
+                        .iter()
+                        .zip(&scale)
+                        .map(|(&k, s)| (x[k] / s).powi(2))
+                        .sum::<f64>()
+                        .sqrt();
+                    if sys.gradient_cosine(cost) <= options.gradient_tol {
+                        break StopReason::SmallGradient;
+                    }
+                    if cost_old - cost_trial <= options.cost_rel_tol * cost_old {
+                        break StopReason::SmallCostChange;
+                    }
+                    if step_norm <= options.step_tol * (x_norm + options.step_tol) {
+                        break StopReason::SmallStep;
+                    }
+                } else {
+                    if actual.abs() <= options.cost_rel_tol * cost {
+                        // The trial cost cannot be told from the current one: rounding level.
+                        break StopReason::SmallCostChange;
+                    }
+                    rejections += 1;
+                    match options.damping {
+                        Damping::Levenberg { increase, .. }
+                        | Damping::Marquardt { increase, .. } => mu *= increase,
+                        Damping::Nielsen { .. } => {
+                            mu *= nu;
+                            nu *= 2.0;
+                        }
+                    }
+                    if rejections >= options.max_rejections {
+                        break StopReason::TooManyRejections;
+                    }
+                }
+            }
+        };
+
+    let gradient_cosine = sys.gradient_cosine(cost);
+    Ok(LmSolution {
+        robot,
+        params: x,
+        iterations,
+        accepted_steps,
+        stop,
+        trace,
+        initial_cost,
+        cost,
+        column_scale: scale,
+        gradient_cosine,
+    })
+}

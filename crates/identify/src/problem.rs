@@ -1,0 +1,382 @@
+//! The identification problem: start model, poses, measured points, weights, free parameters;
+//! and the allocation-free assembly of its residual, cost and normal equations.
+
+use kinematics::{MAX_PARAMS, Robot};
+use nalgebra::{DMatrix, DVector, Vector3};
+
+use crate::error::IdentifyError;
+
+/// Two poses whose joint values all differ by less than this (rad) count as the same pose when
+/// [`Problem::new`] checks that enough distinct poses exist [1e-9 rad ≈ 6e-8°, far below any
+/// controller's resolution, far above rounding].
+pub const SAME_POSE_TOL_RAD: f64 = 1e-9;
+
+/// One identification problem.
+///
+/// Residual of pose j: `e_j = w_j ∘ (p_j^meas − p(x; q_j))` (mm, or dimensionless when
+/// weighted), with `p(x; q)` the measured point predicted by the robot with parameter vector
+/// `x` ([`Robot::point`]) and `w_j` the optional weights of its three rows (1/σ). The cost is
+/// the (weighted) residual sum of squares `F(x) = Σ_j ‖e_j‖²`; only the free parameters move.
+///
+/// Everything is checked on construction: shapes, finiteness, positive weights, free indices,
+/// and that there are at least as many equations — counting repeated poses once — as free
+/// parameters.
+#[derive(Clone, Debug)]
+pub struct Problem<'a> {
+    robot: &'a Robot,
+    poses_rad: &'a [f64],
+    points_mm: &'a [Vector3<f64>],
+    weights: Option<&'a [f64]>,
+    free: Vec<usize>,
+}
+
+impl<'a> Problem<'a> {
+    /// A problem with the start model `robot` (usually the nominal one), the poses (flat, row
+    /// after row, `n_joints()` values each, radians), one measured point per pose (mm,
+    /// measurement frame) and the free parameter indices (layout order is restored; duplicates
+    /// are an error).
+    pub fn new(
+        robot: &'a Robot,
+        poses_rad: &'a [f64],
+        points_mm: &'a [Vector3<f64>],
+        free: Vec<usize>,
+    ) -> Result<Self, IdentifyError> {
+        let m = check_poses(robot, poses_rad)?;
+        if points_mm.len() != m {
+            return Err(IdentifyError::PointCount {
+                poses: m,
+                points: points_mm.len(),
+            });
+        }
+        for (j, p) in points_mm.iter().enumerate() {
+            for (c, name) in ["x", "y", "z"].iter().enumerate() {
+                if !p[c].is_finite() {
+                    return Err(IdentifyError::NonFinite {
+                        what: "measured point",
+                        index: j,
+                        detail: format!("{name} = {}", p[c]),
+                    });
+                }
+            }
+        }
+        check_start(robot)?;
+        let free = check_free(robot, free)?;
+        check_counts(robot, poses_rad, free.len())?;
+        Ok(Problem {
+            robot,
+            poses_rad,
+            points_mm,
+            weights: None,
+            free,
+        })
+    }
+
+    /// The same problem with per-row weights `w` (1/σ of each residual row; `3 × poses`
+    /// values, rows x, y, z of pose 0 first). Weighting by 1/σ makes the cost a χ² and the
+    /// estimate the maximum-likelihood one for independent Gaussian errors.
+    pub fn with_weights(mut self, weights: &'a [f64]) -> Result<Self, IdentifyError> {
+        check_weights(weights, 3 * self.n_poses())?;
+        self.weights = Some(weights);
+        Ok(self)
+    }
+
+    /// The start model.
+    pub fn robot(&self) -> &'a Robot {
+        self.robot
+    }
+
+    /// The poses, radians, flat.
+    pub fn poses_rad(&self) -> &'a [f64] {
+        self.poses_rad
+    }
+
+    /// The measured points, mm.
+    pub fn points_mm(&self) -> &'a [Vector3<f64>] {
+        self.points_mm
+    }
+
+    /// The per-row weights, if any.
+    pub fn weights(&self) -> Option<&'a [f64]> {
+        self.weights
+    }
+
+    /// Free parameter indices, in layout order.
+    pub fn free(&self) -> &[usize] {
+        &self.free
+    }
+
+    /// Names of the free parameters, in layout order.
+    pub fn free_names(&self) -> Vec<String> {
+        let layout = self.robot.layout();
+        self.free
+            .iter()
+            .map(|&k| layout.get(k).name.clone())
+            .collect()
+    }
+
+    /// Number of poses m.
+    pub fn n_poses(&self) -> usize {
+        self.points_mm.len()
+    }
+
+    /// Number of residual equations, 3m.
+    pub fn n_equations(&self) -> usize {
+        3 * self.n_poses()
+    }
+
+    /// The same data with another start model (same layout, e.g. after registration).
+    pub(crate) fn with_robot<'b>(&self, robot: &'b Robot) -> Problem<'b>
+    where
+        'a: 'b,
+    {
+        Problem {
+            robot,
+            poses_rad: self.poses_rad,
+            points_mm: self.points_mm,
+            weights: self.weights,
+            free: self.free.clone(),
+        }
+    }
+}
+
+/// Checks the pose buffer (shape, finiteness) and returns the number of poses.
+pub(crate) fn check_poses(robot: &Robot, poses_rad: &[f64]) -> Result<usize, IdentifyError> {
+    let n = robot.n_joints();
+    if !poses_rad.len().is_multiple_of(n) {
+        return Err(IdentifyError::PoseLength {
+            len: poses_rad.len(),
+            n_joints: n,
+        });
+    }
+    let m = poses_rad.len() / n;
+    if m == 0 {
+        return Err(IdentifyError::NoPoses);
+    }
+    for (j, q) in poses_rad.chunks_exact(n).enumerate() {
+        if let Some(i) = q.iter().position(|v| !v.is_finite()) {
+            return Err(IdentifyError::NonFinite {
+                what: "pose",
+                index: j,
+                detail: format!("q{} = {}", i + 1, q[i]),
+            });
+        }
+    }
+    Ok(m)
+}
+
+/// Checks that the start model's parameters are finite.
+pub(crate) fn check_start(robot: &Robot) -> Result<(), IdentifyError> {
+    let p = robot.params();
+    if let Some(k) = p.iter().position(|v| !v.is_finite()) {
+        return Err(IdentifyError::NonFinite {
+            what: "start parameter",
+            index: k,
+            detail: format!("{} = {}", robot.layout().get(k).name, p[k]),
+        });
+    }
+    Ok(())
+}
+
+/// Validates free indices and returns them sorted.
+pub(crate) fn check_free(robot: &Robot, mut free: Vec<usize>) -> Result<Vec<usize>, IdentifyError> {
+    if free.is_empty() {
+        return Err(IdentifyError::NoFreeParameters);
+    }
+    let np = robot.n_params();
+    if let Some(&k) = free.iter().find(|&&k| k >= np) {
+        return Err(IdentifyError::FreeIndex {
+            index: k,
+            n_params: np,
+        });
+    }
+    free.sort_unstable();
+    if let Some(w) = free.windows(2).find(|w| w[0] == w[1]) {
+        return Err(IdentifyError::DuplicateFree {
+            name: robot.layout().get(w[0]).name.clone(),
+        });
+    }
+    Ok(free)
+}
+
+/// Checks that the poses give at least as many equations as free parameters, counting
+/// repeated poses once.
+pub(crate) fn check_counts(
+    robot: &Robot,
+    poses_rad: &[f64],
+    n_free: usize,
+) -> Result<(), IdentifyError> {
+    let n = robot.n_joints();
+    let m = poses_rad.len() / n;
+    let needed_poses = n_free.div_ceil(3);
+    if 3 * m < n_free {
+        return Err(IdentifyError::TooFewEquations {
+            equations: 3 * m,
+            poses: m,
+            free: n_free,
+            needed_poses,
+        });
+    }
+    let distinct = count_distinct(poses_rad, n, SAME_POSE_TOL_RAD);
+    if 3 * distinct < n_free {
+        return Err(IdentifyError::TooFewDistinctPoses {
+            distinct,
+            poses: m,
+            tol_rad: SAME_POSE_TOL_RAD,
+            equations: 3 * distinct,
+            free: n_free,
+            needed_poses,
+        });
+    }
+    Ok(())
+}
+
+/// Number of distinct poses (lexicographic sort, then neighbours closer than `tol` in every
+/// joint are merged). O(m log m).
+fn count_distinct(poses_rad: &[f64], n: usize, tol: f64) -> usize {
+    let mut rows: Vec<&[f64]> = poses_rad.chunks_exact(n).collect();
+    rows.sort_by(|a, b| {
+        a.iter()
+            .zip(b.iter())
+            .map(|(x, y)| x.total_cmp(y))
+            .find(|o| o.is_ne())
+            .unwrap_or(std::cmp::Ordering::Equal)
+    });
+    let mut distinct = usize::from(!rows.is_empty());
+    for w in rows.windows(2) {
+        if w[0].iter().zip(w[1]).any(|(a, b)| (a - b).abs() > tol) {
+            distinct += 1;
+        }
+    }
+    distinct
+}
+
+/// Checks a weight vector.
+pub(crate) fn check_weights(weights: &[f64], expected: usize) -> Result<(), IdentifyError> {
+    if weights.len() != expected {
+        return Err(IdentifyError::WeightCount {
+            expected,
+            found: weights.len(),
+        });
+    }
+    if let Some(row) = weights.iter().position(|w| !(w.is_finite() && *w > 0.0)) {
+        return Err(IdentifyError::BadWeight {
+            row,
+            value: weights[row],
+        });
+    }
+    Ok(())
+}
+
+/// The three weights of pose `j` (ones when unweighted).
+#[inline]
+pub(crate) fn pose_weights(weights: Option<&[f64]>, j: usize) -> Vector3<f64> {
+    match weights {
+        Some(w) => Vector3::new(w[3 * j], w[3 * j + 1], w[3 * j + 2]),
+        None => Vector3::new(1.0, 1.0, 1.0),
+    }
+}
+
+/// Weighted residual sum of squares `Σ_j ‖w_j ∘ (p_j^meas − p(q_j))‖²` of `robot`.
+pub(crate) fn weighted_rss(
+    robot: &Robot,
+    poses_rad: &[f64],
+    points_mm: &[Vector3<f64>],
+    weights: Option<&[f64]>,
+) -> f64 {
+    let n = robot.n_joints();
+    poses_rad
+        .chunks_exact(n)
+        .zip(points_mm)
+        .enumerate()
+        .map(|(j, (q, meas))| {
+            let e = (meas - robot.point(q)).component_mul(&pose_weights(weights, j));
+            e.norm_squared()
+        })
+        .sum()
+}
+
+/// Assembles the normal equations on the free parameters at `robot`:
+/// `A = Σ_j B_jᵀ B_j`, `g = Σ_j B_jᵀ e_j`, with `B_j = diag(w_j) · ∂p(q_j)/∂x_free` (3 × P)
+/// and `e_j = w_j ∘ (p_j^meas − p(q_j))`; returns the cost `Σ_j ‖e_j‖²`.
+///
+/// `a` must be P × P and `g` of length P. Accumulates per pose from
+/// [`Robot::point_jacobian_into`] into the upper triangle, then mirrors it; no heap
+/// allocation.
+pub(crate) fn assemble_normal(
+    robot: &Robot,
+    poses_rad: &[f64],
+    points_mm: &[Vector3<f64>],
+    weights: Option<&[f64]>,
+    free: &[usize],
+    a: &mut DMatrix<f64>,
+    g: &mut DVector<f64>,
+) -> f64 {
+    let n = robot.n_joints();
+    let np = robot.n_params();
+    let pf = free.len();
+    debug_assert_eq!(a.shape(), (pf, pf));
+    debug_assert_eq!(g.len(), pf);
+    a.fill(0.0);
+    g.fill(0.0);
+    let mut cols = [Vector3::zeros(); MAX_PARAMS];
+    // The pose's 3 × P block, one row per array (contiguous, so the rank-3 update below
+    // vectorises).
+    let (mut bx, mut by, mut bz) = ([0.0; MAX_PARAMS], [0.0; MAX_PARAMS], [0.0; MAX_PARAMS]);
+    let mut cost = 0.0;
+    let a_data = a.as_mut_slice();
+    let g_data = g.as_mut_slice();
+    for (j, (q, meas)) in poses_rad.chunks_exact(n).zip(points_mm).enumerate() {
+        let p = robot.point_jacobian_into(q, &mut cols[..np]);
+        let w = pose_weights(weights, j);
+        let e = (meas - p).component_mul(&w);
+        cost += e.norm_squared();
+        for (c, &k) in free.iter().enumerate() {
+            bx[c] = cols[k].x * w.x;
+            by[c] = cols[k].y * w.y;
+            bz[c] = cols[k].z * w.z;
+        }
+        let (bx, by, bz) = (&bx[..pf], &by[..pf], &bz[..pf]);
+        for (gk, ((x, y), z)) in g_data.iter_mut().zip(bx.iter().zip(by).zip(bz)) {
+            *gk += x * e.x + y * e.y + z * e.z;
+        }
+        // Upper triangle, column-major: entry (k, l), k ≤ l, lives at l·P + k.
+        for l in 0..pf {
+            let (xl, yl, zl) = (bx[l], by[l], bz[l]);
+            let col = &mut a_data[l * pf..l * pf + l + 1];
+            for (akl, ((x, y), z)) in col.iter_mut().zip(bx.iter().zip(by).zip(bz)) {
+                *akl += x * xl + y * yl + z * zl;
+            }
+        }
+    }
+    for l in 0..pf {
+        for k in 0..l {
+            a[(l, k)] = a[(k, l)];
+        }
+    }
+    cost
+}
+
+/// The stacked weighted Jacobian `diag(w) · ∂p/∂x_free` (3m × P) at `robot`.
+pub(crate) fn weighted_jacobian(
+    robot: &Robot,
+    poses_rad: &[f64],
+    weights: Option<&[f64]>,
+    free: &[usize],
+) -> DMatrix<f64> {
+    let n = robot.n_joints();
+    let np = robot.n_params();
+    let m = poses_rad.len() / n;
+    let mut jac = DMatrix::zeros(3 * m, free.len());
+    let mut cols = [Vector3::zeros(); MAX_PARAMS];
+    for (j, q) in poses_rad.chunks_exact(n).enumerate() {
+        robot.point_jacobian_into(q, &mut cols[..np]);
+        let w = pose_weights(weights, j);
+        for (c, &k) in free.iter().enumerate() {
+            let v = cols[k].component_mul(&w);
+            jac[(3 * j, c)] = v.x;
+            jac[(3 * j + 1, c)] = v.y;
+            jac[(3 * j + 2, c)] = v.z;
+        }
+    }
+    jac
+}

@@ -1,0 +1,201 @@
+//! `cargo xtask identifiability`: the identifiability report of a robot model on a pose set.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, Result, bail};
+use clap::{ArgGroup, Args};
+use identify::{IdentifiabilityOptions, IdentifiabilityReport, ParamSet, analyze, random_poses};
+use kinematics::Robot;
+use measurements::{ReadOptions, read_file};
+use nalgebra::Vector3;
+
+/// Arguments of `identifiability`.
+#[derive(Args, Debug)]
+#[command(group(ArgGroup::new("poses").required(true).args(["data", "scenario", "random_poses"])))]
+pub struct IdentifiabilityArgs {
+    /// Robot model file (JSON).
+    #[arg(long)]
+    robot: PathBuf,
+    /// Measurement file (spec §8 CSV): the poses; measured points are optional here.
+    #[arg(long)]
+    data: Option<PathBuf>,
+    /// Scenario file (JSON). Not available yet: needs the campaign crate's scenario reader.
+    #[arg(long)]
+    scenario: Option<PathBuf>,
+    /// Draw N random admissible poses (uniform in the joint limits, |q5| ≥ 10°, geometric
+    /// Jacobian condition ≤ 100) instead of reading them.
+    #[arg(long, value_name = "N")]
+    random_poses: Option<usize>,
+    /// Seed of --random-poses (ChaCha8).
+    #[arg(long, default_value_t = 1, requires = "random_poses")]
+    seed: u64,
+    /// Parameters to analyse: `paper` (all), `minimal`, or comma-separated names.
+    #[arg(long, default_value = "paper")]
+    params: String,
+    /// Override the measured point (ball) in the flange frame, mm: `x,y,z`.
+    #[arg(long, value_name = "X,Y,Z", value_parser = parse_tool, allow_hyphen_values = true)]
+    tool: Option<Vector3<f64>>,
+    /// Print the report as JSON.
+    #[arg(long)]
+    json: bool,
+}
+
+fn parse_tool(s: &str) -> Result<Vector3<f64>, String> {
+    let v: Vec<f64> = s
+        .split(',')
+        .map(|t| {
+            t.trim()
+                .parse::<f64>()
+                .map_err(|e| format!("`{}`: {e}", t.trim()))
+        })
+        .collect::<Result<_, _>>()?;
+    match v.as_slice() {
+        [x, y, z] if v.iter().all(|c| c.is_finite()) => Ok(Vector3::new(*x, *y, *z)),
+        [_, _, _] => Err("the offset must be finite".into()),
+        _ => Err(format!(
+            "expected three comma-separated numbers, got {}",
+            v.len()
+        )),
+    }
+}
+
+/// Runs the command.
+pub fn run(args: &IdentifiabilityArgs) -> Result<()> {
+    let mut robot = Robot::from_file(&args.robot)
+        .with_context(|| format!("loading robot {}", args.robot.display()))?;
+    if let Some(t) = args.tool {
+        robot.set_tool_mm(t);
+    }
+    let (poses, source) = if let Some(path) = &args.data {
+        (read_poses(&robot, path)?, path.display().to_string())
+    } else if let Some(path) = &args.scenario {
+        bail!(
+            "--scenario {}: scenario files are not supported yet (they need the campaign \
+             crate's scenario reader); use --data FILE.csv or --random-poses N --seed S",
+            path.display()
+        );
+    } else {
+        let n = args.random_poses.expect("clap requires one pose source");
+        let poses = random_poses(&robot, n, args.seed)
+            .with_context(|| format!("drawing {n} random poses"))?;
+        (poses, format!("{n} random poses, seed {}", args.seed))
+    };
+
+    let opts = IdentifiabilityOptions::default();
+    let set: ParamSet = args.params.parse().expect("infallible");
+    let free = set
+        .resolve(&robot, &poses, None, &opts)
+        .with_context(|| format!("--params {}", args.params))?;
+    let report = analyze(&robot, &poses, None, &free, &opts)
+        .with_context(|| format!("analysing {} on {source}", robot.name()))?;
+    if args.json {
+        println!("{}", serde_json::to_string_pretty(&report)?);
+    } else {
+        print_report(&report, &args.params, &source, robot.tool_mm());
+    }
+    Ok(())
+}
+
+/// Reads the joint values of a measurement file (points optional), in radians.
+fn read_poses(robot: &Robot, path: &Path) -> Result<Vec<f64>> {
+    let n = robot.n_joints();
+    let limits = (0..n)
+        .map(|i| robot.limits_rad(i).map(f64::to_degrees))
+        .collect();
+    let set = read_file(
+        path,
+        &ReadOptions::new(n).joints_only().with_limits_deg(limits),
+    )
+    .with_context(|| format!("reading poses from {}", path.display()))?;
+    for notice in &set.notices {
+        eprintln!("note: {notice}");
+    }
+    Ok(set
+        .rows
+        .iter()
+        .flat_map(|r| r.q_deg.iter().map(|q| q.to_radians()))
+        .collect())
+}
+
+fn print_report(r: &IdentifiabilityReport, params: &str, source: &str, tool: Vector3<f64>) {
+    println!("{} — {source}", r.robot);
+    println!(
+        "{} poses ({} equations), {} parameters ({params}), ball at ({}, {}, {}) mm in the flange frame",
+        r.n_poses, r.n_equations, r.parameter_count, tool.x, tool.y, tool.z
+    );
+    println!("scaling: {}", r.scaling);
+    println!(
+        "rank {} of {} (σ_i > {:e}·σ_max = {:.3e})",
+        r.rank, r.parameter_count, r.rank_rtol, r.rank_tolerance
+    );
+    let sv = &r.singular_values;
+    if r.rank > 0 {
+        print!(
+            "singular values: σ_max {:.4}, σ_r {:.4e}",
+            sv[0],
+            sv[r.rank - 1]
+        );
+        if let Some(next) = sv.get(r.rank) {
+            print!(", next {next:.3e}");
+        }
+        println!();
+    }
+    if let (Some(c), Some(o)) = (r.condition_number, &r.observability) {
+        println!("condition number (identifiable part): {c:.2}");
+        println!(
+            "observability (on σ_1..σ_r of the scaled Jacobian, m = {}): O1 {:.4e}  O2 {:.4e}  O3 {:.4e}  O4 {:.4e}  O5 {:.4e}",
+            r.n_poses, o.o1, o.o2, o.o3, o.o4, o.o5
+        );
+    }
+    if !r.zero_columns.is_empty() {
+        println!(
+            "no effect on the point (zero columns): {}",
+            r.zero_columns.join(", ")
+        );
+    }
+    println!("redundant ({}):", r.redundant.len());
+    for red in &r.redundancies {
+        let with: Vec<String> = red
+            .confounded_with
+            .iter()
+            .map(|t| format!("{} ({:+.3})", t.name, t.weight))
+            .collect();
+        let with = if with.is_empty() {
+            "nothing (zero column)".to_string()
+        } else {
+            with.join(", ")
+        };
+        println!("  {:<10} confounded with {with}", red.name);
+    }
+    if !r.confounded_groups.is_empty() {
+        let groups: Vec<String> = r
+            .confounded_groups
+            .iter()
+            .map(|g| format!("{{{}}}", g.join(", ")))
+            .collect();
+        println!("confounded groups: {}", groups.join(" "));
+    }
+    println!(
+        "identifiable ({}): {}",
+        r.identifiable.len(),
+        r.identifiable.join(", ")
+    );
+    let all: Vec<String> = sv.iter().map(|s| format!("{s:.3e}")).collect();
+    println!("all singular values: {}", all.join(" "));
+}
+
+#[cfg(test)]
+mod tests {
+    use super::parse_tool;
+
+    #[test]
+    fn tool_offsets_parse() {
+        assert_eq!(
+            parse_tool("60, 20,-150").unwrap(),
+            nalgebra::Vector3::new(60.0, 20.0, -150.0)
+        );
+        assert!(parse_tool("1,2").unwrap_err().contains("three"));
+        assert!(parse_tool("1,x,2").unwrap_err().contains("`x`"));
+        assert!(parse_tool("1,inf,2").unwrap_err().contains("finite"));
+    }
+}
