@@ -1,6 +1,7 @@
 //! `cargo xtask …`: the kincal command line. Parses arguments, calls the library crates,
 //! prints. No calibration logic lives here.
 
+mod campaign_cmd;
 mod identifiability;
 
 use std::path::PathBuf;
@@ -27,6 +28,14 @@ enum Cmd {
     /// Identifiability of a robot's parameters on a pose set: rank, redundant parameters and
     /// what they are confounded with, condition number, observability indices O1–O5.
     Identifiability(identifiability::IdentifiabilityArgs),
+    /// Run a Monte Carlo campaign of a scenario: trials in parallel, summary against the
+    /// paper, plots, in results/<scenario name>/.
+    Campaign(campaign_cmd::CampaignArgs),
+    /// Merge shard files written by `campaign --shard k/K` into one summary.
+    Merge(campaign_cmd::MergeArgs),
+    /// Simulate one trial of a scenario: identification.csv, validation.csv (spec §8) and
+    /// truth.json.
+    Simulate(campaign_cmd::SimulateArgs),
 }
 
 fn main() -> Result<()> {
@@ -34,6 +43,9 @@ fn main() -> Result<()> {
     match cli.cmd {
         Cmd::Poses { robot } => poses(&robot),
         Cmd::Identifiability(args) => identifiability::run(&args),
+        Cmd::Campaign(args) => campaign_cmd::campaign(args),
+        Cmd::Merge(args) => campaign_cmd::merge(args),
+        Cmd::Simulate(args) => campaign_cmd::simulate(args),
     }
 }
 

@@ -77,6 +77,11 @@ fn bucket_key(x: f64) -> i64 {
     if x < 0.0 { -k } else { k }
 }
 
+/// The midpoint of the values sharing histogram bucket `key` (for plotting histograms).
+pub fn bucket_value(key: i64) -> f64 {
+    bucket_mid(key)
+}
+
 /// The midpoint of the values sharing `key`.
 fn bucket_mid(key: i64) -> f64 {
     if key == 0 {

@@ -2,3 +2,14 @@
 
 pub mod aggregate;
 pub mod plots;
+pub mod report;
+pub mod run;
+pub mod scenario;
+pub mod trial;
+
+pub use report::{
+    CampaignSummary, ShardFile, ShardManifest, merge_shards, shard_range, write_outputs,
+};
+pub use run::{Aggregate, run_range};
+pub use scenario::{LoadedScenario, Scenario, ScenarioError};
+pub use trial::{CampaignError, Context, TrialResult, run_trial};

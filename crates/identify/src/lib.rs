@@ -45,6 +45,7 @@
 
 #![warn(missing_docs)]
 
+pub mod compensation;
 pub mod covariance;
 mod error;
 mod fit;
@@ -54,6 +55,7 @@ mod problem;
 pub mod registration;
 pub mod sampling;
 
+pub use compensation::{compensate, compensation_target};
 pub use covariance::{CorrelatedPair, Covariance, covariance};
 pub use error::IdentifyError;
 pub use fit::{Fit, IdentifyOptions, ParamEstimate, identify};

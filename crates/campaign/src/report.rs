@@ -1,0 +1,455 @@
+//! Campaign outputs: `summary.json` (depends only on scenario, seed and code), `summary.md`
+//! (our numbers beside the paper's), `timing.json` (wall clock), SVG plots, and shard files.
+
+use std::collections::BTreeMap;
+use std::path::Path;
+
+use serde::{Deserialize, Serialize};
+
+use crate::aggregate::Summary;
+use crate::plots;
+use crate::run::Aggregate;
+use crate::scenario::Scenario;
+use crate::trial::CampaignError;
+
+/// Version of the `summary.json` layout.
+pub const SCHEMA_VERSION: u32 = 1;
+
+/// The paper's Table 4 (Li et al. 2023), mm and %.
+pub const PAPER: PaperFigures = PaperFigures {
+    before_mean_mm: 1.122,
+    after_mean_mm: 0.340,
+    before_max_mm: 2.557,
+    after_max_mm: 0.973,
+    improvement_pct: 69.7,
+};
+
+/// Reference figures from the paper.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct PaperFigures {
+    /// Mean 3-D error before calibration, mm.
+    pub before_mean_mm: f64,
+    /// Mean 3-D error after, mm.
+    pub after_mean_mm: f64,
+    /// Max 3-D error before, mm.
+    pub before_max_mm: f64,
+    /// Max 3-D error after, mm.
+    pub after_max_mm: f64,
+    /// Improvement of the mean, %.
+    pub improvement_pct: f64,
+}
+
+/// Recovery summary of one parameter.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct RecoverySummary {
+    /// Display unit.
+    pub unit: String,
+    /// estimate − truth over trials.
+    pub error: Option<Summary>,
+    /// |estimate − truth|.
+    pub abs_error: Option<Summary>,
+    /// z-score over trials (mean ≈ 0, sd ≈ 1 when the standard errors are honest).
+    pub z: Option<Summary>,
+    /// Reported standard error over trials.
+    pub std_error: Option<Summary>,
+}
+
+/// Who produced a summary.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Tool {
+    /// Always "kincal".
+    pub name: String,
+    /// Crate version.
+    pub version: String,
+}
+
+/// `summary.json`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct CampaignSummary {
+    /// [`SCHEMA_VERSION`].
+    pub schema_version: u32,
+    /// Producer.
+    pub tool: Tool,
+    /// The scenario as run (trial count included).
+    pub scenario: Scenario,
+    /// Trials attempted.
+    pub trials: u64,
+    /// Trials that failed, by cause.
+    pub failed_trials: BTreeMap<String, u64>,
+    /// Per-metric statistics over successful trials.
+    pub metrics: BTreeMap<String, Option<Summary>>,
+    /// Recovery per minimal-set parameter.
+    pub recovery: BTreeMap<String, RecoverySummary>,
+    /// Categorical outcomes.
+    pub counts: BTreeMap<String, BTreeMap<String, u64>>,
+    /// The paper's figures for comparison.
+    pub paper: PaperFigures,
+}
+
+impl CampaignSummary {
+    /// Summarises an aggregate.
+    pub fn new(scenario: &Scenario, agg: &Aggregate) -> Self {
+        CampaignSummary {
+            schema_version: SCHEMA_VERSION,
+            tool: Tool {
+                name: "kincal".into(),
+                version: env!("CARGO_PKG_VERSION").into(),
+            },
+            scenario: scenario.clone(),
+            trials: agg.trials,
+            failed_trials: agg.failures.0.clone(),
+            metrics: agg
+                .metrics
+                .iter()
+                .map(|(k, v)| (k.clone(), v.summary()))
+                .collect(),
+            recovery: agg
+                .recovery
+                .iter()
+                .map(|(k, v)| {
+                    (
+                        k.clone(),
+                        RecoverySummary {
+                            unit: v.unit.clone(),
+                            error: v.error.summary(),
+                            abs_error: v.abs_error.summary(),
+                            z: v.z.summary(),
+                            std_error: v.std_error.summary(),
+                        },
+                    )
+                })
+                .collect(),
+            counts: agg
+                .counts
+                .iter()
+                .map(|(k, v)| (k.clone(), v.0.clone()))
+                .collect(),
+            paper: PAPER,
+        }
+    }
+
+    /// The summary of metric `name`, if any trial produced it.
+    pub fn metric(&self, name: &str) -> Option<&Summary> {
+        self.metrics.get(name).and_then(|s| s.as_ref())
+    }
+
+    /// Pretty JSON, byte-deterministic.
+    pub fn to_json(&self) -> String {
+        let mut s = serde_json::to_string_pretty(self).expect("summary serialises");
+        s.push('\n');
+        s
+    }
+
+    /// The human table (Markdown).
+    pub fn to_markdown(&self) -> String {
+        let mut o = String::new();
+        let sc = &self.scenario;
+        o.push_str(&format!("# Campaign `{}`\n\n", sc.name));
+        if !sc.description.is_empty() {
+            o.push_str(&format!("{}\n\n", sc.description.trim()));
+        }
+        let failed: u64 = self.failed_trials.values().sum();
+        o.push_str(&format!(
+            "Trials: {} ({} failed), seed {}. Values are mean ± sd over trials [p5, p95].\n\n",
+            self.trials, failed, sc.seed
+        ));
+        o.push_str("## Table 4: validation error, ours beside the paper's\n\n");
+        o.push_str("| metric | kincal | paper |\n|---|---:|---:|\n");
+        let fmt = |m: Option<&Summary>, d: usize| match m {
+            Some(s) => format!(
+                "{:.d$} ± {:.d$} [{:.d$}, {:.d$}]",
+                s.mean,
+                s.sd,
+                s.p5,
+                s.p95,
+                d = d
+            ),
+            None => "n/a".into(),
+        };
+        let rows: [(&str, &str, Option<f64>, usize); 10] = [
+            (
+                "mean 3-D before (mm)",
+                "before_mean_mm",
+                Some(PAPER.before_mean_mm),
+                3,
+            ),
+            (
+                "mean 3-D after (mm)",
+                "after_mean_mm",
+                Some(PAPER.after_mean_mm),
+                3,
+            ),
+            (
+                "max 3-D before (mm)",
+                "before_max_mm",
+                Some(PAPER.before_max_mm),
+                3,
+            ),
+            (
+                "max 3-D after (mm)",
+                "after_max_mm",
+                Some(PAPER.after_max_mm),
+                3,
+            ),
+            (
+                "improvement of mean (%)",
+                "improvement_pct",
+                Some(PAPER.improvement_pct),
+                1,
+            ),
+            (
+                "improvement of max (%)",
+                "improvement_max_pct",
+                Some(61.9),
+                1,
+            ),
+            ("mean \\|x\\| before → after (mm)", "", None, 3),
+            ("mean \\|y\\| before → after (mm)", "", None, 3),
+            ("mean \\|z\\| before → after (mm)", "", None, 3),
+            ("RMS 3-D after (mm)", "after_rms_mm", None, 3),
+        ];
+        let paper_axes = [
+            ("x", 0.703, 0.262),
+            ("y", 0.601, 0.169),
+            ("z", 0.635, 0.136),
+        ];
+        let mut axis = 0;
+        for (label, key, paper, d) in rows {
+            if key.is_empty() {
+                let (a, pb, pa) = paper_axes[axis];
+                axis += 1;
+                let b = self.metric(&format!("before_mean_{a}_mm")).map(|s| s.mean);
+                let af = self.metric(&format!("after_mean_{a}_mm")).map(|s| s.mean);
+                let ours = match (b, af) {
+                    (Some(b), Some(af)) => format!("{b:.3} → {af:.3}"),
+                    _ => "n/a".into(),
+                };
+                o.push_str(&format!("| {label} | {ours} | {pb:.3} → {pa:.3} |\n"));
+                continue;
+            }
+            let p = paper.map_or_else(|| "–".to_string(), |v| format!("{v:.d$}", d = d));
+            o.push_str(&format!(
+                "| {label} | {} | {p} |\n",
+                fmt(self.metric(key), d)
+            ));
+        }
+        o.push('\n');
+        if self.metric("iso_ap_before_mm").is_some() {
+            o.push_str(
+                "## ISO 9283 (mean over P1–P5)\n\n| metric | kincal | paper |\n|---|---:|---:|\n",
+            );
+            for (label, key, paper) in [
+                ("AP_p before (mm)", "iso_ap_before_mm", "–"),
+                ("AP_p after (mm)", "iso_ap_after_mm", "–"),
+                ("AP_p improvement (%)", "iso_ap_improvement_pct", "≈ 87"),
+                ("RP_l before (mm)", "iso_rp_before_mm", "–"),
+                ("RP_l after (mm)", "iso_rp_after_mm", "–"),
+            ] {
+                o.push_str(&format!(
+                    "| {label} | {} | {paper} |\n",
+                    fmt(self.metric(key), 3)
+                ));
+            }
+            o.push('\n');
+        }
+        o.push_str("## Identification\n\n| metric | value |\n|---|---:|\n");
+        for (label, key) in [
+            (
+                "geometry error on validation poses (mm)",
+                "predicted_error_mm",
+            ),
+            ("fit RMS residual (mm)", "fit_rms_mm"),
+            ("LM iterations", "lm_iterations"),
+            ("compensation failures per trial", "compensation_failures"),
+        ] {
+            o.push_str(&format!("| {label} | {} |\n", fmt(self.metric(key), 3)));
+        }
+        for (name, counts) in &self.counts {
+            let list: Vec<String> = counts.iter().map(|(k, v)| format!("{k}: {v}")).collect();
+            o.push_str(&format!("| {name} | {} |\n", list.join(", ")));
+        }
+        o.push('\n');
+        if !self.recovery.is_empty() {
+            o.push_str("## Parameter recovery (minimal identifiable set)\n\n");
+            o.push_str("| parameter | unit | mean error | sd of error | mean std error | z mean | z sd |\n|---|---|---:|---:|---:|---:|---:|\n");
+            for (name, r) in &self.recovery {
+                let g = |s: &Option<Summary>, f: fn(&Summary) -> f64| {
+                    s.as_ref().map_or("n/a".into(), |s| format!("{:.4}", f(s)))
+                };
+                o.push_str(&format!(
+                    "| {name} | {} | {} | {} | {} | {} | {} |\n",
+                    r.unit,
+                    g(&r.error, |s| s.mean),
+                    g(&r.error, |s| s.sd),
+                    g(&r.std_error, |s| s.mean),
+                    g(&r.z, |s| s.mean),
+                    g(&r.z, |s| s.sd),
+                ));
+            }
+            o.push('\n');
+        }
+        if !self.failed_trials.is_empty() {
+            o.push_str("## Failed trials\n\n");
+            for (cause, n) in &self.failed_trials {
+                o.push_str(&format!("- {n} × {cause}\n"));
+            }
+            o.push('\n');
+        }
+        o
+    }
+}
+
+fn write(path: &Path, bytes: &[u8]) -> Result<(), CampaignError> {
+    measurements::write_atomically(path, bytes).map_err(|source| CampaignError::Io {
+        path: path.display().to_string(),
+        source,
+    })
+}
+
+/// Writes `summary.json`, `summary.md` and the SVG plots into `dir` (created if needed).
+pub fn write_outputs(
+    dir: &Path,
+    summary: &CampaignSummary,
+    agg: &Aggregate,
+) -> Result<(), CampaignError> {
+    std::fs::create_dir_all(dir).map_err(|source| CampaignError::Io {
+        path: dir.display().to_string(),
+        source,
+    })?;
+    let plot_err = |e: plots::PlotError| CampaignError::Other(format!("plot: {e}"));
+    write(&dir.join("summary.json"), summary.to_json().as_bytes())?;
+    write(&dir.join("summary.md"), summary.to_markdown().as_bytes())?;
+    if let Some(t) = &agg.typical {
+        let svg = plots::per_pose_errors_svg(
+            &format!(
+                "{}: per-pose error, trial {}",
+                summary.scenario.name, t.trial
+            ),
+            &t.before_mm,
+            &t.after_mm,
+        )
+        .map_err(plot_err)?;
+        write(&dir.join("per-pose-error.svg"), svg.as_bytes())?;
+    }
+    if let Some(stat) = agg.metrics.get("improvement_pct")
+        && stat.n > 0
+    {
+        let values: Vec<(f64, u64)> = stat
+            .hist
+            .iter()
+            .map(|(k, c)| (crate::aggregate::bucket_value(*k), *c))
+            .collect();
+        let bins = plots::rebin(&values, 20);
+        let svg = plots::histogram_svg(
+            &format!(
+                "{}: improvement of the mean error over trials",
+                summary.scenario.name
+            ),
+            "improvement of mean 3-D error (%)",
+            &bins,
+        )
+        .map_err(plot_err)?;
+        write(&dir.join("improvement-histogram.svg"), svg.as_bytes())?;
+    }
+    let rec: Vec<(&String, &crate::run::RecoveryStat)> = agg
+        .recovery
+        .iter()
+        .filter(|(_, r)| r.abs_error.n > 0)
+        .collect();
+    if !rec.is_empty() {
+        let names: Vec<String> = rec.iter().map(|(n, _)| (*n).clone()).collect();
+        let units: Vec<String> = rec.iter().map(|(_, r)| r.unit.clone()).collect();
+        let sums: Vec<_> = rec
+            .iter()
+            .map(|(_, r)| r.abs_error.summary().expect("n > 0"))
+            .collect();
+        let svg = plots::recovery_svg(
+            &format!(
+                "{}: parameter recovery (minimal set)",
+                summary.scenario.name
+            ),
+            &names,
+            &sums.iter().map(|s| s.mean).collect::<Vec<_>>(),
+            &sums.iter().map(|s| s.sd).collect::<Vec<_>>(),
+            &units,
+        )
+        .map_err(plot_err)?;
+        write(&dir.join("recovery.svg"), svg.as_bytes())?;
+    }
+    Ok(())
+}
+
+/// Identifies a shard: which slice of which campaign it holds.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ShardManifest {
+    /// The scenario (with the trial count used).
+    pub scenario: Scenario,
+    /// Tool version.
+    pub version: String,
+    /// Shard index, 0-based.
+    pub shard: u64,
+    /// Number of shards.
+    pub shards: u64,
+    /// First trial (inclusive).
+    pub first_trial: u64,
+    /// Last trial (exclusive).
+    pub end_trial: u64,
+}
+
+/// A shard file: manifest plus the exact aggregate.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ShardFile {
+    /// What this shard is.
+    pub manifest: ShardManifest,
+    /// Its trials' aggregate.
+    pub aggregate: Aggregate,
+}
+
+/// The trial range of shard `k` of `shards` over `trials` trials (contiguous, sizes differ by
+/// at most one).
+pub fn shard_range(trials: u64, k: u64, shards: u64) -> std::ops::Range<u64> {
+    let start = trials * k / shards;
+    let end = trials * (k + 1) / shards;
+    start..end
+}
+
+/// Merges shard files: checks they belong to one campaign and cover every trial exactly
+/// once, and returns the merged aggregate and the scenario.
+pub fn merge_shards(files: &[ShardFile]) -> Result<(Scenario, Aggregate), CampaignError> {
+    let first = files
+        .first()
+        .ok_or_else(|| CampaignError::Other("no shard files to merge".into()))?;
+    let m0 = &first.manifest;
+    let mut seen = vec![false; m0.shards as usize];
+    let mut agg = Aggregate::default();
+    for f in files {
+        let m = &f.manifest;
+        if m.scenario != m0.scenario || m.version != m0.version || m.shards != m0.shards {
+            return Err(CampaignError::Other(format!(
+                "shard {} belongs to another campaign (scenario, version or shard count differ)",
+                m.shard
+            )));
+        }
+        let expect = shard_range(m.scenario.trials, m.shard, m.shards);
+        if m.shard >= m.shards || expect != (m.first_trial..m.end_trial) {
+            return Err(CampaignError::Other(format!(
+                "shard {} of {} has trials {}..{}, expected {:?}",
+                m.shard, m.shards, m.first_trial, m.end_trial, expect
+            )));
+        }
+        if std::mem::replace(&mut seen[m.shard as usize], true) {
+            return Err(CampaignError::Other(format!(
+                "shard {} appears twice",
+                m.shard
+            )));
+        }
+        agg.merge(&f.aggregate);
+    }
+    if let Some(k) = seen.iter().position(|s| !s) {
+        return Err(CampaignError::Other(format!(
+            "shard {k} of {} is missing",
+            m0.shards
+        )));
+    }
+    Ok((m0.scenario.clone(), agg))
+}

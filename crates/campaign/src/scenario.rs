@@ -1,0 +1,384 @@
+//! Scenario files: everything a campaign needs, in one JSON document (documented field by
+//! field in `scenarios/README.md`). Unknown fields are errors; errors name the field path.
+
+use std::path::{Path, PathBuf};
+
+use identify::{IdentifiabilityOptions, IdentifyOptions, LmOptions, ParamSet, RegistrationPolicy};
+use kinematics::{IkOptions, Robot};
+use serde::{Deserialize, Serialize};
+use virtual_robot::{
+    InjectedErrors, PoseSampling, TrackerConfig, UnmodelledConfig, VirtualRobotConfig,
+};
+
+/// Why a scenario cannot be used.
+#[derive(Debug, thiserror::Error)]
+pub enum ScenarioError {
+    /// The file cannot be read.
+    #[error("{file}: cannot read scenario: {source}")]
+    Io {
+        /// The file.
+        file: PathBuf,
+        /// The cause.
+        #[source]
+        source: std::io::Error,
+    },
+    /// Malformed JSON, an unknown or missing field, a wrong type.
+    #[error("{file}: field `{field}`: {message}")]
+    Parse {
+        /// The file.
+        file: String,
+        /// Path of the field.
+        field: String,
+        /// What is wrong.
+        message: String,
+    },
+    /// A value out of range.
+    #[error("{file}: field `{field}`: {message}")]
+    Invalid {
+        /// The file.
+        file: String,
+        /// Path of the field.
+        field: String,
+        /// What is wrong.
+        message: String,
+    },
+    /// The robot model file named by `robot` is bad.
+    #[error("{file}: field `robot`: {source}")]
+    Robot {
+        /// The scenario file.
+        file: String,
+        /// The model error.
+        #[source]
+        source: kinematics::ModelError,
+    },
+    /// The virtual-robot sections do not fit the robot.
+    #[error("{file}: {source}")]
+    VirtualRobot {
+        /// The scenario file.
+        file: String,
+        /// The configuration error (names its field).
+        #[source]
+        source: virtual_robot::ConfigError,
+    },
+}
+
+fn default_trials() -> u64 {
+    200
+}
+
+/// The identification settings of a scenario.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct IdentificationConfig {
+    /// `"paper"` (all parameters, the paper's 34) [default], `"minimal"`, or
+    /// `{"names": [..]}`.
+    pub params: ParamSet,
+    /// Solver options: damping schedule and its settings, column scaling, stopping tests.
+    pub lm: LmOptions,
+    /// When to register the base first [never: simulated data are in the robot base frame].
+    pub registration: RegistrationPolicy,
+    /// Rank tolerance and thresholds of the identifiability analysis.
+    pub identifiability: IdentifiabilityOptions,
+}
+
+impl Default for IdentificationConfig {
+    fn default() -> Self {
+        IdentificationConfig {
+            params: ParamSet::Paper,
+            lm: LmOptions::default(),
+            registration: RegistrationPolicy::Never,
+            identifiability: IdentifiabilityOptions::default(),
+        }
+    }
+}
+
+impl IdentificationConfig {
+    /// The options passed to [`identify::identify`].
+    pub fn options(&self) -> IdentifyOptions {
+        IdentifyOptions {
+            lm: self.lm,
+            registration: self.registration,
+            identifiability: self.identifiability,
+            ..IdentifyOptions::default()
+        }
+    }
+}
+
+/// Compensation of validation (and ISO) poses by IK of the identified model.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct CompensationConfig {
+    /// Compensate and re-measure [true]. Off: the "after" figures are the identified model's
+    /// prediction errors on the validation measurements instead.
+    pub enabled: bool,
+    /// IK iteration cap [100].
+    pub max_iterations: usize,
+    /// IK position tolerance, mm [1e-6].
+    pub tol_pos_mm: f64,
+}
+
+impl Default for CompensationConfig {
+    fn default() -> Self {
+        CompensationConfig {
+            enabled: true,
+            max_iterations: 100,
+            tol_pos_mm: 1e-6,
+        }
+    }
+}
+
+impl CompensationConfig {
+    /// The IK options used for compensation.
+    pub fn ik_options(&self) -> IkOptions {
+        IkOptions {
+            max_iterations: self.max_iterations,
+            tol_pos_mm: self.tol_pos_mm,
+            ..IkOptions::default()
+        }
+    }
+}
+
+/// The ISO 9283 position test (spec §6).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct IsoConfig {
+    /// Run the test in every trial [false].
+    pub enabled: bool,
+    /// Cycles P1→P5→P4→P3→P2 [30, ISO 9283].
+    pub cycles: usize,
+    /// Joint configuration (deg) whose flange orientation every test pose holds, and from
+    /// which the cube search solves IK [(0, 20, −20, 0, 60, 0): arm forward, wrist bent].
+    pub reference_q_deg: Vec<f64>,
+    /// Largest cube edge searched, mm [1500].
+    pub max_edge_mm: f64,
+    /// Smallest acceptable cube edge, mm [100].
+    pub min_edge_mm: f64,
+    /// Grid step of candidate cube centres around the reference point, mm [250].
+    pub centre_step_mm: f64,
+    /// Candidate centres per axis on each side of the reference point [2 → 5×5×5 grid].
+    pub centre_half_count: usize,
+}
+
+impl Default for IsoConfig {
+    fn default() -> Self {
+        IsoConfig {
+            enabled: false,
+            cycles: 30,
+            reference_q_deg: vec![0.0, 20.0, -20.0, 0.0, 60.0, 0.0],
+            max_edge_mm: 1500.0,
+            min_edge_mm: 100.0,
+            centre_step_mm: 250.0,
+            centre_half_count: 2,
+        }
+    }
+}
+
+/// Parameter recovery scoring against the injected truth (on the minimal set).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct RecoveryConfig {
+    /// Score recovery in every trial [true].
+    pub enabled: bool,
+}
+
+impl Default for RecoveryConfig {
+    fn default() -> Self {
+        RecoveryConfig { enabled: true }
+    }
+}
+
+/// A scenario file.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Scenario {
+    /// Name; results go to `results/<name>/`.
+    pub name: String,
+    /// One-paragraph rationale.
+    #[serde(default)]
+    pub description: String,
+    /// Robot model file, relative to the scenario file.
+    pub robot: PathBuf,
+    /// Measured point (ball) in the flange frame, mm; overrides the model file's `tool_mm`.
+    #[serde(default)]
+    pub tool_mm: Option<[f64; 3]>,
+    /// Seed of every random stream.
+    pub seed: u64,
+    /// Monte Carlo trials [200].
+    #[serde(default = "default_trials")]
+    pub trials: u64,
+    /// Injected geometric errors.
+    #[serde(default)]
+    pub truth: InjectedErrors,
+    /// The laser tracker.
+    #[serde(default)]
+    pub tracker: TrackerConfig,
+    /// Errors outside the identification model.
+    #[serde(default)]
+    pub unmodelled: UnmodelledConfig,
+    /// Identification and validation pose sets.
+    #[serde(default)]
+    pub poses: PoseSampling,
+    /// Parameter set and solver.
+    #[serde(default)]
+    pub identification: IdentificationConfig,
+    /// Compensation by IK.
+    #[serde(default)]
+    pub compensation: CompensationConfig,
+    /// ISO 9283 position test.
+    #[serde(default)]
+    pub iso: IsoConfig,
+    /// Recovery scoring.
+    #[serde(default)]
+    pub recovery: RecoveryConfig,
+}
+
+/// A parsed scenario with its robot loaded and everything validated.
+#[derive(Clone, Debug)]
+pub struct LoadedScenario {
+    /// The scenario as written.
+    pub scenario: Scenario,
+    /// Where it came from (label for errors).
+    pub source: String,
+    /// The nominal robot (with the scenario's tool).
+    pub nominal: Robot,
+}
+
+impl LoadedScenario {
+    /// The virtual-robot part of the scenario.
+    pub fn virtual_robot(&self) -> VirtualRobotConfig {
+        let s = &self.scenario;
+        VirtualRobotConfig {
+            truth: s.truth.clone(),
+            tracker: s.tracker.clone(),
+            unmodelled: s.unmodelled.clone(),
+            poses: s.poses.clone(),
+        }
+    }
+}
+
+impl Scenario {
+    /// Parses a scenario from a JSON value (used by sweeps after editing axes).
+    pub fn from_value(value: serde_json::Value, source: &str) -> Result<Scenario, ScenarioError> {
+        serde_path_to_error::deserialize(value).map_err(|e| ScenarioError::Parse {
+            file: source.to_string(),
+            field: e.path().to_string(),
+            message: e.into_inner().to_string(),
+        })
+    }
+
+    /// Parses a scenario from JSON text.
+    pub fn from_json_str(text: &str, source: &str) -> Result<Scenario, ScenarioError> {
+        let de = &mut serde_json::Deserializer::from_str(text);
+        serde_path_to_error::deserialize(de).map_err(|e| ScenarioError::Parse {
+            file: source.to_string(),
+            field: e.path().to_string(),
+            message: e.into_inner().to_string(),
+        })
+    }
+
+    /// Loads the robot (relative to `base_dir`) and validates every section.
+    pub fn load(self, base_dir: &Path, source: &str) -> Result<LoadedScenario, ScenarioError> {
+        let invalid = |field: &str, message: String| ScenarioError::Invalid {
+            file: source.to_string(),
+            field: field.to_string(),
+            message,
+        };
+        if self.name.trim().is_empty()
+            || self
+                .name
+                .chars()
+                .any(|c| !(c.is_ascii_alphanumeric() || c == '-' || c == '_' || c == '.'))
+        {
+            return Err(invalid(
+                "name",
+                format!(
+                    "{:?} must be a non-empty file-name-safe word (letters, digits, - _ .)",
+                    self.name
+                ),
+            ));
+        }
+        if self.trials == 0 {
+            return Err(invalid("trials", "must be at least 1".into()));
+        }
+        let robot_path = base_dir.join(&self.robot);
+        let mut nominal =
+            Robot::from_file(&robot_path).map_err(|source_err| ScenarioError::Robot {
+                file: source.to_string(),
+                source: source_err,
+            })?;
+        if let Some(t) = self.tool_mm {
+            if t.iter().any(|v| !v.is_finite()) {
+                return Err(invalid("tool_mm", format!("{t:?} is not finite")));
+            }
+            nominal.set_tool_mm(t.into());
+        }
+        if self.iso.enabled {
+            let iso = &self.iso;
+            if iso.cycles < 2 {
+                return Err(invalid("iso.cycles", "needs at least 2 cycles".into()));
+            }
+            if iso.reference_q_deg.len() != nominal.n_joints() {
+                return Err(invalid(
+                    "iso.reference_q_deg",
+                    format!(
+                        "has {} values, the robot has {} joints",
+                        iso.reference_q_deg.len(),
+                        nominal.n_joints()
+                    ),
+                ));
+            }
+            if !(iso.min_edge_mm > 0.0 && iso.max_edge_mm > iso.min_edge_mm) {
+                return Err(invalid(
+                    "iso.max_edge_mm",
+                    "needs 0 < min_edge_mm < max_edge_mm".into(),
+                ));
+            }
+            if iso.centre_step_mm.is_nan() || iso.centre_step_mm <= 0.0 {
+                return Err(invalid("iso.centre_step_mm", "must be positive".into()));
+            }
+        }
+        if self.compensation.max_iterations == 0
+            || self.compensation.tol_pos_mm.is_nan()
+            || self.compensation.tol_pos_mm <= 0.0
+        {
+            return Err(invalid(
+                "compensation",
+                "max_iterations and tol_pos_mm must be positive".into(),
+            ));
+        }
+        self.identification
+            .lm
+            .validate()
+            .map_err(|e| invalid("identification.lm", e.to_string()))?;
+        if let ParamSet::Names(names) = &self.identification.params {
+            nominal
+                .layout()
+                .select(names)
+                .map_err(|e| invalid("identification.params", e.to_string()))?;
+        }
+        let loaded = LoadedScenario {
+            source: source.to_string(),
+            nominal,
+            scenario: self,
+        };
+        loaded
+            .virtual_robot()
+            .validate(&loaded.nominal)
+            .map_err(|e| ScenarioError::VirtualRobot {
+                file: source.to_string(),
+                source: e,
+            })?;
+        Ok(loaded)
+    }
+
+    /// Reads, parses and loads a scenario file.
+    pub fn from_file(path: &Path) -> Result<LoadedScenario, ScenarioError> {
+        let text = std::fs::read_to_string(path).map_err(|source| ScenarioError::Io {
+            file: path.to_path_buf(),
+            source,
+        })?;
+        let label = path.display().to_string();
+        let base = path.parent().unwrap_or(Path::new("."));
+        Scenario::from_json_str(&text, &label)?.load(base, &label)
+    }
+}

@@ -1,0 +1,498 @@
+//! One trial end to end: draw the truth → measure identification poses → identify →
+//! compensate validation poses by IK of the identified model → measure again → Table 4,
+//! recovery scoring, ISO 9283.
+
+use evaluate::{IsoCube, IsoReport, Table4};
+use identify::{Fit, IdentifyOptions, ParamSet, Problem};
+use kinematics::{IkTarget, Robot};
+use nalgebra::Vector3;
+use serde::{Deserialize, Serialize};
+use virtual_robot::{Setup, Tracker, World};
+
+use crate::scenario::LoadedScenario;
+
+/// Why a campaign or one of its trials failed.
+#[derive(Debug, thiserror::Error)]
+pub enum CampaignError {
+    /// The scenario is unusable.
+    #[error(transparent)]
+    Scenario(#[from] crate::scenario::ScenarioError),
+    /// The virtual robot could not be built or simulated.
+    #[error("trial {trial}: virtual robot: {source}")]
+    Sim {
+        /// Trial index.
+        trial: u64,
+        /// Cause.
+        #[source]
+        source: virtual_robot::SimError,
+    },
+    /// Identification failed.
+    #[error("trial {trial}: identification: {source}")]
+    Identify {
+        /// Trial index.
+        trial: u64,
+        /// Cause.
+        #[source]
+        source: identify::IdentifyError,
+    },
+    /// Evaluation failed (e.g. no validation pose could be measured).
+    #[error("trial {trial}: evaluation: {source}")]
+    Evaluate {
+        /// Trial index.
+        trial: u64,
+        /// Cause.
+        #[source]
+        source: evaluate::EvalError,
+    },
+    /// The ISO 9283 test could not be set up.
+    #[error("ISO 9283 setup: {0}")]
+    Iso(String),
+    /// Writing results failed.
+    #[error("{path}: {source}")]
+    Io {
+        /// File.
+        path: String,
+        /// Cause.
+        #[source]
+        source: std::io::Error,
+    },
+    /// Something else, described.
+    #[error("{0}")]
+    Other(String),
+}
+
+/// The ISO 9283 test plan, fixed for a campaign (nominal model, tracker placement).
+#[derive(Clone, Debug)]
+pub struct IsoPlan {
+    /// The cube.
+    pub cube: IsoCube,
+    /// Targets P1…P5 (nominal point position, reference flange orientation).
+    pub targets: [IkTarget; 5],
+    /// Commanded joints reaching P1…P5 on the nominal model, rad.
+    pub q_cmd_rad: [Vec<f64>; 5],
+}
+
+/// What is shared by all trials of a campaign.
+pub struct Context {
+    /// The scenario.
+    pub loaded: LoadedScenario,
+    /// The virtual robot's per-seed setup.
+    pub setup: Setup,
+    /// Identification options.
+    pub id_options: IdentifyOptions,
+    /// The minimal identifiable set (computed at the nominal model on trial 0's
+    /// identification poses): recovery is scored on it.
+    pub minimal_free: Vec<usize>,
+    /// The ISO plan when the test is on.
+    pub iso: Option<IsoPlan>,
+}
+
+impl Context {
+    /// Builds the shared state: validates the virtual robot, resolves the minimal set,
+    /// finds the ISO cube.
+    pub fn new(loaded: LoadedScenario) -> Result<Context, CampaignError> {
+        let vr = loaded.virtual_robot();
+        let seed = loaded.scenario.seed;
+        let setup = Setup::new(&loaded.nominal, &vr, seed)
+            .map_err(|source| CampaignError::Sim { trial: 0, source })?;
+        let id = &loaded.scenario.identification;
+        let reference = setup
+            .world(0)
+            .map_err(|source| CampaignError::Sim { trial: 0, source })?;
+        let minimal_free = ParamSet::Minimal
+            .resolve(
+                &loaded.nominal,
+                reference.identification_poses_rad(),
+                None,
+                &id.identifiability,
+            )
+            .map_err(|source| CampaignError::Identify { trial: 0, source })?;
+        let iso = if loaded.scenario.iso.enabled {
+            Some(iso_plan(&loaded, &vr.tracker)?)
+        } else {
+            None
+        };
+        Ok(Context {
+            id_options: id.options(),
+            loaded,
+            setup,
+            minimal_free,
+            iso,
+        })
+    }
+
+    /// The nominal robot.
+    pub fn nominal(&self) -> &Robot {
+        &self.loaded.nominal
+    }
+}
+
+/// Finds the largest cube in the reachable, tracker-visible workspace around the ISO
+/// reference pose, and the nominal joints of P1…P5.
+fn iso_plan(
+    loaded: &LoadedScenario,
+    tracker_cfg: &virtual_robot::TrackerConfig,
+) -> Result<IsoPlan, CampaignError> {
+    let iso = &loaded.scenario.iso;
+    let nominal = &loaded.nominal;
+    let tracker = Tracker::new(tracker_cfg).map_err(|e| CampaignError::Iso(e.to_string()))?;
+    let q_ref: Vec<f64> = iso.reference_q_deg.iter().map(|v| v.to_radians()).collect();
+    let reference = nominal.flange(&q_ref);
+    let p_ref = reference.transform_point(&nominal.tool_mm());
+    let ik = loaded.scenario.compensation.ik_options();
+    let min_q5 = loaded.scenario.poses.min_abs_q5_deg.to_radians();
+    let max_cond = loaded.scenario.poses.max_condition.unwrap_or(f64::INFINITY);
+    let solve = |p: &[f64; 3]| -> Option<Vec<f64>> {
+        let target = IkTarget {
+            point_in_flange_mm: nominal.tool_mm(),
+            position_mm: Vector3::from(*p),
+            rotation: reference.rot,
+        };
+        let mut q = q_ref.clone();
+        nominal.solve_ik(&target, &mut q, &ik).ok()?;
+        let ok = q.get(4).is_none_or(|q5| q5.abs() >= min_q5)
+            && nominal.singularity_condition(&q, 1000.0) <= max_cond
+            && tracker.check_visible(&Vector3::from(*p)).is_ok();
+        ok.then_some(q)
+    };
+    let h = iso.centre_half_count as i64;
+    let mut centres = Vec::new();
+    for i in -h..=h {
+        for j in -h..=h {
+            for k in -h..=h {
+                let s = iso.centre_step_mm;
+                centres.push([
+                    p_ref.x + s * i as f64,
+                    p_ref.y + s * j as f64,
+                    p_ref.z + s * k as f64,
+                ]);
+            }
+        }
+    }
+    // Nearest centres first, so ties go to the cube closest to the reference pose.
+    centres.sort_by(|a, b| {
+        let d = |c: &[f64; 3]| (Vector3::from(*c) - p_ref).norm_squared();
+        d(a).total_cmp(&d(b))
+    });
+    let cube = evaluate::largest_cube(&centres, iso.min_edge_mm, iso.max_edge_mm, |p| {
+        solve(p).is_some()
+    })
+    .map_err(|e| CampaignError::Iso(e.to_string()))?;
+    let points = cube.test_points_mm();
+    let mut targets = Vec::with_capacity(5);
+    let mut q_cmd = Vec::with_capacity(5);
+    for p in &points {
+        let q = solve(p).ok_or_else(|| {
+            CampaignError::Iso(format!("test point {p:?} of the cube is not reachable"))
+        })?;
+        targets.push(IkTarget {
+            point_in_flange_mm: nominal.tool_mm(),
+            position_mm: Vector3::from(*p),
+            rotation: reference.rot,
+        });
+        q_cmd.push(q);
+    }
+    let targets: [IkTarget; 5] = targets.try_into().expect("five test points");
+    let q_cmd_rad: [Vec<f64>; 5] = q_cmd.try_into().expect("five test points");
+    Ok(IsoPlan {
+        cube,
+        targets,
+        q_cmd_rad,
+    })
+}
+
+/// The identification outcome of one trial, in brief.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct FitSummary {
+    /// LM iterations (accepted and rejected).
+    pub iterations: usize,
+    /// Why LM stopped.
+    pub stop: String,
+    /// Converged (a stop reason other than the caps).
+    pub converged: bool,
+    /// RMS of the 3-D residuals at the solution, mm.
+    pub rms_mm: f64,
+    /// Free parameters.
+    pub free: usize,
+    /// Numerical rank of the free parameters at the solution (size of the identifiable set).
+    pub rank: Option<usize>,
+}
+
+/// Recovery of one parameter of the minimal set.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Recovery {
+    /// Parameter name.
+    pub name: String,
+    /// Display unit.
+    pub unit: String,
+    /// Truth re-expressed in the minimal set (display units).
+    pub truth: f64,
+    /// Estimate re-expressed in the minimal set.
+    pub estimate: f64,
+    /// estimate − truth.
+    pub error: f64,
+    /// Reported standard error.
+    pub std_error: f64,
+    /// error / std_error.
+    pub z: f64,
+}
+
+/// Everything one trial produces.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct TrialResult {
+    /// Trial index.
+    pub trial: u64,
+    /// Per validation pose: measured − nominal target before compensation, mm.
+    pub before_mm: Vec<[f64; 3]>,
+    /// Per validation pose: measured − nominal target after compensation, mm (poses whose
+    /// compensation failed are left out and counted).
+    pub after_mm: Vec<[f64; 3]>,
+    /// Table 4 statistics.
+    pub table4: Table4,
+    /// Poses the tracker could not measure (skipped).
+    pub unmeasurable: usize,
+    /// Validation targets the identified model could not reach within limits.
+    pub compensation_failures: usize,
+    /// Identification summary.
+    pub fit: FitSummary,
+    /// Mean distance between the identified model's and the true geometry's points on the
+    /// validation poses, mm (how well the geometry itself was recovered).
+    pub predicted_error_mm: f64,
+    /// Recovery per minimal-set parameter (when enabled and computable).
+    pub recovery: Vec<Recovery>,
+    /// ISO 9283 results (when enabled).
+    pub iso: Option<IsoReport>,
+}
+
+fn to_arr(v: Vector3<f64>) -> [f64; 3] {
+    [v.x, v.y, v.z]
+}
+
+/// Re-expresses a robot's geometry in the minimal parameter set: the minimal-set model that
+/// reproduces `model`'s points on `poses` (noise-free fit from the nominal model).
+fn reexpress(
+    nominal: &Robot,
+    model: &Robot,
+    poses_rad: &[f64],
+    free: &[usize],
+    lm: &identify::LmOptions,
+) -> Result<Vec<f64>, identify::IdentifyError> {
+    let points = model.points(poses_rad);
+    let problem = Problem::new(nominal, poses_rad, &points, free.to_vec())?;
+    Ok(identify::solve(&problem, lm)?.params)
+}
+
+/// Runs trial `trial` of the campaign.
+pub fn run_trial(ctx: &Context, trial: u64) -> Result<TrialResult, CampaignError> {
+    let nominal = ctx.nominal();
+    let scenario = &ctx.loaded.scenario;
+    let n = nominal.n_joints();
+    let sim = |source| CampaignError::Sim { trial, source };
+    let ident = |source| CampaignError::Identify { trial, source };
+    let eval = |source| CampaignError::Evaluate { trial, source };
+    let mut world: World = ctx.setup.world(trial).map_err(sim)?;
+
+    // Identification measurements.
+    let mut unmeasurable = 0;
+    let mut id_poses = Vec::with_capacity(world.identification_poses_rad().len());
+    let mut id_points = Vec::with_capacity(id_poses.capacity() / n.max(1));
+    let all_id: Vec<f64> = world.identification_poses_rad().to_vec();
+    for q in all_id.chunks_exact(n) {
+        match world.measure(q) {
+            Ok(p) => {
+                id_poses.extend_from_slice(q);
+                id_points.push(p);
+            }
+            Err(_) => unmeasurable += 1,
+        }
+    }
+    let free = scenario
+        .identification
+        .params
+        .resolve(
+            nominal,
+            &id_poses,
+            None,
+            &scenario.identification.identifiability,
+        )
+        .map_err(ident)?;
+    let problem = Problem::new(nominal, &id_poses, &id_points, free).map_err(ident)?;
+    let fit: Fit = identify::identify(&problem, &ctx.id_options).map_err(ident)?;
+
+    // Validation before compensation, then after.
+    let val: Vec<f64> = world.validation_poses_rad().to_vec();
+    let mut before = Vec::with_capacity(val.len() / n);
+    let mut measured_val = Vec::with_capacity(val.len() / n);
+    for q in val.chunks_exact(n) {
+        match world.measure(q) {
+            Ok(p) => {
+                before.push(to_arr(p - nominal.point(q)));
+                measured_val.push((q, p));
+            }
+            Err(_) => unmeasurable += 1,
+        }
+    }
+    let ik = scenario.compensation.ik_options();
+    let mut after = Vec::with_capacity(before.len());
+    let mut compensation_failures = 0;
+    let mut q_c = vec![0.0; n];
+    for (q, p_meas) in &measured_val {
+        if scenario.compensation.enabled {
+            let target = identify::compensation_target(nominal, &fit.robot, q);
+            q_c.copy_from_slice(q);
+            if fit.robot.solve_ik(&target, &mut q_c, &ik).is_err() {
+                compensation_failures += 1;
+                continue;
+            }
+            match world.measure(&q_c) {
+                Ok(p) => after.push(to_arr(p - target.position_mm)),
+                Err(_) => unmeasurable += 1,
+            }
+        } else {
+            after.push(to_arr(*p_meas - fit.robot.point(q)));
+        }
+    }
+    let table4 = Table4::from_errors(&before, &after).map_err(eval)?;
+
+    // Geometry recovery: identified vs true geometry on the validation poses.
+    let truth_robot = world.effective_true_robot().clone();
+    let predicted_error_mm = val
+        .chunks_exact(n)
+        .map(|q| (fit.robot.point(q) - truth_robot.point(q)).norm())
+        .sum::<f64>()
+        / (val.len() / n).max(1) as f64;
+
+    let recovery = if scenario.recovery.enabled {
+        recovery(ctx, &fit, &truth_robot, &id_poses, &id_points).map_err(ident)?
+    } else {
+        Vec::new()
+    };
+
+    let iso = match &ctx.iso {
+        Some(plan) => Some(iso_trial(
+            plan, &fit.robot, nominal, &mut world, scenario, trial,
+        )?),
+        None => None,
+    };
+
+    Ok(TrialResult {
+        trial,
+        before_mm: before,
+        after_mm: after,
+        table4,
+        unmeasurable,
+        compensation_failures,
+        fit: FitSummary {
+            iterations: fit.iterations,
+            stop: fit.stop.as_str().to_string(),
+            converged: fit.stop.converged(),
+            rms_mm: fit.rms_mm,
+            free: fit.free.len(),
+            rank: fit.covariance.as_ref().map(|c| c.parameters.len()),
+        },
+        predicted_error_mm,
+        recovery,
+        iso,
+    })
+}
+
+/// Scores the estimate against the truth on the minimal set: both are re-expressed in it (a
+/// noise-free fit of the minimal set to each model's points on the identification poses),
+/// and the standard errors come from the covariance at the re-expressed estimate with the
+/// trial's measurements.
+fn recovery(
+    ctx: &Context,
+    fit: &Fit,
+    truth: &Robot,
+    poses: &[f64],
+    measured: &[Vector3<f64>],
+) -> Result<Vec<Recovery>, identify::IdentifyError> {
+    let nominal = ctx.nominal();
+    let free = &ctx.minimal_free;
+    let lm = &ctx.id_options.lm;
+    let truth_min = reexpress(nominal, truth, poses, free, lm)?;
+    let est_min = reexpress(nominal, &fit.robot, poses, free, lm)?;
+    let est_robot = nominal
+        .with_params(&est_min)
+        .map_err(identify::IdentifyError::Model)?;
+    let Some(cov) = identify::covariance(
+        &est_robot,
+        poses,
+        measured,
+        None,
+        free,
+        &ctx.id_options.identifiability,
+        ctx.id_options.correlation_flag,
+    )?
+    else {
+        return Ok(Vec::new());
+    };
+    let layout = nominal.layout();
+    Ok(cov
+        .indices
+        .iter()
+        .zip(&cov.std_errors)
+        .map(|(&k, &se)| {
+            let info = layout.get(k);
+            let t = info.to_display(truth_min[k]);
+            let e = info.to_display(est_min[k]);
+            Recovery {
+                name: info.name.clone(),
+                unit: info.unit.as_str().to_string(),
+                truth: t,
+                estimate: e,
+                error: e - t,
+                std_error: se,
+                z: if se > 0.0 { (e - t) / se } else { f64::NAN },
+            }
+        })
+        .collect())
+}
+
+fn iso_trial(
+    plan: &IsoPlan,
+    identified: &Robot,
+    nominal: &Robot,
+    world: &mut World,
+    scenario: &crate::scenario::Scenario,
+    trial: u64,
+) -> Result<IsoReport, CampaignError> {
+    let ik = scenario.compensation.ik_options();
+    // Compensated joints of P1…P5 (targets the identified model cannot reach keep the
+    // commanded joints, and the report says so through its AP).
+    let mut q_after: Vec<Vec<f64>> = Vec::with_capacity(5);
+    for (t, q) in plan.targets.iter().zip(&plan.q_cmd_rad) {
+        let mut qc = q.clone();
+        let target = IkTarget {
+            point_in_flange_mm: identified.tool_mm(),
+            ..*t
+        };
+        if !scenario.compensation.enabled || identified.solve_ik(&target, &mut qc, &ik).is_err() {
+            qc.clone_from(q);
+        }
+        q_after.push(qc);
+    }
+    let _ = nominal;
+    let cycles = scenario.iso.cycles;
+    let mut before: [Vec<[f64; 3]>; 5] = Default::default();
+    let mut after: [Vec<[f64; 3]>; 5] = Default::default();
+    for (joints, out) in [
+        (&plan.q_cmd_rad[..], &mut before),
+        (&q_after[..], &mut after),
+    ] {
+        for _ in 0..cycles {
+            for &i in &evaluate::ISO_CYCLE_ORDER {
+                let p = world.measure(&joints[i]).map_err(|e| {
+                    CampaignError::Other(format!("trial {trial}: ISO point P{}: {e}", i + 1))
+                })?;
+                out[i].push(to_arr(p));
+            }
+        }
+    }
+    IsoReport::from_attained(
+        plan.cube,
+        [&before[0], &before[1], &before[2], &before[3], &before[4]],
+        [&after[0], &after[1], &after[2], &after[3], &after[4]],
+    )
+    .map_err(|source| CampaignError::Evaluate { trial, source })
+}

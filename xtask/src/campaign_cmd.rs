@@ -1,0 +1,241 @@
+//! `cargo xtask campaign | merge | simulate`: thin wrappers over the campaign crate.
+
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::time::Instant;
+
+use anyhow::{Context as _, Result, bail};
+use campaign::{
+    Aggregate, CampaignSummary, Context, Scenario, ShardFile, ShardManifest, merge_shards,
+    run_range, shard_range, write_outputs,
+};
+use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+
+/// Arguments of `campaign`.
+#[derive(clap::Args)]
+pub struct CampaignArgs {
+    /// Scenario file (JSON), e.g. scenarios/paper-kr1000.json.
+    pub scenario: PathBuf,
+    /// Override the scenario's trial count.
+    #[arg(long)]
+    pub trials: Option<u64>,
+    /// Worker threads [all cores]. Results do not depend on it.
+    #[arg(long)]
+    pub threads: Option<usize>,
+    /// Output directory [results/<scenario name>].
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Run one shard `k/K` (0-based k) and write `shard-k-of-K.json` for `merge`.
+    #[arg(long)]
+    pub shard: Option<String>,
+    /// Do not print the summary table.
+    #[arg(long)]
+    pub quiet: bool,
+}
+
+/// Arguments of `merge`.
+#[derive(clap::Args)]
+pub struct MergeArgs {
+    /// Shard files written by `campaign --shard`.
+    #[arg(required = true)]
+    pub shards: Vec<PathBuf>,
+    /// Output directory [results/<scenario name>].
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+}
+
+/// Arguments of `simulate`.
+#[derive(clap::Args)]
+pub struct SimulateArgs {
+    /// Scenario file (JSON).
+    pub scenario: PathBuf,
+    /// Output directory for identification.csv, validation.csv, truth.json.
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Trial index whose truth, poses and noise are drawn [0].
+    #[arg(long, default_value_t = 0)]
+    pub trial: u64,
+}
+
+fn parse_shard(s: &str) -> Result<(u64, u64)> {
+    let (k, n) = s
+        .split_once('/')
+        .with_context(|| format!("--shard {s:?}: expected k/K, e.g. 0/4"))?;
+    let k: u64 = k
+        .trim()
+        .parse()
+        .with_context(|| format!("--shard {s:?}: k"))?;
+    let n: u64 = n
+        .trim()
+        .parse()
+        .with_context(|| format!("--shard {s:?}: K"))?;
+    if n == 0 || k >= n {
+        bail!("--shard {s:?}: need 0 <= k < K");
+    }
+    Ok((k, n))
+}
+
+fn progress_bar(total: u64) -> ProgressBar {
+    let pb = ProgressBar::with_draw_target(Some(total), ProgressDrawTarget::stderr());
+    if std::env::var_os("CI").is_some() {
+        pb.set_draw_target(ProgressDrawTarget::hidden());
+    }
+    pb.set_style(
+        ProgressStyle::with_template(
+            "{bar:40} {pos}/{len} trials  {per_sec}  ETA {eta}  {elapsed_precise}",
+        )
+        .expect("valid template"),
+    );
+    pb
+}
+
+fn default_out(name: &str) -> PathBuf {
+    Path::new("results").join(name)
+}
+
+fn write_timing(dir: &Path, trials: u64, threads: usize, seconds: f64) -> Result<()> {
+    let cpu = std::fs::read_to_string("/proc/cpuinfo")
+        .ok()
+        .and_then(|s| {
+            s.lines()
+                .find(|l| l.starts_with("model name"))
+                .and_then(|l| l.split_once(':'))
+                .map(|(_, v)| v.trim().to_string())
+        })
+        .unwrap_or_default();
+    let timing = serde_json::json!({
+        "trials": trials,
+        "threads": threads,
+        "wall_seconds": seconds,
+        "trials_per_second": trials as f64 / seconds.max(1e-12),
+        "ms_per_trial_per_thread": seconds * 1e3 * threads as f64 / trials.max(1) as f64,
+        "cpu": cpu,
+    });
+    let path = dir.join("timing.json");
+    measurements::write_atomically(&path, format!("{timing:#}\n").as_bytes())
+        .with_context(|| format!("writing {}", path.display()))
+}
+
+/// `cargo xtask campaign`.
+pub fn campaign(args: CampaignArgs) -> Result<()> {
+    let mut loaded = Scenario::from_file(&args.scenario)
+        .with_context(|| format!("loading scenario {}", args.scenario.display()))?;
+    if let Some(t) = args.trials {
+        if t == 0 {
+            bail!("--trials must be at least 1");
+        }
+        loaded.scenario.trials = t;
+    }
+    let scenario = loaded.scenario.clone();
+    let out = args.out.unwrap_or_else(|| default_out(&scenario.name));
+    let threads = args
+        .threads
+        .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .context("building the thread pool")?;
+    let (range, shard) = match &args.shard {
+        Some(s) => {
+            let (k, n) = parse_shard(s)?;
+            (shard_range(scenario.trials, k, n), Some((k, n)))
+        }
+        None => (0..scenario.trials, None),
+    };
+    let started = Instant::now();
+    let ctx = Context::new(loaded).context("preparing the campaign")?;
+    let pb = progress_bar(range.end - range.start);
+    let done = AtomicU64::new(0);
+    let agg: Aggregate = pool.install(|| {
+        run_range(&ctx, range.clone(), &|k| {
+            let d = done.fetch_add(k, Ordering::Relaxed) + k;
+            if d % 16 == 0 {
+                pb.set_position(d);
+            }
+        })
+    });
+    pb.finish_and_clear();
+    let seconds = started.elapsed().as_secs_f64();
+    std::fs::create_dir_all(&out).with_context(|| format!("creating {}", out.display()))?;
+    if let Some((k, n)) = shard {
+        let file = ShardFile {
+            manifest: ShardManifest {
+                scenario,
+                version: env!("CARGO_PKG_VERSION").into(),
+                shard: k,
+                shards: n,
+                first_trial: range.start,
+                end_trial: range.end,
+            },
+            aggregate: agg,
+        };
+        let path = out.join(format!("shard-{k}-of-{n}.json"));
+        let text = serde_json::to_string(&file).context("serialising the shard")?;
+        measurements::write_atomically(&path, text.as_bytes())
+            .with_context(|| format!("writing {}", path.display()))?;
+        eprintln!(
+            "shard {k}/{n}: trials {}..{} in {seconds:.2} s → {}",
+            range.start,
+            range.end,
+            path.display()
+        );
+        return Ok(());
+    }
+    let summary = CampaignSummary::new(&scenario, &agg);
+    write_outputs(&out, &summary, &agg).with_context(|| format!("writing {}", out.display()))?;
+    write_timing(&out, scenario.trials, threads, seconds)?;
+    if !args.quiet {
+        println!("{}", summary.to_markdown());
+    }
+    eprintln!(
+        "{} trials in {seconds:.2} s on {threads} thread(s) → {}",
+        scenario.trials,
+        out.display()
+    );
+    Ok(())
+}
+
+/// `cargo xtask merge`.
+pub fn merge(args: MergeArgs) -> Result<()> {
+    let files = args
+        .shards
+        .iter()
+        .map(|p| {
+            let text =
+                std::fs::read_to_string(p).with_context(|| format!("reading {}", p.display()))?;
+            serde_json::from_str::<ShardFile>(&text)
+                .with_context(|| format!("{}: not a shard file", p.display()))
+        })
+        .collect::<Result<Vec<_>>>()?;
+    let (scenario, agg) = merge_shards(&files).context("merging shards")?;
+    let out = args.out.unwrap_or_else(|| default_out(&scenario.name));
+    let summary = CampaignSummary::new(&scenario, &agg);
+    write_outputs(&out, &summary, &agg).with_context(|| format!("writing {}", out.display()))?;
+    println!("{}", summary.to_markdown());
+    eprintln!("merged {} shards → {}", files.len(), out.display());
+    Ok(())
+}
+
+/// `cargo xtask simulate`.
+pub fn simulate(args: SimulateArgs) -> Result<()> {
+    let loaded = Scenario::from_file(&args.scenario)
+        .with_context(|| format!("loading scenario {}", args.scenario.display()))?;
+    let sim = virtual_robot::simulate(
+        &loaded.nominal,
+        &loaded.virtual_robot(),
+        loaded.scenario.seed,
+        args.trial,
+    )
+    .context("simulating")?;
+    std::fs::create_dir_all(&args.out)
+        .with_context(|| format!("creating {}", args.out.display()))?;
+    sim.write(&args.out)
+        .with_context(|| format!("writing into {}", args.out.display()))?;
+    eprintln!(
+        "{} identification and {} validation measurements, truth → {}",
+        sim.identification.rows.len(),
+        sim.validation.rows.len(),
+        args.out.display()
+    );
+    Ok(())
+}
