@@ -149,7 +149,7 @@ pub fn campaign(args: CampaignArgs) -> Result<()> {
     let agg: Aggregate = pool.install(|| {
         run_range(&ctx, range.clone(), &|k| {
             let d = done.fetch_add(k, Ordering::Relaxed) + k;
-            if d % 16 == 0 {
+            if d.is_multiple_of(16) {
                 pb.set_position(d);
             }
         })
