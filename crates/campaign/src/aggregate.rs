@@ -12,8 +12,9 @@
 //!   buckets is bounded by the range of values, not by the number of trials.
 //!
 //! Mean and sample standard deviation come from the exact sums; percentiles (p5, p50, p95)
-//! interpolate linearly between order statistics (numpy's default) using each bucket's
-//! midpoint, so they are accurate to ±0.05 % relative. Non-finite values are counted
+//! interpolate linearly between order statistics (numpy's default) using the midpoint of
+//! each bucket's actual values, so they are accurate to ±0.05 % relative (exact for repeated
+//! values). Non-finite values are counted
 //! separately and excluded.
 
 use std::collections::BTreeMap;
@@ -43,8 +44,34 @@ pub struct Stat {
     pub min: Option<f64>,
     /// Largest value.
     pub max: Option<f64>,
-    /// Bucket key → count (see the module docs).
-    pub hist: BTreeMap<i64, u64>,
+    /// Bucket key → count and the exact extremes of the values in it (see the module docs).
+    pub hist: BTreeMap<i64, Bucket>,
+}
+
+/// One histogram bucket: how many values fell in it and their exact range. Merging takes
+/// sums and extremes, so it is exact; the bucket's representative value is the midpoint of
+/// its actual range (exact when all its values are equal, e.g. iteration counts).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Bucket {
+    /// Values in the bucket.
+    pub count: u64,
+    /// Smallest of them.
+    pub min: f64,
+    /// Largest of them.
+    pub max: f64,
+}
+
+impl Bucket {
+    fn merge(&mut self, other: &Bucket) {
+        self.count += other.count;
+        self.min = self.min.min(other.min);
+        self.max = self.max.max(other.max);
+    }
+
+    /// The value standing for the bucket: the midpoint of its values' range.
+    pub fn value(&self) -> f64 {
+        0.5 * (self.min + self.max)
+    }
 }
 
 /// Summary of a [`Stat`]: what `summary.json` reports per metric.
@@ -77,23 +104,6 @@ fn bucket_key(x: f64) -> i64 {
     if x < 0.0 { -k } else { k }
 }
 
-/// The midpoint of the values sharing histogram bucket `key` (for plotting histograms).
-pub fn bucket_value(key: i64) -> f64 {
-    bucket_mid(key)
-}
-
-/// The midpoint of the values sharing `key`.
-fn bucket_mid(key: i64) -> f64 {
-    if key == 0 {
-        return 0.0;
-    }
-    let k = (key.unsigned_abs() - 1) << (52 - MANTISSA_BITS);
-    let lo = f64::from_bits(k);
-    let hi = f64::from_bits(k + (1u64 << (52 - MANTISSA_BITS)));
-    let mid = 0.5 * (lo + hi);
-    if key < 0 { -mid } else { mid }
-}
-
 impl Stat {
     /// An empty accumulator.
     pub fn new() -> Self {
@@ -112,7 +122,20 @@ impl Stat {
         self.sum_q2 += q * q;
         self.min = Some(self.min.map_or(x, |m| m.min(x)));
         self.max = Some(self.max.map_or(x, |m| m.max(x)));
-        *self.hist.entry(bucket_key(x)).or_insert(0) += 1;
+        self.hist
+            .entry(bucket_key(x))
+            .and_modify(|b| {
+                b.merge(&Bucket {
+                    count: 1,
+                    min: x,
+                    max: x,
+                })
+            })
+            .or_insert(Bucket {
+                count: 1,
+                min: x,
+                max: x,
+            });
     }
 
     /// Adds everything `other` has seen (exact: the result does not depend on the split).
@@ -129,20 +152,21 @@ impl Stat {
             (Some(a), Some(b)) => Some(a.max(b)),
             (a, b) => a.or(b),
         };
-        for (k, c) in &other.hist {
-            *self.hist.entry(*k).or_insert(0) += c;
+        for (k, b) in &other.hist {
+            self.hist
+                .entry(*k)
+                .and_modify(|mine| mine.merge(b))
+                .or_insert(*b);
         }
     }
 
-    /// The value of the `rank`-th smallest (0-based) as its bucket midpoint, clamped to the
-    /// exact min/max.
+    /// The value of the `rank`-th smallest (0-based), as its bucket's representative.
     fn order_stat(&self, rank: u64) -> f64 {
         let mut seen = 0;
-        for (k, c) in &self.hist {
-            seen += c;
+        for b in self.hist.values() {
+            seen += b.count;
             if rank < seen {
-                let (lo, hi) = (self.min.unwrap_or(0.0), self.max.unwrap_or(0.0));
-                return bucket_mid(*k).clamp(lo, hi);
+                return b.value();
             }
         }
         self.max.unwrap_or(f64::NAN)

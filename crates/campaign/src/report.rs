@@ -334,11 +334,7 @@ pub fn write_outputs(
     if let Some(stat) = agg.metrics.get("improvement_pct")
         && stat.n > 0
     {
-        let values: Vec<(f64, u64)> = stat
-            .hist
-            .iter()
-            .map(|(k, c)| (crate::aggregate::bucket_value(*k), *c))
-            .collect();
+        let values: Vec<(f64, u64)> = stat.hist.values().map(|b| (b.value(), b.count)).collect();
         let bins = plots::rebin(&values, 20);
         let svg = plots::histogram_svg(
             &format!(
