@@ -118,24 +118,45 @@ fn write_timing(dir: &Path, trials: u64, threads: usize, seconds: f64) -> Result
 
 /// `cargo xtask campaign`.
 pub fn campaign(args: CampaignArgs) -> Result<()> {
-    let mut loaded = Scenario::from_file(&args.scenario)
-        .with_context(|| format!("loading scenario {}", args.scenario.display()))?;
-    if let Some(t) = args.trials {
+    run_campaign(
+        &args.scenario,
+        args.trials,
+        args.threads,
+        args.out,
+        args.shard.as_deref(),
+        args.quiet,
+    )
+}
+
+fn threads_or_all(threads: Option<usize>) -> usize {
+    threads.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()))
+}
+
+/// Runs a campaign (or one shard of it) and writes its outputs; returns the output directory.
+fn run_campaign(
+    scenario_path: &Path,
+    trials: Option<u64>,
+    threads: Option<usize>,
+    out: Option<PathBuf>,
+    shard: Option<&str>,
+    quiet: bool,
+) -> Result<()> {
+    let mut loaded = Scenario::from_file(scenario_path)
+        .with_context(|| format!("loading scenario {}", scenario_path.display()))?;
+    if let Some(t) = trials {
         if t == 0 {
             bail!("--trials must be at least 1");
         }
         loaded.scenario.trials = t;
     }
     let scenario = loaded.scenario.clone();
-    let out = args.out.unwrap_or_else(|| default_out(&scenario.name));
-    let threads = args
-        .threads
-        .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
+    let out = out.unwrap_or_else(|| default_out(&scenario.name));
+    let threads = threads_or_all(threads);
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()
         .context("building the thread pool")?;
-    let (range, shard) = match &args.shard {
+    let (range, shard) = match shard {
         Some(s) => {
             let (k, n) = parse_shard(s)?;
             (shard_range(scenario.trials, k, n), Some((k, n)))
@@ -184,7 +205,7 @@ pub fn campaign(args: CampaignArgs) -> Result<()> {
     let summary = CampaignSummary::new(&scenario, &agg);
     write_outputs(&out, &summary, &agg).with_context(|| format!("writing {}", out.display()))?;
     write_timing(&out, scenario.trials, threads, seconds)?;
-    if !args.quiet {
+    if !quiet {
         println!("{}", summary.to_markdown());
     }
     eprintln!(
@@ -236,6 +257,172 @@ pub fn simulate(args: SimulateArgs) -> Result<()> {
         sim.identification.rows.len(),
         sim.validation.rows.len(),
         args.out.display()
+    );
+    Ok(())
+}
+
+/// Arguments of `sweep`.
+#[derive(clap::Args)]
+pub struct SweepArgs {
+    /// Sweep file (JSON), e.g. scenarios/sweeps/pose-count.json.
+    pub sweep: PathBuf,
+    /// Override the trials per point.
+    #[arg(long)]
+    pub trials: Option<u64>,
+    /// Worker threads [all cores].
+    #[arg(long)]
+    pub threads: Option<usize>,
+    /// Output directory [results/<sweep name>].
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+}
+
+/// `cargo xtask sweep`.
+pub fn sweep(args: SweepArgs) -> Result<()> {
+    run_sweep_to(&args.sweep, args.trials, args.threads, args.out, false)
+}
+
+fn run_sweep_to(
+    sweep_path: &Path,
+    trials: Option<u64>,
+    threads: Option<usize>,
+    out: Option<PathBuf>,
+    quiet: bool,
+) -> Result<()> {
+    let mut spec = campaign::SweepSpec::from_file(sweep_path)
+        .with_context(|| format!("loading sweep {}", sweep_path.display()))?;
+    if let Some(t) = trials {
+        if t == 0 {
+            bail!("--trials must be at least 1");
+        }
+        spec.trials = t;
+    }
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads_or_all(threads))
+        .build()
+        .context("building the thread pool")?;
+    let dir = sweep_path.parent().unwrap_or(Path::new("."));
+    let started = Instant::now();
+    let result = pool.install(|| {
+        campaign::run_sweep(&spec, dir, &|i, n| {
+            if !quiet {
+                eprintln!("point {}/{n}", i + 1)
+            }
+        })
+    })?;
+    let out = out.unwrap_or_else(|| default_out(&spec.name));
+    std::fs::create_dir_all(&out).with_context(|| format!("creating {}", out.display()))?;
+    let w = |name: &str, bytes: &[u8]| -> Result<()> {
+        let path = out.join(name);
+        measurements::write_atomically(&path, bytes)
+            .with_context(|| format!("writing {}", path.display()))
+    };
+    let mut json = serde_json::to_string_pretty(&result).context("serialising the sweep")?;
+    json.push('\n');
+    w("sweep.json", json.as_bytes())?;
+    w("sweep.csv", result.to_csv().as_bytes())?;
+    w("sweep.md", result.to_markdown().as_bytes())?;
+    for (k, plot) in spec.plots.iter().enumerate() {
+        let series = result.curves(plot)?;
+        let x_label = plot
+            .x
+            .clone()
+            .unwrap_or_else(|| spec.axes[0].label().to_string());
+        let svg = campaign::plots::curves_svg(
+            &format!("{}: {} vs {}", spec.name, plot.y, x_label),
+            &x_label,
+            &plot.y,
+            &series,
+            plot.log_y,
+        )
+        .map_err(|e| anyhow::anyhow!("plot {k}: {e}"))?;
+        w(&format!("{}-{}.svg", plot.y, k + 1), svg.as_bytes())?;
+    }
+    if !quiet {
+        println!("{}", result.to_markdown());
+    }
+    eprintln!(
+        "{}: {} points × {} trials in {:.1} s → {}",
+        spec.name,
+        result.points.len(),
+        spec.trials,
+        started.elapsed().as_secs_f64(),
+        out.display()
+    );
+    Ok(())
+}
+
+/// Arguments of `regenerate`.
+#[derive(clap::Args)]
+pub struct RegenerateArgs {
+    /// Regenerate into a temporary directory and fail if any file differs from results/
+    /// (wall-clock files timing.json and bench.json excepted).
+    #[arg(long)]
+    pub check: bool,
+}
+
+/// Files in `results/` that hold wall-clock figures, not reproducible bytes.
+const WALL_CLOCK_FILES: [&str; 2] = ["timing.json", "bench.json"];
+
+/// `cargo xtask regenerate`: every committed scenario (`scenarios/*.json`) and sweep
+/// (`scenarios/sweeps/*.json`) into `results/<name>/`.
+pub fn regenerate(args: RegenerateArgs) -> Result<()> {
+    let list = |dir: &str| -> Result<Vec<PathBuf>> {
+        let mut v: Vec<PathBuf> = std::fs::read_dir(dir)
+            .with_context(|| format!("listing {dir}"))?
+            .filter_map(|e| e.ok().map(|e| e.path()))
+            .filter(|p| p.extension().is_some_and(|e| e == "json"))
+            .collect();
+        v.sort();
+        Ok(v)
+    };
+    let target = if args.check {
+        std::env::temp_dir().join(format!("kincal-regenerate-{}", std::process::id()))
+    } else {
+        PathBuf::from("results")
+    };
+    let mut names = Vec::new();
+    for path in list("scenarios")? {
+        let name = Scenario::from_file(&path)
+            .with_context(|| format!("loading {}", path.display()))?
+            .scenario
+            .name;
+        run_campaign(&path, None, None, Some(target.join(&name)), None, true)?;
+        names.push(name);
+    }
+    for path in list("scenarios/sweeps")? {
+        let name = campaign::SweepSpec::from_file(&path)?.name;
+        run_sweep_to(&path, None, None, Some(target.join(&name)), true)?;
+        names.push(name);
+    }
+    if !args.check {
+        return Ok(());
+    }
+    let mut differ = Vec::new();
+    for name in &names {
+        let fresh = target.join(name);
+        for entry in std::fs::read_dir(&fresh)? {
+            let file = entry?.file_name();
+            if WALL_CLOCK_FILES.iter().any(|w| file == *w) {
+                continue;
+            }
+            let committed = Path::new("results").join(name).join(&file);
+            let a = std::fs::read(fresh.join(&file))?;
+            if std::fs::read(&committed).ok().as_deref() != Some(&a[..]) {
+                differ.push(committed.display().to_string());
+            }
+        }
+    }
+    let _ = std::fs::remove_dir_all(&target);
+    if !differ.is_empty() {
+        bail!(
+            "results/ does not match the committed scenarios; run `cargo xtask regenerate` and commit: {}",
+            differ.join(", ")
+        );
+    }
+    eprintln!(
+        "results/ regenerates byte for byte ({} outputs)",
+        names.len()
     );
     Ok(())
 }

@@ -1,8 +1,10 @@
 //! `cargo xtask …`: the kincal command line. Parses arguments, calls the library crates,
 //! prints. No calibration logic lives here.
 
+mod calibrate;
 mod campaign_cmd;
 mod identifiability;
+mod identify_cmd;
 
 use std::path::PathBuf;
 
@@ -36,6 +38,18 @@ enum Cmd {
     /// Simulate one trial of a scenario: identification.csv, validation.csv (spec §8) and
     /// truth.json.
     Simulate(campaign_cmd::SimulateArgs),
+    /// Run a sweep: the cross product of a scenario's axes, one campaign per point, one
+    /// table and curves in results/<sweep name>/.
+    Sweep(campaign_cmd::SweepArgs),
+    /// Regenerate results/ from every committed scenario and sweep (`--check`: compare only).
+    Regenerate(campaign_cmd::RegenerateArgs),
+    /// Calibrate a robot from measurements (spec §8 CSV): register, identify, screen
+    /// outliers, validate; writes identified.json, parameters.json and report.md.
+    Identify(identify_cmd::IdentifyArgs),
+    /// Predicted x, y, z of a robot model for each row of a joint file.
+    Predict(calibrate::PredictArgs),
+    /// Joints to command so that the calibrated robot reaches the nominal targets.
+    Compensate(calibrate::CompensateArgs),
 }
 
 fn main() -> Result<()> {
@@ -46,6 +60,11 @@ fn main() -> Result<()> {
         Cmd::Campaign(args) => campaign_cmd::campaign(args),
         Cmd::Merge(args) => campaign_cmd::merge(args),
         Cmd::Simulate(args) => campaign_cmd::simulate(args),
+        Cmd::Sweep(args) => campaign_cmd::sweep(args),
+        Cmd::Regenerate(args) => campaign_cmd::regenerate(args),
+        Cmd::Identify(args) => identify_cmd::run(&args),
+        Cmd::Predict(args) => calibrate::predict(&args),
+        Cmd::Compensate(args) => calibrate::compensate_cmd(&args),
     }
 }
 

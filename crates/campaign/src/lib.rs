@@ -5,6 +5,7 @@ pub mod plots;
 pub mod report;
 pub mod run;
 pub mod scenario;
+pub mod sweep;
 pub mod trial;
 
 pub use report::{
@@ -12,4 +13,5 @@ pub use report::{
 };
 pub use run::{Aggregate, run_range};
 pub use scenario::{LoadedScenario, Scenario, ScenarioError};
+pub use sweep::{SweepResult, SweepSpec, run_sweep};
 pub use trial::{CampaignError, Context, TrialResult, run_trial};

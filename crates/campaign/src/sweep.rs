@@ -1,0 +1,402 @@
+//! Sweeps: the cross product of a scenario's axes, each point a full campaign.
+//!
+//! ```json
+//! {
+//!   "name": "pose-count",
+//!   "scenario": "paper-kr1000.json",
+//!   "trials": 100,
+//!   "overrides": { "iso.enabled": false },
+//!   "axes": [
+//!     { "path": "poses.identification", "values": [10, 12, 15, 20, 30, 50, 100] },
+//!     { "path": "identification.lm.damping", "label": "schedule",
+//!       "values": [{ "kind": "levenberg" }, { "kind": "nielsen" }] }
+//!   ],
+//!   "plot": { "x": "poses.identification", "y": "after_mean_mm", "log_y": true }
+//! }
+//! ```
+//! Paths are dotted field paths into the scenario JSON; values are any JSON. The first axis
+//! is the plot's x unless `plot.x` says otherwise; every combination of the other axes is a
+//! curve.
+
+use std::path::{Path, PathBuf};
+
+use serde::{Deserialize, Serialize};
+
+use crate::aggregate::Summary;
+use crate::report::CampaignSummary;
+use crate::run::run_range;
+use crate::scenario::{Scenario, ScenarioError};
+use crate::trial::{CampaignError, Context};
+
+/// One axis of a sweep.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Axis {
+    /// Dotted path of the scenario field, e.g. `poses.identification`.
+    pub path: String,
+    /// Short name for tables and legends [the path].
+    #[serde(default)]
+    pub label: Option<String>,
+    /// The values, any JSON.
+    pub values: Vec<serde_json::Value>,
+}
+
+impl Axis {
+    /// Label for tables.
+    pub fn label(&self) -> &str {
+        self.label.as_deref().unwrap_or(&self.path)
+    }
+}
+
+/// What to plot.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PlotSpec {
+    /// Path of the x axis (must be one of the axes, with numeric values) [the first axis].
+    #[serde(default)]
+    pub x: Option<String>,
+    /// Metric on y (a `summary.json` metric; its mean over trials) [after_mean_mm].
+    #[serde(default = "default_y")]
+    pub y: String,
+    /// Logarithmic y axis [false].
+    #[serde(default)]
+    pub log_y: bool,
+}
+
+fn default_y() -> String {
+    "after_mean_mm".into()
+}
+
+/// A sweep file.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SweepSpec {
+    /// Name; results go to `results/<name>/`.
+    pub name: String,
+    /// One paragraph: what the sweep shows.
+    #[serde(default)]
+    pub description: String,
+    /// Base scenario, relative to the sweep file.
+    pub scenario: PathBuf,
+    /// Trials per point (overrides the scenario's).
+    pub trials: u64,
+    /// Fields set on the base scenario before the axes (dotted path → value).
+    #[serde(default)]
+    pub overrides: serde_json::Map<String, serde_json::Value>,
+    /// The axes.
+    pub axes: Vec<Axis>,
+    /// Plots (one SVG each).
+    #[serde(default)]
+    pub plots: Vec<PlotSpec>,
+}
+
+/// One point of the sweep.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct SweepPoint {
+    /// The axis values at this point, in axis order.
+    pub values: Vec<serde_json::Value>,
+    /// Trials attempted and failed (e.g. too few poses for the free parameters).
+    pub trials: u64,
+    /// Failed trials.
+    pub failed: u64,
+    /// Causes of failure.
+    pub failures: Vec<String>,
+    /// Metric summaries over successful trials.
+    pub metrics: std::collections::BTreeMap<String, Option<Summary>>,
+    /// LM stop reasons.
+    pub stop_reasons: std::collections::BTreeMap<String, u64>,
+}
+
+/// `sweep.json`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct SweepResult {
+    /// The sweep as run.
+    pub spec: SweepSpec,
+    /// Every point, the last axis varying fastest.
+    pub points: Vec<SweepPoint>,
+}
+
+fn set_path(
+    root: &mut serde_json::Value,
+    path: &str,
+    value: serde_json::Value,
+) -> Result<(), String> {
+    let mut cur = root;
+    let parts: Vec<&str> = path.split('.').collect();
+    for (i, p) in parts.iter().enumerate() {
+        let obj = cur
+            .as_object_mut()
+            .ok_or_else(|| format!("`{}` is not an object", parts[..i].join(".")))?;
+        if i + 1 == parts.len() {
+            obj.insert((*p).to_string(), value);
+            return Ok(());
+        }
+        cur = obj
+            .entry((*p).to_string())
+            .or_insert_with(|| serde_json::Value::Object(Default::default()));
+    }
+    Err("empty path".into())
+}
+
+fn label_of(v: &serde_json::Value) -> String {
+    match v {
+        serde_json::Value::String(s) => s.clone(),
+        serde_json::Value::Object(m) => m
+            .iter()
+            .map(|(k, v)| format!("{k}={}", label_of(v)))
+            .collect::<Vec<_>>()
+            .join(" "),
+        other => other.to_string(),
+    }
+}
+
+impl SweepSpec {
+    /// Reads a sweep file.
+    pub fn from_file(path: &Path) -> Result<SweepSpec, CampaignError> {
+        let text = std::fs::read_to_string(path).map_err(|source| CampaignError::Io {
+            path: path.display().to_string(),
+            source,
+        })?;
+        let de = &mut serde_json::Deserializer::from_str(&text);
+        let spec: SweepSpec = serde_path_to_error::deserialize(de).map_err(|e| {
+            CampaignError::Scenario(ScenarioError::Parse {
+                file: path.display().to_string(),
+                field: e.path().to_string(),
+                message: e.into_inner().to_string(),
+            })
+        })?;
+        if spec.axes.is_empty() || spec.axes.iter().any(|a| a.values.is_empty()) {
+            return Err(CampaignError::Other(format!(
+                "{}: field `axes`: needs at least one axis, each with values",
+                path.display()
+            )));
+        }
+        if spec.trials == 0 {
+            return Err(CampaignError::Other(format!(
+                "{}: field `trials`: must be at least 1",
+                path.display()
+            )));
+        }
+        Ok(spec)
+    }
+
+    /// Every combination of axis values, last axis fastest.
+    pub fn combinations(&self) -> Vec<Vec<serde_json::Value>> {
+        let mut out: Vec<Vec<serde_json::Value>> = vec![vec![]];
+        for axis in &self.axes {
+            out = out
+                .into_iter()
+                .flat_map(|prefix| {
+                    axis.values.iter().map(move |v| {
+                        let mut p = prefix.clone();
+                        p.push(v.clone());
+                        p
+                    })
+                })
+                .collect();
+        }
+        out
+    }
+}
+
+/// Runs every point of the sweep (`sweep_dir` resolves the scenario path); `progress(i, n)`
+/// is called before point i of n.
+pub fn run_sweep(
+    spec: &SweepSpec,
+    sweep_dir: &Path,
+    progress: &dyn Fn(usize, usize),
+) -> Result<SweepResult, CampaignError> {
+    let scenario_path = sweep_dir.join(&spec.scenario);
+    let text = std::fs::read_to_string(&scenario_path).map_err(|source| CampaignError::Io {
+        path: scenario_path.display().to_string(),
+        source,
+    })?;
+    let mut base: serde_json::Value = serde_json::from_str(&text)
+        .map_err(|e| CampaignError::Other(format!("{}: {e}", scenario_path.display())))?;
+    for (path, value) in &spec.overrides {
+        set_path(&mut base, path, value.clone())
+            .map_err(|e| CampaignError::Other(format!("sweep override `{path}`: {e}")))?;
+    }
+    set_path(&mut base, "trials", spec.trials.into()).map_err(CampaignError::Other)?;
+    let scenario_dir = scenario_path.parent().unwrap_or(Path::new("."));
+    let combos = spec.combinations();
+    let mut points = Vec::with_capacity(combos.len());
+    for (i, combo) in combos.iter().enumerate() {
+        progress(i, combos.len());
+        let mut v = base.clone();
+        for (axis, value) in spec.axes.iter().zip(combo) {
+            set_path(&mut v, &axis.path, value.clone())
+                .map_err(|e| CampaignError::Other(format!("sweep axis `{}`: {e}", axis.path)))?;
+        }
+        let label = format!("{} point {}", spec.name, i);
+        let loaded = Scenario::from_value(v, &label)?.load(scenario_dir, &label)?;
+        let scenario = loaded.scenario.clone();
+        let ctx = Context::new(loaded)?;
+        let agg = run_range(&ctx, 0..scenario.trials, &|_| {});
+        let s = CampaignSummary::new(&scenario, &agg);
+        points.push(SweepPoint {
+            values: combo.clone(),
+            trials: s.trials,
+            failed: s.failed_trials.values().sum(),
+            failures: s.failed_trials.keys().cloned().collect(),
+            metrics: s.metrics.clone(),
+            stop_reasons: s.counts.get("stop_reason").cloned().unwrap_or_default(),
+        });
+    }
+    Ok(SweepResult {
+        spec: spec.clone(),
+        points,
+    })
+}
+
+impl SweepResult {
+    fn metric_mean(p: &SweepPoint, key: &str) -> Option<f64> {
+        p.metrics.get(key).and_then(|m| m.as_ref()).map(|m| m.mean)
+    }
+
+    /// One CSV row per point: axis values, trials, failed, and the main metrics' means.
+    pub fn to_csv(&self) -> String {
+        let keys = [
+            "before_mean_mm",
+            "after_mean_mm",
+            "after_max_mm",
+            "improvement_pct",
+            "predicted_error_mm",
+            "lm_iterations",
+            "compensation_failures",
+        ];
+        let mut o = String::new();
+        let head: Vec<String> = self
+            .spec
+            .axes
+            .iter()
+            .map(|a| a.label().to_string())
+            .chain(["trials", "failed", "not_converged"].map(String::from))
+            .chain(keys.iter().map(|k| k.to_string()))
+            .collect();
+        o.push_str(&head.join(","));
+        o.push('\n');
+        for p in &self.points {
+            let not_conv: u64 = p
+                .stop_reasons
+                .iter()
+                .filter(|(k, _)| {
+                    k.as_str() == "max_iterations" || k.as_str() == "too_many_rejections"
+                })
+                .map(|(_, v)| v)
+                .sum();
+            let mut row: Vec<String> = p
+                .values
+                .iter()
+                .map(|v| format!("\"{}\"", label_of(v).replace('"', "'")))
+                .collect();
+            row.push(p.trials.to_string());
+            row.push(p.failed.to_string());
+            row.push(not_conv.to_string());
+            for k in keys {
+                row.push(Self::metric_mean(p, k).map_or_else(String::new, |v| format!("{v:.6}")));
+            }
+            o.push_str(&row.join(","));
+            o.push('\n');
+        }
+        o
+    }
+
+    /// The Markdown table.
+    pub fn to_markdown(&self) -> String {
+        let mut o = format!("# Sweep `{}`\n\n", self.spec.name);
+        if !self.spec.description.is_empty() {
+            o.push_str(self.spec.description.trim());
+            o.push_str("\n\n");
+        }
+        o.push_str(&format!(
+            "Base scenario `{}`, {} trials per point. Means over successful trials.\n\n",
+            self.spec.scenario.display(),
+            self.spec.trials
+        ));
+        let labels: Vec<&str> = self.spec.axes.iter().map(|a| a.label()).collect();
+        o.push_str(&format!(
+            "| {} | failed | not converged | before (mm) | after (mm) | after max (mm) | improvement (%) | LM iterations |\n",
+            labels.join(" | ")
+        ));
+        o.push_str(&format!("|{}\n", "---|".repeat(labels.len() + 7)));
+        for p in &self.points {
+            let vals: Vec<String> = p.values.iter().map(label_of).collect();
+            let not_conv: u64 = p
+                .stop_reasons
+                .iter()
+                .filter(|(k, _)| {
+                    k.as_str() == "max_iterations" || k.as_str() == "too_many_rejections"
+                })
+                .map(|(_, v)| v)
+                .sum();
+            let f = |k: &str, d: usize| {
+                Self::metric_mean(p, k).map_or("–".into(), |v| format!("{v:.d$}"))
+            };
+            o.push_str(&format!(
+                "| {} | {}/{} | {} | {} | {} | {} | {} | {} |\n",
+                vals.join(" | "),
+                p.failed,
+                p.trials,
+                not_conv,
+                f("before_mean_mm", 3),
+                f("after_mean_mm", 3),
+                f("after_max_mm", 3),
+                f("improvement_pct", 1),
+                f("lm_iterations", 2),
+            ));
+        }
+        o
+    }
+
+    /// Curves of `plot.y` against `plot.x`, one per combination of the other axes. Points
+    /// without a value (every trial failed) are left out of the curve.
+    pub fn curves(&self, plot: &PlotSpec) -> Result<Vec<(String, Vec<(f64, f64)>)>, CampaignError> {
+        let xi = match &plot.x {
+            Some(x) => self
+                .spec
+                .axes
+                .iter()
+                .position(|a| &a.path == x)
+                .ok_or_else(|| CampaignError::Other(format!("plot x `{x}` is not an axis")))?,
+            None => 0,
+        };
+        let mut series: Vec<(String, Vec<(f64, f64)>)> = Vec::new();
+        for p in &self.points {
+            let Some(x) = p.values[xi].as_f64() else {
+                return Err(CampaignError::Other(format!(
+                    "plot x axis `{}` has a non-numeric value",
+                    self.spec.axes[xi].path
+                )));
+            };
+            let name: Vec<String> = self
+                .spec
+                .axes
+                .iter()
+                .zip(&p.values)
+                .enumerate()
+                .filter(|(i, _)| *i != xi)
+                .map(|(_, (a, v))| format!("{} {}", a.label(), label_of(v)))
+                .collect();
+            let name = if name.is_empty() {
+                plot.y.clone()
+            } else {
+                name.join(", ")
+            };
+            let entry = match series.iter_mut().find(|(n, _)| *n == name) {
+                Some(e) => e,
+                None => {
+                    series.push((name, Vec::new()));
+                    series.last_mut().expect("just pushed")
+                }
+            };
+            if let Some(y) = Self::metric_mean(p, &plot.y)
+                && (!plot.log_y || y > 0.0)
+            {
+                entry.1.push((x, y));
+            }
+        }
+        series.retain(|(_, pts)| !pts.is_empty());
+        Ok(series)
+    }
+}
