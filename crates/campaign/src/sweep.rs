@@ -90,6 +90,9 @@ pub struct SweepSpec {
     pub plots: Vec<PlotSpec>,
 }
 
+/// A named curve: (label, points (x, y)).
+pub type Curve = (String, Vec<(f64, f64)>);
+
 /// One point of the sweep.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct SweepPoint {
@@ -351,7 +354,7 @@ impl SweepResult {
 
     /// Curves of `plot.y` against `plot.x`, one per combination of the other axes. Points
     /// without a value (every trial failed) are left out of the curve.
-    pub fn curves(&self, plot: &PlotSpec) -> Result<Vec<(String, Vec<(f64, f64)>)>, CampaignError> {
+    pub fn curves(&self, plot: &PlotSpec) -> Result<Vec<Curve>, CampaignError> {
         let xi = match &plot.x {
             Some(x) => self
                 .spec
@@ -361,7 +364,7 @@ impl SweepResult {
                 .ok_or_else(|| CampaignError::Other(format!("plot x `{x}` is not an axis")))?,
             None => 0,
         };
-        let mut series: Vec<(String, Vec<(f64, f64)>)> = Vec::new();
+        let mut series: Vec<Curve> = Vec::new();
         for p in &self.points {
             let Some(x) = p.values[xi].as_f64() else {
                 return Err(CampaignError::Other(format!(
