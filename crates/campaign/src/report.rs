@@ -299,6 +299,53 @@ impl CampaignSummary {
     }
 }
 
+/// The Markdown report of one trial (Table 4, ISO table, recovery), in `evaluate`'s layout.
+pub fn trial_report(scenario: &Scenario, t: &crate::trial::TrialResult) -> evaluate::TrialReport {
+    let recovery = (!t.recovery.is_empty()).then(|| {
+        t.recovery
+            .iter()
+            .map(|r| evaluate::ParameterRecovery {
+                name: r.name.clone(),
+                unit: r.unit.clone(),
+                truth: r.truth,
+                estimate: r.estimate,
+                error: r.error,
+                std_error: r.std_error,
+                z: r.z,
+            })
+            .collect()
+    });
+    let f = &t.fit;
+    evaluate::TrialReport {
+        title: format!("Trial {} of `{}`", t.trial, scenario.name),
+        scenario: scenario.name.clone(),
+        table4: t.table4.clone(),
+        show_paper_reference: scenario.name.starts_with("paper"),
+        iso: t.iso.clone(),
+        recovery,
+        notes: vec![
+            format!(
+                "Seed {}, trial {}: identification on {} poses ({} free parameters, rank {}), validation on {} poses.",
+                scenario.seed,
+                t.trial,
+                scenario.poses.identification.len(),
+                f.free,
+                f.rank
+                    .map_or_else(|| "unknown".to_string(), |r| r.to_string()),
+                scenario.poses.validation.len()
+            ),
+            format!(
+                "LM: {} iterations, stopped on {}; fit RMS residual {:.4} mm.",
+                f.iterations, f.stop, f.rms_mm
+            ),
+            format!(
+                "Geometry error of the identified model on the validation poses: {:.4} mm; compensation failures: {}; unmeasurable poses: {}.",
+                t.predicted_error_mm, t.compensation_failures, t.unmeasurable
+            ),
+        ],
+    }
+}
+
 fn write(path: &Path, bytes: &[u8]) -> Result<(), CampaignError> {
     measurements::write_atomically(path, bytes).map_err(|source| CampaignError::Io {
         path: path.display().to_string(),
@@ -320,16 +367,23 @@ pub fn write_outputs(
     write(&dir.join("summary.json"), summary.to_json().as_bytes())?;
     write(&dir.join("summary.md"), summary.to_markdown().as_bytes())?;
     if let Some(t) = &agg.typical {
+        let norms = |v: &[[f64; 3]]| -> Vec<f64> {
+            v.iter()
+                .map(|e| (e[0] * e[0] + e[1] * e[1] + e[2] * e[2]).sqrt())
+                .collect()
+        };
         let svg = plots::per_pose_errors_svg(
             &format!(
                 "{}: per-pose error, trial {}",
                 summary.scenario.name, t.trial
             ),
-            &t.before_mm,
-            &t.after_mm,
+            &norms(&t.before_mm),
+            &norms(&t.after_mm),
         )
         .map_err(plot_err)?;
         write(&dir.join("per-pose-error.svg"), svg.as_bytes())?;
+        let md = evaluate::render_trial_markdown(&trial_report(&summary.scenario, t));
+        write(&dir.join(format!("trial-{}.md", t.trial)), md.as_bytes())?;
     }
     if let Some(stat) = agg.metrics.get("improvement_pct")
         && stat.n > 0

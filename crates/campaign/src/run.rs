@@ -17,17 +17,6 @@ use crate::trial::{Context, TrialResult, run_trial};
 /// Trials per parallel chunk: bounds memory while keeping both cores busy.
 pub const CHUNK: u64 = 512;
 
-/// Per-pose errors of one trial, kept for the Fig. 7 plot (the lowest trial index seen).
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct TypicalTrial {
-    /// Trial index.
-    pub trial: u64,
-    /// 3-D error per validation pose before compensation, mm.
-    pub before_mm: Vec<f64>,
-    /// 3-D error per validation pose after compensation, mm.
-    pub after_mm: Vec<f64>,
-}
-
 /// Accumulated recovery statistics of one parameter.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct RecoveryStat {
@@ -56,8 +45,9 @@ pub struct Aggregate {
     pub recovery: BTreeMap<String, RecoveryStat>,
     /// Categorical outcomes (`stop_reason`, `rank`) by name.
     pub counts: BTreeMap<String, Counts>,
-    /// The lowest-index successful trial's per-pose errors.
-    pub typical: Option<TypicalTrial>,
+    /// The lowest-index successful trial, whole: the per-pose plot (Fig. 7) and the trial
+    /// report are drawn from it.
+    pub typical: Option<TrialResult>,
 }
 
 impl Aggregate {
@@ -126,16 +116,7 @@ impl Aggregate {
             self.metric("iso_rp_after_mm", iso.mean_rp_l_after_mm());
         }
         if self.typical.as_ref().is_none_or(|t| r.trial < t.trial) {
-            let norms = |v: &[[f64; 3]]| -> Vec<f64> {
-                v.iter()
-                    .map(|e| (e[0] * e[0] + e[1] * e[1] + e[2] * e[2]).sqrt())
-                    .collect()
-            };
-            self.typical = Some(TypicalTrial {
-                trial: r.trial,
-                before_mm: norms(&r.before_mm),
-                after_mm: norms(&r.after_mm),
-            });
+            self.typical = Some(r.clone());
         }
     }
 

@@ -238,7 +238,7 @@ pub struct Recovery {
 }
 
 /// Everything one trial produces.
-#[derive(Clone, Debug, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct TrialResult {
     /// Trial index.
     pub trial: u64,

@@ -193,3 +193,29 @@ fn bad_scenario_fields_are_named() {
     let e = err(&text.replacen("\"length_sigma_mm\": 0.5", "\"length_sigma_mm\": -0.5", 1));
     assert!(e.contains("length_sigma_mm"), "{e}");
 }
+
+/// The Markdown report of one trial, rendered from the campaign's own `TrialResult`
+/// (golden file; `UPDATE_GOLDEN=1` rewrites it).
+#[test]
+fn trial_report_matches_the_golden_file() {
+    let loaded = load("paper-kr1000");
+    let scenario = loaded.scenario.clone();
+    let ctx = Context::new(loaded).unwrap();
+    let trial = campaign::run_trial(&ctx, 0).unwrap();
+    let md = evaluate::render_trial_markdown(&campaign::report::trial_report(&scenario, &trial));
+    for part in ["Table 4", "ISO 9283", "P5", "Parameter recovery", "1.122"] {
+        assert!(md.contains(part), "report lacks {part}");
+    }
+    let golden = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/golden/paper-kr1000-trial-0.md");
+    if std::env::var_os("UPDATE_GOLDEN").is_some() {
+        std::fs::write(&golden, &md).unwrap();
+    }
+    let expected =
+        std::fs::read_to_string(&golden).expect("golden file (UPDATE_GOLDEN=1 writes it)");
+    assert_eq!(
+        md,
+        expected,
+        "trial report differs from {}",
+        golden.display()
+    );
+}
