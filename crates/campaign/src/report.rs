@@ -319,9 +319,9 @@ pub fn trial_report(scenario: &Scenario, t: &crate::trial::TrialResult) -> evalu
     evaluate::TrialReport {
         title: format!("Trial {} of `{}`", t.trial, scenario.name),
         scenario: scenario.name.clone(),
-        table4: t.table4.clone(),
+        table4: t.table4,
         show_paper_reference: scenario.name.starts_with("paper"),
-        iso: t.iso.clone(),
+        iso: t.iso,
         recovery,
         notes: vec![
             format!(
