@@ -2,7 +2,7 @@
 
 use std::path::{Path, PathBuf};
 
-use anyhow::{Context, Result, bail};
+use anyhow::{Context, Result};
 use clap::{ArgGroup, Args};
 use identify::{IdentifiabilityOptions, IdentifiabilityReport, ParamSet, analyze, random_poses};
 use kinematics::Robot;
@@ -19,7 +19,8 @@ pub struct IdentifiabilityArgs {
     /// Measurement file (spec §8 CSV): the poses; measured points are optional here.
     #[arg(long)]
     data: Option<PathBuf>,
-    /// Scenario file (JSON). Not available yet: needs the campaign crate's scenario reader.
+    /// Scenario file (JSON): its identification poses (trial 0) are analysed. The robot file
+    /// still comes from --robot (and --tool), so a scenario can be checked against another model.
     #[arg(long)]
     scenario: Option<PathBuf>,
     /// Draw N random admissible poses (uniform in the joint limits, |q5| ≥ 10°, geometric
@@ -69,11 +70,27 @@ pub fn run(args: &IdentifiabilityArgs) -> Result<()> {
     let (poses, source) = if let Some(path) = &args.data {
         (read_poses(&robot, path)?, path.display().to_string())
     } else if let Some(path) = &args.scenario {
-        bail!(
-            "--scenario {}: scenario files are not supported yet (they need the campaign \
-             crate's scenario reader); use --data FILE.csv or --random-poses N --seed S",
-            path.display()
-        );
+        // The scenario's own pose sampling: trial 0's identification poses.
+        let loaded = campaign::Scenario::from_file(path)
+            .with_context(|| format!("loading scenario {}", path.display()))?;
+        if let (None, Some(t)) = (args.tool, loaded.scenario.tool_mm) {
+            robot.set_tool_mm(t.into());
+        }
+        let world = virtual_robot::Setup::new(
+            &loaded.nominal,
+            &loaded.virtual_robot(),
+            loaded.scenario.seed,
+        )
+        .and_then(|setup| setup.world(0))
+        .with_context(|| format!("sampling the poses of {}", path.display()))?;
+        (
+            world.identification_poses_rad().to_vec(),
+            format!(
+                "identification poses of {} (seed {}, trial 0)",
+                path.display(),
+                loaded.scenario.seed
+            ),
+        )
     } else {
         let n = args.random_poses.expect("clap requires one pose source");
         let poses = random_poses(&robot, n, args.seed)
