@@ -301,20 +301,7 @@ impl CampaignSummary {
 
 /// The Markdown report of one trial (Table 4, ISO table, recovery), in `evaluate`'s layout.
 pub fn trial_report(scenario: &Scenario, t: &crate::trial::TrialResult) -> evaluate::TrialReport {
-    let recovery = (!t.recovery.is_empty()).then(|| {
-        t.recovery
-            .iter()
-            .map(|r| evaluate::ParameterRecovery {
-                name: r.name.clone(),
-                unit: r.unit.clone(),
-                truth: r.truth,
-                estimate: r.estimate,
-                error: r.error,
-                std_error: r.std_error,
-                z: r.z,
-            })
-            .collect()
-    });
+    let recovery = (!t.recovery.is_empty()).then(|| t.recovery.clone());
     let f = &t.fit;
     evaluate::TrialReport {
         title: format!("Trial {} of `{}`", t.trial, scenario.name),

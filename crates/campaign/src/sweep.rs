@@ -252,6 +252,17 @@ pub fn run_sweep(
     })
 }
 
+impl SweepPoint {
+    /// Trials whose LM stopped on a cap (iterations or rejections) instead of converging.
+    pub fn not_converged(&self) -> u64 {
+        self.stop_reasons
+            .iter()
+            .filter(|(k, _)| k.as_str() == "max_iterations" || k.as_str() == "too_many_rejections")
+            .map(|(_, v)| v)
+            .sum()
+    }
+}
+
 impl SweepResult {
     fn metric_mean(p: &SweepPoint, key: &str) -> Option<f64> {
         p.metrics.get(key).and_then(|m| m.as_ref()).map(|m| m.mean)
@@ -280,14 +291,7 @@ impl SweepResult {
         o.push_str(&head.join(","));
         o.push('\n');
         for p in &self.points {
-            let not_conv: u64 = p
-                .stop_reasons
-                .iter()
-                .filter(|(k, _)| {
-                    k.as_str() == "max_iterations" || k.as_str() == "too_many_rejections"
-                })
-                .map(|(_, v)| v)
-                .sum();
+            let not_conv = p.not_converged();
             let mut row: Vec<String> = p
                 .values
                 .iter()
@@ -325,14 +329,7 @@ impl SweepResult {
         o.push_str(&format!("|{}\n", "---|".repeat(labels.len() + 7)));
         for p in &self.points {
             let vals: Vec<String> = p.values.iter().map(label_of).collect();
-            let not_conv: u64 = p
-                .stop_reasons
-                .iter()
-                .filter(|(k, _)| {
-                    k.as_str() == "max_iterations" || k.as_str() == "too_many_rejections"
-                })
-                .map(|(_, v)| v)
-                .sum();
+            let not_conv = p.not_converged();
             let f = |k: &str, d: usize| {
                 Self::metric_mean(p, k).map_or("–".into(), |v| format!("{v:.d$}"))
             };

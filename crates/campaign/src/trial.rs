@@ -2,7 +2,7 @@
 //! compensate validation poses by IK of the identified model → measure again → Table 4,
 //! recovery scoring, ISO 9283.
 
-use evaluate::{IsoCube, IsoReport, Table4};
+use evaluate::{IsoCube, IsoReport, ParameterRecovery, Table4};
 use identify::{Fit, IdentifyOptions, ParamSet, Problem};
 use kinematics::{IkTarget, Robot};
 use nalgebra::Vector3;
@@ -218,25 +218,6 @@ pub struct FitSummary {
     pub rank: Option<usize>,
 }
 
-/// Recovery of one parameter of the minimal set.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct Recovery {
-    /// Parameter name.
-    pub name: String,
-    /// Display unit.
-    pub unit: String,
-    /// Truth re-expressed in the minimal set (display units).
-    pub truth: f64,
-    /// Estimate re-expressed in the minimal set.
-    pub estimate: f64,
-    /// estimate − truth.
-    pub error: f64,
-    /// Reported standard error.
-    pub std_error: f64,
-    /// error / std_error.
-    pub z: f64,
-}
-
 /// Everything one trial produces.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct TrialResult {
@@ -259,7 +240,7 @@ pub struct TrialResult {
     /// validation poses, mm (how well the geometry itself was recovered).
     pub predicted_error_mm: f64,
     /// Recovery per minimal-set parameter (when enabled and computable).
-    pub recovery: Vec<Recovery>,
+    pub recovery: Vec<ParameterRecovery>,
     /// ISO 9283 results (when enabled).
     pub iso: Option<IsoReport>,
 }
@@ -406,7 +387,7 @@ fn recovery(
     truth: &Robot,
     poses: &[f64],
     measured: &[Vector3<f64>],
-) -> Result<Vec<Recovery>, identify::IdentifyError> {
+) -> Result<Vec<ParameterRecovery>, identify::IdentifyError> {
     let nominal = ctx.nominal();
     let free = &ctx.minimal_free;
     let lm = &ctx.id_options.lm;
@@ -436,7 +417,7 @@ fn recovery(
             let info = layout.get(k);
             let t = info.to_display(truth_min[k]);
             let e = info.to_display(est_min[k]);
-            Recovery {
+            ParameterRecovery {
                 name: info.name.clone(),
                 unit: info.unit.as_str().to_string(),
                 truth: t,
