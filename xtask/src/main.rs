@@ -44,7 +44,8 @@ enum Cmd {
     /// Regenerate results/ from every committed scenario and sweep (`--check`: compare only).
     Regenerate(campaign_cmd::RegenerateArgs),
     /// Calibrate a robot from measurements (spec §8 CSV): register, identify, screen
-    /// outliers, validate; writes identified.json, parameters.json and report.md.
+    /// outliers, validate; writes identified.json, registered-nominal.json, parameters.json
+    /// and report.md.
     Identify(identify_cmd::IdentifyArgs),
     /// Predicted x, y, z of a robot model for each row of a joint file.
     Predict(calibrate::PredictArgs),

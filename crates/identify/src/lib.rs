@@ -15,6 +15,7 @@
 //! * [`register_base`] / [`kabsch`]: closed-form rigid registration re-expressed in the base
 //!   parameters.
 //! * [`random_poses`]: admissible random poses (stand-in for scenario pose sets).
+//! * [`outliers::screen`]: points whose 3-D residual exceeds k·σ̂₃ after a fit.
 //!
 //! Units: internally radians and millimetres (the kinematics crate's parameter vector);
 //! every report converts to degrees and millimetres. Kinematics is never re-implemented here.
@@ -51,6 +52,7 @@ mod error;
 mod fit;
 pub mod identifiability;
 pub mod lm;
+pub mod outliers;
 mod problem;
 pub mod registration;
 pub mod sampling;
@@ -64,6 +66,7 @@ pub use identifiability::{
     Redundancy, analyze, keep_priority,
 };
 pub use lm::{Damping, LmOptions, LmSolution, StopReason, TraceEntry, solve};
+pub use outliers::{Outlier, OutlierScreen};
 pub use problem::{Problem, SAME_POSE_TOL_RAD};
 pub use registration::{
     RegistrationPolicy, RegistrationReport, RigidTransform, kabsch, mean_point_error, register_base,

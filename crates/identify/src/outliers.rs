@@ -1,0 +1,163 @@
+//! Outlier screening after a fit: measured points whose 3-D residual is large compared with
+//! the noise level the fit itself estimates.
+//!
+//! With the unweighted per-axis noise estimate σ̂ = √(F / (3m − r)) of the fit
+//! ([`crate::Fit::sigma_hat`], F the residual sum of squares, r the identifiable parameters),
+//! the 3-D residual scale is
+//!
+//! `σ̂₃ = √3 · σ̂ = √(Σ_j ‖e_j‖² / (m − r/3))`,
+//!
+//! the degrees-of-freedom-corrected RMS of the 3-D residuals `e_j = p_j^meas − p(q_j)`.
+//! A point is an outlier when `‖e_j‖ > max(k · σ̂₃, 1 nm)` (k = 3 by default). For Gaussian residuals
+//! with σ per axis, ‖e‖/σ follows a χ distribution with 3 degrees of freedom, so
+//! `P(‖e‖ > 3·√3·σ) = P(χ²₃ > 27) ≈ 6·10⁻⁶`: at k = 3 a clean data set of a few thousand
+//! points flags nothing, and a flagged point is a gross error (wrong target, beam break,
+//! mistyped row), not noise.
+//!
+//! Screening is one pass on the fit as given; whether flagged points are dropped and the
+//! problem refitted is the caller's decision.
+
+use kinematics::Robot;
+use nalgebra::Vector3;
+use serde::{Deserialize, Serialize};
+
+use crate::error::IdentifyError;
+use crate::problem::check_poses;
+
+/// Smallest threshold, mm [1e-6: a nanometre, far below any measurement's resolution; an
+/// exact fit (σ̂ = 0, e.g. synthetic data) leaves rounding-level residuals, which are never
+/// outliers].
+pub const MIN_THRESHOLD_MM: f64 = 1e-6;
+
+/// One flagged point.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Outlier {
+    /// 0-based index of the point in the data given to [`screen`].
+    pub index: usize,
+    /// Residual `p^meas − p(q)`, mm.
+    pub residual_mm: [f64; 3],
+    /// Its norm, mm.
+    pub norm_mm: f64,
+    /// `norm_mm / σ̂₃`.
+    pub ratio: f64,
+}
+
+/// The outcome of [`screen`].
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct OutlierScreen {
+    /// The factor k.
+    pub k: f64,
+    /// The 3-D residual scale σ̂₃ = √3·σ̂, mm.
+    pub sigma_3d_mm: f64,
+    /// The threshold max(k·σ̂₃, [`MIN_THRESHOLD_MM`]), mm.
+    pub threshold_mm: f64,
+    /// Flagged points, largest residual first.
+    pub outliers: Vec<Outlier>,
+}
+
+impl OutlierScreen {
+    /// Indices of the flagged points, ascending.
+    pub fn indices(&self) -> Vec<usize> {
+        let mut idx: Vec<usize> = self.outliers.iter().map(|o| o.index).collect();
+        idx.sort_unstable();
+        idx
+    }
+}
+
+/// Flags the points of `robot` (usually the identified one) on `poses_rad` (flat, radians)
+/// whose 3-D residual against `points_mm` exceeds `k · √3 · sigma_axis_mm`, with
+/// `sigma_axis_mm` the fit's per-axis noise estimate σ̂ (unweighted, mm). See the module
+/// docs.
+pub fn screen(
+    robot: &Robot,
+    poses_rad: &[f64],
+    points_mm: &[Vector3<f64>],
+    sigma_axis_mm: f64,
+    k: f64,
+) -> Result<OutlierScreen, IdentifyError> {
+    if !(k.is_finite() && k > 0.0) {
+        return Err(IdentifyError::InvalidOption {
+            name: "outlier k",
+            value: k.to_string(),
+            reason: "must be finite and > 0",
+        });
+    }
+    if !(sigma_axis_mm.is_finite() && sigma_axis_mm >= 0.0) {
+        return Err(IdentifyError::InvalidOption {
+            name: "sigma_axis_mm",
+            value: sigma_axis_mm.to_string(),
+            reason: "must be finite and ≥ 0",
+        });
+    }
+    let m = check_poses(robot, poses_rad)?;
+    if points_mm.len() != m {
+        return Err(IdentifyError::PointCount {
+            poses: m,
+            points: points_mm.len(),
+        });
+    }
+    let sigma_3d_mm = 3f64.sqrt() * sigma_axis_mm;
+    let threshold_mm = (k * sigma_3d_mm).max(MIN_THRESHOLD_MM);
+    let n = robot.n_joints();
+    let mut outliers: Vec<Outlier> = poses_rad
+        .chunks_exact(n)
+        .zip(points_mm)
+        .enumerate()
+        .filter_map(|(index, (q, p))| {
+            let e = p - robot.point(q);
+            let norm_mm = e.norm();
+            (norm_mm > threshold_mm).then(|| Outlier {
+                index,
+                residual_mm: [e.x, e.y, e.z],
+                norm_mm,
+                ratio: if sigma_3d_mm > 0.0 {
+                    norm_mm / sigma_3d_mm
+                } else {
+                    f64::INFINITY
+                },
+            })
+        })
+        .collect();
+    outliers.sort_by(|a, b| b.norm_mm.total_cmp(&a.norm_mm).then(a.index.cmp(&b.index)));
+    Ok(OutlierScreen {
+        k,
+        sigma_3d_mm,
+        threshold_mm,
+        outliers,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::{IdentifyOptions, ParamSet, Problem, identify, random_poses};
+    use kinematics::RobotSpec;
+
+    #[test]
+    fn a_gross_error_is_flagged_and_nothing_else() {
+        let text = include_str!("../../../scenarios/robots/kr1000-titan.json");
+        let nominal = Robot::from_spec(&RobotSpec::from_json_str(text, "kr1000").unwrap()).unwrap();
+        let mut x = nominal.params();
+        x[nominal.layout().index_of("a2").unwrap()] += 0.4;
+        let truth = nominal.with_params(&x).unwrap();
+        let poses = random_poses(&nominal, 60, 3).unwrap();
+        let mut points = truth.points(&poses);
+        // Deterministic "noise" of ±0.02 mm per axis, and one point off by 2 mm.
+        for (j, p) in points.iter_mut().enumerate() {
+            let s = |c: usize| 0.02 * (((7 * j + 3 * c) % 5) as f64 - 2.0) / 2.0;
+            *p += Vector3::new(s(0), s(1), s(2));
+        }
+        points[17] += Vector3::new(1.2, -1.0, 1.2);
+        let free = ParamSet::Minimal
+            .resolve(&nominal, &poses, None, &Default::default())
+            .unwrap();
+        let problem = Problem::new(&nominal, &poses, &points, free).unwrap();
+        let fit = identify(&problem, &IdentifyOptions::default()).unwrap();
+        let s = screen(&fit.robot, &poses, &points, fit.sigma_hat.unwrap(), 3.0).unwrap();
+        assert_eq!(s.indices(), vec![17], "{s:?}");
+        assert!(s.outliers[0].ratio > 3.0);
+        assert!((s.threshold_mm - 3.0 * 3f64.sqrt() * fit.sigma_hat.unwrap()).abs() < 1e-15);
+        assert!(screen(&fit.robot, &poses, &points, 0.1, 0.0).is_err());
+        assert!(screen(&fit.robot, &poses, &points[1..], 0.1, 3.0).is_err());
+    }
+}
