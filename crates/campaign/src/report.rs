@@ -340,19 +340,18 @@ fn write(path: &Path, bytes: &[u8]) -> Result<(), CampaignError> {
     })
 }
 
-/// Writes `summary.json`, `summary.md` and the SVG plots into `dir` (created if needed).
-pub fn write_outputs(
-    dir: &Path,
+/// Renders every output file of a campaign in memory: `summary.json`, `summary.md`, the
+/// trial report and the SVG plots, as (file name, bytes).
+pub fn render_outputs(
     summary: &CampaignSummary,
     agg: &Aggregate,
-) -> Result<(), CampaignError> {
-    std::fs::create_dir_all(dir).map_err(|source| CampaignError::Io {
-        path: dir.display().to_string(),
-        source,
-    })?;
+) -> Result<Vec<(String, Vec<u8>)>, CampaignError> {
     let plot_err = |e: plots::PlotError| CampaignError::Other(format!("plot: {e}"));
-    write(&dir.join("summary.json"), summary.to_json().as_bytes())?;
-    write(&dir.join("summary.md"), summary.to_markdown().as_bytes())?;
+    let name = &summary.scenario.name;
+    let mut files = vec![
+        ("summary.json".to_string(), summary.to_json().into_bytes()),
+        ("summary.md".to_string(), summary.to_markdown().into_bytes()),
+    ];
     if let Some(t) = &agg.typical {
         let norms = |v: &[[f64; 3]]| -> Vec<f64> {
             v.iter()
@@ -360,33 +359,26 @@ pub fn write_outputs(
                 .collect()
         };
         let svg = plots::per_pose_errors_svg(
-            &format!(
-                "{}: per-pose error, trial {}",
-                summary.scenario.name, t.trial
-            ),
+            &format!("{name}: per-pose error, trial {}", t.trial),
             &norms(&t.before_mm),
             &norms(&t.after_mm),
         )
         .map_err(plot_err)?;
-        write(&dir.join("per-pose-error.svg"), svg.as_bytes())?;
+        files.push(("per-pose-error.svg".into(), svg.into_bytes()));
         let md = evaluate::render_trial_markdown(&trial_report(&summary.scenario, t));
-        write(&dir.join(format!("trial-{}.md", t.trial)), md.as_bytes())?;
+        files.push((format!("trial-{}.md", t.trial), md.into_bytes()));
     }
     if let Some(stat) = agg.metrics.get("improvement_pct")
         && stat.n > 0
     {
         let values: Vec<(f64, u64)> = stat.hist.values().map(|b| (b.value(), b.count)).collect();
-        let bins = plots::rebin(&values, 20);
         let svg = plots::histogram_svg(
-            &format!(
-                "{}: improvement of the mean error over trials",
-                summary.scenario.name
-            ),
+            &format!("{name}: improvement of the mean error over trials"),
             "improvement of mean 3-D error (%)",
-            &bins,
+            &plots::rebin(&values, 20),
         )
         .map_err(plot_err)?;
-        write(&dir.join("improvement-histogram.svg"), svg.as_bytes())?;
+        files.push(("improvement-histogram.svg".into(), svg.into_bytes()));
     }
     let rec: Vec<(&String, &crate::run::RecoveryStat)> = agg
         .recovery
@@ -401,17 +393,32 @@ pub fn write_outputs(
             .map(|(_, r)| r.abs_error.summary().expect("n > 0"))
             .collect();
         let svg = plots::recovery_svg(
-            &format!(
-                "{}: parameter recovery (minimal set)",
-                summary.scenario.name
-            ),
+            &format!("{name}: parameter recovery (minimal set)"),
             &names,
             &sums.iter().map(|s| s.mean).collect::<Vec<_>>(),
             &sums.iter().map(|s| s.sd).collect::<Vec<_>>(),
             &units,
         )
         .map_err(plot_err)?;
-        write(&dir.join("recovery.svg"), svg.as_bytes())?;
+        files.push(("recovery.svg".into(), svg.into_bytes()));
+    }
+    Ok(files)
+}
+
+/// Writes [`render_outputs`] into `dir` (created if needed). Everything is rendered before
+/// the first file is written, and each file is replaced atomically.
+pub fn write_outputs(
+    dir: &Path,
+    summary: &CampaignSummary,
+    agg: &Aggregate,
+) -> Result<(), CampaignError> {
+    let files = render_outputs(summary, agg)?;
+    std::fs::create_dir_all(dir).map_err(|source| CampaignError::Io {
+        path: dir.display().to_string(),
+        source,
+    })?;
+    for (name, bytes) in &files {
+        write(&dir.join(name), bytes)?;
     }
     Ok(())
 }
