@@ -43,13 +43,15 @@
 
 use std::str::FromStr;
 
-use kinematics::{ParamKind, ParamLayout, Robot};
+use kinematics::{ParamKind, ParamLayout, PoseTrig, Robot};
 use nalgebra::{DMatrix, DVector, linalg::SVD};
 use serde::{Deserialize, Serialize};
 
 use crate::error::IdentifyError;
 use crate::lm::ZERO_COLUMN_RTOL_SQ;
-use crate::problem::{check_free, check_poses, check_start, check_weights, weighted_jacobian};
+use crate::problem::{
+    NormalWork, check_free, check_poses, check_start, check_weights, weighted_jacobian,
+};
 
 /// Iteration cap of the SVDs (nalgebra's `try_new`); far beyond what 34 columns need.
 const SVD_MAX_ITER: usize = 10_000;
@@ -254,8 +256,36 @@ pub(crate) fn analyze_matrix(
     let null = DMatrix::from_fn(p, d, |i, j| v_t[(rank + j, i)]);
 
     // Drop from the lowest priority up (see module docs).
+    let (dropped, _) = greedy_drop(&null, priority, opts.drop_row_min);
+    let kept = (0..p).filter(|k| !dropped.contains(k)).collect();
+    Ok(Analysis {
+        scale,
+        zero,
+        singular_values,
+        rank,
+        tol,
+        null,
+        kept,
+        dropped,
+    })
+}
+
+/// The dropped positions (ascending) chosen from a null-space basis `null` (P × d, orthonormal
+/// columns): from the lowest priority up, a parameter is dropped when its row of `null`,
+/// orthogonalised against the rows already dropped, keeps a norm ≥ `drop_row_min` (see the
+/// module docs). Also returns the smallest distance `|norm − drop_row_min|` met by a
+/// decision (0 when the fallback for an incomplete pass was needed): how far the choice is
+/// from changing under a perturbation of the basis. The decisions depend only on the
+/// subspace, not on which orthonormal basis of it is given.
+pub(crate) fn greedy_drop(
+    null: &DMatrix<f64>,
+    priority: &[usize],
+    drop_row_min: f64,
+) -> (Vec<usize>, f64) {
+    let (p, d) = null.shape();
     let mut basis: Vec<DVector<f64>> = Vec::with_capacity(d);
     let mut dropped = Vec::with_capacity(d);
+    let mut margin = f64::INFINITY;
     let residual = |row: usize, basis: &[DVector<f64>]| {
         let mut r: DVector<f64> = null.row(row).transpose();
         for _ in 0..2 {
@@ -272,13 +302,15 @@ pub(crate) fn analyze_matrix(
         }
         let r = residual(k, &basis);
         let n = r.norm();
-        if n >= opts.drop_row_min {
+        margin = margin.min((n - drop_row_min).abs());
+        if n >= drop_row_min {
             basis.push(r / n);
             dropped.push(k);
         }
     }
     // Cannot happen while P·drop_row_min² < 1; kept as a guarantee of exactly P − r drops.
     while basis.len() < d {
+        margin = 0.0;
         let (k, r) = (0..p)
             .filter(|k| !dropped.contains(k))
             .map(|k| (k, residual(k, &basis)))
@@ -289,17 +321,264 @@ pub(crate) fn analyze_matrix(
         dropped.push(k);
     }
     dropped.sort_unstable();
-    let kept = (0..p).filter(|k| !dropped.contains(k)).collect();
-    Ok(Analysis {
+    (dropped, margin)
+}
+
+/// Kept relative squared distance `s_k` of a unit column from the span of the columns kept
+/// before it: above this a column is kept by [`kept_by_cholesky`], below
+/// [`CHOL_DROP_S`] dropped, in between the decision is left to the SVD.
+const CHOL_KEEP_S: f64 = 1e-7;
+/// See [`CHOL_KEEP_S`].
+const CHOL_DROP_S: f64 = 1e-11;
+/// Smallest σ_min of the kept scaled columns the Cholesky path accepts (a condition number of
+/// about 6·10³ for 34 columns): enough margin for the rank decision and for the inverse of
+/// J̃ᵀJ̃ to carry ~10 correct digits.
+const CHOL_MIN_SIGMA: f64 = 1e-3;
+/// Smallest margin of the greedy selection's decisions for the Cholesky path's null space to
+/// stand in for the SVD's (the two agree to ~1e-12).
+const CHOL_MIN_MARGIN: f64 = 1e-6;
+
+/// The identifiable subset, chosen without an SVD (see [`kept_by_cholesky`]).
+pub(crate) struct Kept {
+    /// Column scaling 1/‖J_k‖ (1 for zero columns), by position.
+    pub scale: Vec<f64>,
+    /// Kept positions, ascending.
+    pub kept: Vec<usize>,
+    /// Dropped positions, ascending.
+    pub dropped: Vec<usize>,
+    /// `(J̃_Kᵀ J̃_K)⁻¹` of the scaled kept columns, in the order of `kept`.
+    pub inv: DMatrix<f64>,
+}
+
+/// The identifiable subset and `(J̃_KᵀJ̃_K)⁻¹` from the normal matrix `a = JᵀJ` (P × P) and
+/// the stacked Jacobian `jac` (3m × P), *when it can be certified* to be exactly what the
+/// SVD of [`analyze_matrix`] would choose; `None` otherwise (the caller then runs the SVD).
+///
+/// 1. The columns are visited in priority order with a Cholesky factorisation of the
+///    scaled J̃ᵀJ̃ that skips a column whose squared distance `s` from the span of the kept
+///    ones is below [`CHOL_DROP_S`] (`s` above [`CHOL_KEEP_S`] keeps it; in between: `None`).
+/// 2. Rank ≥ r: `σ_r(J̃) ≥ σ_min(J̃_K) ≥ 1/‖L⁻¹‖_F`, required ≥ [`CHOL_MIN_SIGMA`] (far above
+///    `rank_rtol·σ_1`, σ_1 ≤ √P).
+/// 3. Rank ≤ r: `σ_{r+1}(J̃) ≤ ‖J̃_D − J̃_K C‖_F` with `C = (J̃_KᵀJ̃_K)⁻¹J̃_KᵀJ̃_D`, computed in
+///    the 3m-dimensional space (accurate to ~1e-13, where the normal matrix would only give
+///    1e-7), required ≤ `rank_rtol/10` (σ_1 ≥ 1: the columns have unit norm).
+/// 4. The null space spanned by `[−C; I]` and the zero columns replaces the SVD's: the
+///    greedy selection ([`greedy_drop`]) must return the same dropped set with every decision
+///    at least [`CHOL_MIN_MARGIN`] from its threshold.
+///
+/// With a clear gap (exact redundancies at rounding level, the rest well conditioned, the
+/// usual case) this costs a few µs where the SVD costs a few hundred.
+pub(crate) fn kept_by_cholesky(
+    jac: &DMatrix<f64>,
+    a: &DMatrix<f64>,
+    priority: &[usize],
+    opts: &IdentifiabilityOptions,
+) -> Option<Kept> {
+    let p = a.ncols();
+    if p == 0 || !a.iter().all(|v| v.is_finite()) {
+        return None;
+    }
+    // Column norms and the zero test of analyze_matrix, with a factor-2 margin.
+    let max_sq = (0..p).fold(0.0_f64, |m, k| m.max(a[(k, k)]));
+    let thr = ZERO_COLUMN_RTOL_SQ * max_sq;
+    let mut scale = vec![1.0; p];
+    let mut zero = vec![false; p];
+    for k in 0..p {
+        let d = a[(k, k)];
+        if d > 2.0 * thr && d > 0.0 {
+            scale[k] = 1.0 / d.sqrt();
+        } else if d < 0.5 * thr || d <= 0.0 {
+            zero[k] = true;
+        } else {
+            return None;
+        }
+    }
+    // The scaled normal matrix G̃ = S·A·S, dense column-major.
+    let mut gm = vec![0.0; p * p];
+    for j in 0..p {
+        for i in 0..p {
+            gm[j * p + i] = scale[i] * a[(i, j)] * scale[j];
+        }
+    }
+
+    // 1. Greedy Cholesky in priority order; `l` row-major (row i at i·p).
+    let mut kp: Vec<usize> = Vec::with_capacity(p);
+    let mut l = vec![0.0; p * p];
+    let mut y = vec![0.0; p];
+    let mut drops: Vec<usize> = Vec::new();
+    for &k in priority {
+        if zero[k] {
+            continue;
+        }
+        let r = kp.len();
+        let gk = &gm[k * p..(k + 1) * p];
+        let mut s = gk[k];
+        for i in 0..r {
+            let row = &l[i * p..i * p + i];
+            let mut v = gk[kp[i]];
+            for (lij, yj) in row.iter().zip(&y[..i]) {
+                v -= lij * yj;
+            }
+            y[i] = v / l[i * p + i];
+            s -= y[i] * y[i];
+        }
+        if s > CHOL_KEEP_S {
+            l[r * p..r * p + r].copy_from_slice(&y[..r]);
+            l[r * p + r] = s.sqrt();
+            kp.push(k);
+        } else if s < CHOL_DROP_S {
+            drops.push(k);
+        } else {
+            return None;
+        }
+    }
+    let r = kp.len();
+    if r == 0 {
+        return None;
+    }
+
+    // 2. L⁻¹ (lower, row-major r × r) and the bound on σ_min.
+    let mut li = vec![0.0; r * r];
+    for c in 0..r {
+        li[c * r + c] = 1.0 / l[c * p + c];
+        for i in c + 1..r {
+            let mut v = 0.0;
+            for j in c..i {
+                v -= l[i * p + j] * li[j * r + c];
+            }
+            li[i * r + c] = v / l[i * p + i];
+        }
+    }
+    let frob = li.iter().map(|v| v * v).sum::<f64>().sqrt();
+    let sigma_lower = 1.0 / frob;
+    if !(sigma_lower >= CHOL_MIN_SIGMA && sigma_lower > 10.0 * opts.rank_rtol * (p as f64).sqrt()) {
+        return None;
+    }
+
+    // 3. Residual of the dropped (non-zero) columns in the 3m-space: J̃_d − J̃_K c with
+    //    L Lᵀ c = J̃_KᵀJ̃_d (all kept columns: a redundancy may involve columns of lower
+    //    priority than the dropped one, e.g. β2 in d3's).
+    let rows = jac.nrows();
+    let js = jac.as_slice();
+    let col = |k: usize| &js[k * rows..(k + 1) * rows];
+    let mut res = vec![0.0; rows];
+    let mut total = 0.0;
+    let mut null_cols: Vec<DVector<f64>> = Vec::with_capacity(p - r);
+    let mut c = vec![0.0; r];
+    for dpos in &drops {
+        let gd = &gm[dpos * p..(dpos + 1) * p];
+        for i in 0..r {
+            let mut v = gd[kp[i]];
+            for (lij, cj) in l[i * p..i * p + i].iter().zip(&c[..i]) {
+                v -= lij * cj;
+            }
+            c[i] = v / l[i * p + i];
+        }
+        for i in (0..r).rev() {
+            let mut v = c[i];
+            for t in i + 1..r {
+                v -= l[t * p + i] * c[t];
+            }
+            c[i] = v / l[i * p + i];
+        }
+        let sd = scale[*dpos];
+        for (o, v) in res.iter_mut().zip(col(*dpos)) {
+            *o = sd * v;
+        }
+        for (t, &kpos) in kp.iter().enumerate() {
+            let coef = c[t] * scale[kpos];
+            for (o, v) in res.iter_mut().zip(col(kpos)) {
+                *o -= coef * v;
+            }
+        }
+        total += res.iter().map(|v| v * v).sum::<f64>();
+        let mut v = DVector::zeros(p);
+        v[*dpos] = 1.0;
+        for (t, &kpos) in kp.iter().enumerate() {
+            v[kpos] = -c[t];
+        }
+        null_cols.push(v);
+    }
+    // (NaN fails too.)
+    if total.sqrt().partial_cmp(&(0.1 * opts.rank_rtol)) != Some(std::cmp::Ordering::Less) {
+        return None;
+    }
+
+    // 4. Orthonormal null space (twice-modified Gram–Schmidt) and the greedy selection.
+    for (k, _) in zero.iter().enumerate().filter(|(_, z)| **z) {
+        let mut v = DVector::zeros(p);
+        v[k] = 1.0;
+        null_cols.push(v);
+    }
+    let d = null_cols.len();
+    let mut null = DMatrix::zeros(p, d);
+    for (j, v0) in null_cols.iter().enumerate() {
+        let mut v = v0.clone();
+        for _ in 0..2 {
+            for i in 0..j {
+                let c = null.column(i).dot(&v);
+                v.axpy(-c, &null.column(i), 1.0);
+            }
+        }
+        let n = v.norm();
+        null.set_column(j, &(v / n));
+    }
+    let (dropped, margin) = greedy_drop(&null, priority, opts.drop_row_min);
+    let mut expected: Vec<usize> = (0..p).filter(|k| !kp.contains(k)).collect();
+    expected.sort_unstable();
+    if dropped != expected || margin.is_nan() || margin < CHOL_MIN_MARGIN {
+        return None;
+    }
+
+    // (J̃_KᵀJ̃_K)⁻¹ = L⁻ᵀL⁻¹ (priority order), then in ascending order of the positions.
+    let mut ginv = vec![0.0; r * r];
+    for i in 0..r {
+        for j in 0..=i {
+            let mut v = 0.0;
+            for t in i..r {
+                v += li[t * r + i] * li[t * r + j];
+            }
+            ginv[i * r + j] = v;
+            ginv[j * r + i] = v;
+        }
+    }
+    let mut order: Vec<usize> = (0..r).collect();
+    order.sort_by_key(|&i| kp[i]);
+    let kept: Vec<usize> = order.iter().map(|&i| kp[i]).collect();
+    let inv = DMatrix::from_fn(r, r, |i, j| ginv[order[i] * r + order[j]]);
+    Some(Kept {
         scale,
-        zero,
-        singular_values,
-        rank,
-        tol,
-        null,
         kept,
         dropped,
+        inv,
     })
+}
+
+/// Whether [`crate::covariance`] can choose the identifiable subset of `free` at `robot`
+/// without the SVD ([`kept_by_cholesky`] certifies it). For tests and benchmarks.
+#[doc(hidden)]
+pub fn cholesky_certifies(
+    robot: &Robot,
+    poses_rad: &[f64],
+    weights: Option<&[f64]>,
+    free: &[usize],
+    opts: &IdentifiabilityOptions,
+) -> bool {
+    let m = poses_rad.len() / robot.n_joints();
+    let pf = free.len();
+    let trig = PoseTrig::new(robot.n_joints(), poses_rad);
+    let mut work = NormalWork::new(pf);
+    let mut jac = DMatrix::zeros(3 * m, pf);
+    let zeros = vec![nalgebra::Vector3::zeros(); m];
+    work.assemble_stacked(robot, &trig, &zeros, weights, free, &mut jac);
+    let mut a = DMatrix::zeros(pf, pf);
+    let mut g = DVector::zeros(pf);
+    work.copy_to(&mut a, &mut g);
+    let priority: Vec<usize> = keep_priority(robot.layout())
+        .into_iter()
+        .filter_map(|k| free.iter().position(|&f| f == k))
+        .collect();
+    kept_by_cholesky(&jac, &a, &priority, opts).is_some()
 }
 
 /// Analyses the identifiability of the parameters `free` (indices into the robot's parameter

@@ -51,11 +51,13 @@ pub mod covariance;
 mod error;
 mod fit;
 pub mod identifiability;
+mod linalg;
 pub mod lm;
 pub mod outliers;
 mod problem;
 pub mod registration;
 pub mod sampling;
+pub mod simd;
 
 pub use compensation::{compensate, compensation_target};
 pub use covariance::{CorrelatedPair, Covariance, covariance};
@@ -72,3 +74,4 @@ pub use registration::{
     RegistrationPolicy, RegistrationReport, RigidTransform, kabsch, mean_point_error, register_base,
 };
 pub use sampling::{PoseSampler, random_poses};
+pub use simd::{SimdLevel, set_simd_level, simd_level};

@@ -28,13 +28,14 @@
 //! A damped matrix that is not positive definite, or a non-finite step or cost, is an error
 //! ([`IdentifyError::Singular`], [`IdentifyError::NonFiniteStep`]); no NaN is ever returned.
 
-use nalgebra::{DMatrix, DVector, Dyn, linalg::Cholesky};
+use nalgebra::{DMatrix, DVector, Vector3, linalg::Cholesky};
 use serde::{Deserialize, Serialize};
 
-use kinematics::Robot;
+use kinematics::{PoseTrig, Robot};
 
 use crate::error::IdentifyError;
-use crate::problem::{Problem, assemble_normal, weighted_rss};
+use crate::linalg;
+use crate::problem::{NormalWork, Problem, assemble_normal, weighted_rss, weighted_rss_trig};
 
 /// A column whose squared norm is below this fraction of the largest squared column norm is
 /// treated as zero (the parameter does not move the measured point): it is not scaled
@@ -401,11 +402,14 @@ struct Scaled {
 impl Scaled {
     fn set(&mut self, a: &DMatrix<f64>, g: &DVector<f64>, s: &[f64]) {
         let p = s.len();
+        let (src, dst) = (a.as_slice(), self.a.as_mut_slice());
         for l in 0..p {
-            for k in 0..p {
-                self.a[(k, l)] = s[k] * a[(k, l)] * s[l];
+            let sl = s[l];
+            let (src, dst) = (&src[l * p..(l + 1) * p], &mut dst[l * p..(l + 1) * p]);
+            for ((d, v), sk) in dst.iter_mut().zip(src).zip(s) {
+                *d = sk * v * sl;
             }
-            self.g[l] = s[l] * g[l];
+            self.g[l] = sl * g[l];
         }
     }
 
@@ -430,38 +434,73 @@ impl Scaled {
     }
 
     fn finite(&self) -> bool {
-        self.a.iter().all(|v| v.is_finite()) && self.g.iter().all(|v| v.is_finite())
+        let all = |v: &[f64]| v.iter().fold(true, |ok, x| ok & x.is_finite());
+        all(self.a.as_slice()) && all(self.g.as_slice())
     }
 }
 
-/// Cholesky factor of the damped matrix `Ã + diag(max(μ·D_kk, floor))`, built in `work`
-/// (taken, so the caller must put `chol.unpack()` back). If rounding makes the matrix
+/// Which linear algebra [`solve`] runs on; the control flow (damping, acceptance, stopping)
+/// is shared.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Path {
+    /// The straightforward one: [`assemble_normal`] from [`Robot::point_jacobian_into`] and
+    /// nalgebra's Cholesky. What the fast path is tested against.
+    Reference,
+    /// Sin/cos once per pose, the vectorised assembly ([`NormalWork`]) and the in-place
+    /// Cholesky of [`crate::linalg`].
+    Fast,
+}
+
+/// Writes the damped matrix `Ã + diag(max(μ·D_kk, floor))` into `work`.
+fn damped(sys: &Scaled, damping: Damping, mu: f64, floor: f64, work: &mut DMatrix<f64>) {
+    let pf = sys.g.len();
+    if work.shape() != (pf, pf) {
+        *work = DMatrix::zeros(pf, pf);
+    }
+    work.copy_from(&sys.a);
+    for k in 0..pf {
+        let dk = match damping {
+            Damping::Marquardt { .. } => sys.a[(k, k)],
+            _ => 1.0,
+        };
+        work[(k, k)] += (mu * dk).max(floor);
+    }
+}
+
+/// Solves the damped system into `step`: the Cholesky factor of the damped matrix
+/// `Ã + diag(max(μ·D_kk, floor))` is built in `work`. If rounding makes the matrix
 /// indefinite (exactly redundant parameters at a tiny μ), μ is raised and the matrix
 /// refactorised; once μ·max D exceeds max diag(Ã) only a non-SPD Ã can fail, which is
 /// [`IdentifyError::Singular`].
-fn factorize(
+#[allow(clippy::too_many_arguments)]
+fn damped_step(
+    path: Path,
     sys: &Scaled,
     damping: Damping,
     mu: &mut f64,
     floor: f64,
     work: &mut DMatrix<f64>,
+    step: &mut DVector<f64>,
     iteration: usize,
-) -> Result<Cholesky<f64, Dyn>, IdentifyError> {
+) -> Result<(), IdentifyError> {
     let pf = sys.g.len();
     loop {
-        if work.shape() != (pf, pf) {
-            *work = DMatrix::zeros(pf, pf);
-        }
-        work.copy_from(&sys.a);
-        for k in 0..pf {
-            let dk = match damping {
-                Damping::Marquardt { .. } => sys.a[(k, k)],
-                _ => 1.0,
-            };
-            work[(k, k)] += (*mu * dk).max(floor);
-        }
-        if let Some(c) = Cholesky::new(std::mem::replace(work, DMatrix::zeros(0, 0))) {
-            return Ok(c);
+        damped(sys, damping, *mu, floor, work);
+        step.copy_from(&sys.g);
+        match path {
+            Path::Reference => {
+                if let Some(c) = Cholesky::new(std::mem::replace(work, DMatrix::zeros(0, 0))) {
+                    c.solve_mut(step);
+                    *work = c.unpack();
+                    return Ok(());
+                }
+            }
+            Path::Fast => {
+                if linalg::cholesky_in_place(work.as_mut_slice(), pf) {
+                    linalg::cholesky_solve(work.as_slice(), pf, step.as_mut_slice());
+                    return Ok(());
+                }
+            }
         }
         if *mu * max_dk(damping, sys) >= sys.max_diag().max(f64::MIN_POSITIVE) {
             return Err(IdentifyError::Singular { iteration, mu: *mu });
@@ -470,22 +509,100 @@ fn factorize(
     }
 }
 
+/// The normal equations at a model, by either path.
+struct Assembler<'p> {
+    path: Path,
+    poses: &'p [f64],
+    points: &'p [Vector3<f64>],
+    weights: Option<&'p [f64]>,
+    free: &'p [usize],
+    trig: PoseTrig,
+    normal: Option<NormalWork>,
+}
+
+impl<'p> Assembler<'p> {
+    fn new(path: Path, problem: &Problem<'p>, free: &'p [usize]) -> Self {
+        let poses = problem.poses_rad();
+        let fast = path == Path::Fast;
+        Assembler {
+            path,
+            poses,
+            points: problem.points_mm(),
+            weights: problem.weights(),
+            free,
+            trig: if fast {
+                PoseTrig::new(problem.robot().n_joints(), poses)
+            } else {
+                PoseTrig::default()
+            },
+            normal: fast.then(|| NormalWork::new(free.len())),
+        }
+    }
+
+    /// `a`, `g` at `robot`; returns the cost.
+    fn assemble(&mut self, robot: &Robot, a: &mut DMatrix<f64>, g: &mut DVector<f64>) -> f64 {
+        match &mut self.normal {
+            Some(normal) => {
+                let cost = normal.assemble(robot, &self.trig, self.points, self.weights, self.free);
+                normal.copy_to(a, g);
+                cost
+            }
+            None => assemble_normal(
+                robot,
+                self.poses,
+                self.points,
+                self.weights,
+                self.free,
+                a,
+                g,
+            ),
+        }
+    }
+
+    /// The cost at `robot` (bit for bit the cost [`Assembler::assemble`] returns).
+    fn cost(&self, robot: &Robot) -> f64 {
+        match self.path {
+            Path::Fast => weighted_rss_trig(robot, &self.trig, self.points, self.weights),
+            Path::Reference => weighted_rss(robot, self.poses, self.points, self.weights),
+        }
+    }
+}
+
 /// Solves the problem by damped least squares from the start model. See the module docs for
 /// the iteration and [`LmOptions`] for every option.
 pub fn solve(problem: &Problem, options: &LmOptions) -> Result<LmSolution, IdentifyError> {
+    solve_on(Path::Fast, problem, options)
+}
+
+/// [`solve`] on the straightforward linear algebra (reference Jacobian, unvectorised
+/// assembly, nalgebra's Cholesky): the reference the fast path is tested against. Same
+/// iteration, same results up to rounding.
+#[doc(hidden)]
+pub fn solve_reference(
+    problem: &Problem,
+    options: &LmOptions,
+) -> Result<LmSolution, IdentifyError> {
+    solve_on(Path::Reference, problem, options)
+}
+
+fn solve_on(
+    path: Path,
+    problem: &Problem,
+    options: &LmOptions,
+) -> Result<LmSolution, IdentifyError> {
     options.validate()?;
     let free = problem.free();
     let pf = free.len();
-    let (poses, points, weights) = (problem.poses_rad(), problem.points_mm(), problem.weights());
 
     let mut robot = problem.robot().clone();
     let mut trial = robot.clone();
     let mut x = robot.params();
     let mut xt = x.clone();
 
+    let mut asm = Assembler::new(path, problem, free);
     let mut a = DMatrix::zeros(pf, pf);
     let mut g = DVector::zeros(pf);
-    let mut cost = assemble_normal(&robot, poses, points, weights, free, &mut a, &mut g);
+    let mut cost = asm.assemble(&robot, &mut a, &mut g);
     let initial_cost = cost;
 
     let max_col_sq = a.diagonal().iter().fold(0.0, |m: f64, &d| m.max(d));
@@ -528,120 +645,132 @@ pub fn solve(problem: &Problem, options: &LmOptions) -> Result<LmSolution, Ident
     let mut accepted_steps = 0;
     let mut rejections = 0;
 
-    let stop =
-        if sys.gradient_cosine(cost) <= options.gradient_tol {
-            StopReason::SmallGradient
-        } else {
-            loop {
-                if iterations >= options.max_iterations {
-                    break StopReason::MaxIterations;
-                }
-                iterations += 1;
+    let stop = if sys.gradient_cosine(cost) <= options.gradient_tol {
+        StopReason::SmallGradient
+    } else {
+        loop {
+            if iterations >= options.max_iterations {
+                break StopReason::MaxIterations;
+            }
+            iterations += 1;
 
-                let floor = options.mu_min_rel * sys.max_diag();
-                mu = mu.max(match options.damping {
-                    Damping::Marquardt { .. } => options.mu_min_rel,
-                    _ => floor,
-                });
-                let chol = factorize(&sys, options.damping, &mut mu, floor, &mut work, iterations)?;
-                step.copy_from(&sys.g);
-                chol.solve_mut(&mut step);
-                work = chol.unpack();
-                if !step.iter().all(|v| v.is_finite()) {
-                    return Err(IdentifyError::NonFiniteStep {
-                        iteration: iterations,
-                        what: "step",
-                    });
-                }
-
-                for (c, &k) in free.iter().enumerate() {
-                    xt[k] = x[k] + scale[c] * step[c];
-                }
-                trial.set_params(&xt)?;
-                let cost_trial = weighted_rss(&trial, poses, points, weights);
-                if !cost_trial.is_finite() {
-                    return Err(IdentifyError::NonFiniteStep {
-                        iteration: iterations,
-                        what: "cost at the trial point",
-                    });
-                }
-                sys.a.mul_to(&step, &mut a_step);
-                let predicted = 2.0 * step.dot(&sys.g) - step.dot(&a_step);
-                let actual = cost - cost_trial;
-                let accepted = actual > 0.0 && predicted > 0.0;
-                let gain_ratio = if predicted > 0.0 {
-                    actual / predicted
-                } else {
-                    0.0
-                };
-                let step_norm = step.norm();
-                trace.push(TraceEntry {
+            let floor = options.mu_min_rel * sys.max_diag();
+            mu = mu.max(match options.damping {
+                Damping::Marquardt { .. } => options.mu_min_rel,
+                _ => floor,
+            });
+            damped_step(
+                path,
+                &sys,
+                options.damping,
+                &mut mu,
+                floor,
+                &mut work,
+                &mut step,
+                iterations,
+            )?;
+            if !step.iter().all(|v| v.is_finite()) {
+                return Err(IdentifyError::NonFiniteStep {
                     iteration: iterations,
-                    mu,
-                    step_norm,
-                    cost_before: cost,
-                    cost_trial,
-                    gain_ratio,
-                    accepted,
+                    what: "step",
                 });
+            }
 
-                if accepted {
-                    accepted_steps += 1;
-                    rejections = 0;
-                    std::mem::swap(&mut x, &mut xt);
-                    std::mem::swap(&mut robot, &mut trial);
-                    let cost_old = cost;
-                    cost = assemble_normal(&robot, poses, points, weights, free, &mut a, &mut g);
-                    sys.set(&a, &g, &scale);
-                    if !cost.is_finite() || !sys.finite() {
-                        return Err(IdentifyError::NonFiniteStep {
-                            iteration: iterations,
-                            what: "residual or Jacobian",
-                        });
+            for (c, &k) in free.iter().enumerate() {
+                xt[k] = x[k] + scale[c] * step[c];
+            }
+            trial.set_params(&xt)?;
+            let cost_trial = asm.cost(&trial);
+            if !cost_trial.is_finite() {
+                return Err(IdentifyError::NonFiniteStep {
+                    iteration: iterations,
+                    what: "cost at the trial point",
+                });
+            }
+            match path {
+                Path::Fast => {
+                    linalg::mat_vec(sys.a.as_slice(), pf, step.as_slice(), a_step.as_mut_slice())
+                }
+                Path::Reference => sys.a.mul_to(&step, &mut a_step),
+            }
+            let predicted = 2.0 * step.dot(&sys.g) - step.dot(&a_step);
+            let actual = cost - cost_trial;
+            let accepted = actual > 0.0 && predicted > 0.0;
+            let gain_ratio = if predicted > 0.0 {
+                actual / predicted
+            } else {
+                0.0
+            };
+            let step_norm = step.norm();
+            trace.push(TraceEntry {
+                iteration: iterations,
+                mu,
+                step_norm,
+                cost_before: cost,
+                cost_trial,
+                gain_ratio,
+                accepted,
+            });
+
+            if accepted {
+                accepted_steps += 1;
+                rejections = 0;
+                std::mem::swap(&mut x, &mut xt);
+                std::mem::swap(&mut robot, &mut trial);
+                let cost_old = cost;
+                cost = asm.assemble(&robot, &mut a, &mut g);
+                sys.set(&a, &g, &scale);
+                if !cost.is_finite() || !sys.finite() {
+                    return Err(IdentifyError::NonFiniteStep {
+                        iteration: iterations,
+                        what: "residual or Jacobian",
+                    });
+                }
+                match options.damping {
+                    Damping::Levenberg { decrease, .. } | Damping::Marquardt { decrease, .. } => {
+                        mu /= decrease
                     }
-                    match options.damping {
-                        Damping::Levenberg { decrease, .. }
-                        | Damping::Marquardt { decrease, .. } => mu /= decrease,
-                        Damping::Nielsen { nu0, .. } => {
-                            mu *= (1.0 / 3.0_f64).max(1.0 - (2.0 * gain_ratio - 1.0).powi(3));
-                            nu = nu0;
-                        }
+                    Damping::Nielsen { nu0, .. } => {
+                        mu *= (1.0 / 3.0_f64).max(1.0 - (2.0 * gain_ratio - 1.0).powi(3));
+                        nu = nu0;
                     }
-                    let x_norm = free
-                        .iter()
-                        .zip(&scale)
-                        .map(|(&k, s)| (x[k] / s).powi(2))
-                        .sum::<f64>()
-                        .sqrt();
-                    if sys.gradient_cosine(cost) <= options.gradient_tol {
-                        break StopReason::SmallGradient;
+                }
+                let x_norm = free
+                    .iter()
+                    .zip(&scale)
+                    .map(|(&k, s)| (x[k] / s).powi(2))
+                    .sum::<f64>()
+                    .sqrt();
+                if sys.gradient_cosine(cost) <= options.gradient_tol {
+                    break StopReason::SmallGradient;
+                }
+                if cost_old - cost_trial <= options.cost_rel_tol * cost_old {
+                    break StopReason::SmallCostChange;
+                }
+                if step_norm <= options.step_tol * (x_norm + options.step_tol) {
+                    break StopReason::SmallStep;
+                }
+            } else {
+                if actual.abs() <= options.cost_rel_tol * cost {
+                    // The trial cost cannot be told from the current one: rounding level.
+                    break StopReason::SmallCostChange;
+                }
+                rejections += 1;
+                match options.damping {
+                    Damping::Levenberg { increase, .. } | Damping::Marquardt { increase, .. } => {
+                        mu *= increase
                     }
-                    if cost_old - cost_trial <= options.cost_rel_tol * cost_old {
-                        break StopReason::SmallCostChange;
+                    Damping::Nielsen { .. } => {
+                        mu *= nu;
+                        nu *= 2.0;
                     }
-                    if step_norm <= options.step_tol * (x_norm + options.step_tol) {
-                        break StopReason::SmallStep;
-                    }
-                } else {
-                    if actual.abs() <= options.cost_rel_tol * cost {
-                        // The trial cost cannot be told from the current one: rounding level.
-                        break StopReason::SmallCostChange;
-                    }
-                    rejections += 1;
-                    match options.damping {
-                        Damping::Levenberg { increase, .. }
-                        | Damping::Marquardt { increase, .. } => mu *= increase,
-                        Damping::Nielsen { .. } => {
-                            mu *= nu;
-                            nu *= 2.0;
-                        }
-                    }
-                    if rejections >= options.max_rejections {
-                        break StopReason::TooManyRejections;
-                    }
+                }
+                if rejections >= options.max_rejections {
+                    break StopReason::TooManyRejections;
                 }
             }
-        };
+        }
+    };
 
     let gradient_cosine = sys.gradient_cosine(cost);
     Ok(LmSolution {

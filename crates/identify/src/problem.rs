@@ -1,10 +1,11 @@
 //! The identification problem: start model, poses, measured points, weights, free parameters;
 //! and the allocation-free assembly of its residual, cost and normal equations.
 
-use kinematics::{MAX_PARAMS, Robot};
+use kinematics::{MAX_PARAMS, PoseTrig, Robot};
 use nalgebra::{DMatrix, DVector, Vector3};
 
 use crate::error::IdentifyError;
+use crate::simd::{SimdLevel, simd_level};
 
 /// Two poses whose joint values all differ by less than this (rad) count as the same pose when
 /// [`Problem::new`] checks that enough distinct poses exist [1e-9 rad ≈ 6e-8°, far below any
@@ -122,6 +123,47 @@ impl<'a> Problem<'a> {
     /// Number of residual equations, 3m.
     pub fn n_equations(&self) -> usize {
         3 * self.n_poses()
+    }
+
+    /// The normal equations of the problem at its start model on the free parameters:
+    /// `a = Jᵀ J` (P × P, resized if needed), `g = Jᵀ e`, with `J` the weighted Jacobian
+    /// (3m × P) and `e` the weighted residual; returns the cost `‖e‖²`. This is what every
+    /// accepted LM iteration assembles (exposed for benchmarks and tests).
+    pub fn normal_equations(&self, a: &mut DMatrix<f64>, g: &mut DVector<f64>) -> f64 {
+        let pf = self.free.len();
+        if a.shape() != (pf, pf) {
+            *a = DMatrix::zeros(pf, pf);
+        }
+        if g.len() != pf {
+            *g = DVector::zeros(pf);
+        }
+        let trig = PoseTrig::new(self.robot.n_joints(), self.poses_rad);
+        let mut work = NormalWork::new(pf);
+        let cost = work.assemble(self.robot, &trig, self.points_mm, self.weights, &self.free);
+        work.copy_to(a, g);
+        cost
+    }
+
+    /// [`Problem::normal_equations`] by the straightforward path (reference Jacobian
+    /// [`Robot::point_jacobian_into`], unvectorised accumulation): what the fast path is
+    /// tested against.
+    pub fn normal_equations_reference(&self, a: &mut DMatrix<f64>, g: &mut DVector<f64>) -> f64 {
+        let pf = self.free.len();
+        if a.shape() != (pf, pf) {
+            *a = DMatrix::zeros(pf, pf);
+        }
+        if g.len() != pf {
+            *g = DVector::zeros(pf);
+        }
+        assemble_normal(
+            self.robot,
+            self.poses_rad,
+            self.points_mm,
+            self.weights,
+            &self.free,
+            a,
+            g,
+        )
     }
 
     /// The same data with another start model (same layout, e.g. after registration).
@@ -293,6 +335,286 @@ pub(crate) fn weighted_rss(
             e.norm_squared()
         })
         .sum()
+}
+
+/// Weighted residual sum of squares from precomputed sines and cosines of the poses: the
+/// same value as [`weighted_rss`], bit for bit ([`Robot::point_trig`] is [`Robot::point`]).
+pub(crate) fn weighted_rss_trig(
+    robot: &Robot,
+    trig: &PoseTrig,
+    points_mm: &[Vector3<f64>],
+    weights: Option<&[f64]>,
+) -> f64 {
+    points_mm
+        .iter()
+        .enumerate()
+        .map(|(j, meas)| {
+            let e =
+                (meas - robot.point_trig(trig.pose(j))).component_mul(&pose_weights(weights, j));
+            e.norm_squared()
+        })
+        .sum()
+}
+
+/// Width the rows of the fast assembly are padded to: the widest vector (8 doubles).
+pub(crate) const LANES: usize = 8;
+
+/// Poses whose blocks are added to `A` in one pass over it (each entry still receives the
+/// poses' contributions one after the other, in pose order: the same sums as pose by pose,
+/// with a quarter of the loads and stores of `A`).
+const GROUP: usize = 4;
+
+/// Values of one block of [`LANES`] columns for the whole group: `3·GROUP·LANES`.
+const PANEL: usize = 3 * GROUP * LANES;
+
+/// Buffers of [`NormalWork::assemble`]: the upper triangle of `A = JᵀJ` in padded
+/// column-major storage (leading dimension `ld`, a multiple of [`LANES`]), `g = Jᵀe`, and the
+/// 3 × P blocks of up to [`GROUP`] poses.
+pub(crate) struct NormalWork {
+    pf: usize,
+    ld: usize,
+    /// `ld × pf`, column-major; entry (k, l), k ≤ l, at `l·ld + k`. Entries below the
+    /// diagonal inside a column's last block of [`LANES`] are scratch.
+    a: Vec<f64>,
+    g: Vec<f64>,
+    jac: [[f64; MAX_PARAMS]; 3],
+    /// The weighted blocks of the group's poses, block-major: entry (pose p, row c ∈ x, y,
+    /// z, column k) at `(k / LANES)·PANEL + (3p + c)·LANES + k % LANES` (zero-padded; unused
+    /// poses of a last, partial group are all zero).
+    b: Vec<f64>,
+    e: [Vector3<f64>; GROUP],
+}
+
+impl NormalWork {
+    pub(crate) fn new(pf: usize) -> Self {
+        let ld = pf.div_ceil(LANES) * LANES;
+        NormalWork {
+            pf,
+            ld,
+            a: vec![0.0; ld * pf],
+            g: vec![0.0; ld],
+            jac: [[0.0; MAX_PARAMS]; 3],
+            b: vec![0.0; ld / LANES * PANEL],
+            e: [Vector3::zeros(); GROUP],
+        }
+    }
+
+    /// [`assemble_normal`] from precomputed sines and cosines of the poses, the rank-3
+    /// updates vectorised at the run-time [`simd_level`] (all levels give identical bits).
+    /// Returns the cost; the system stays in `self` ([`NormalWork::copy_to`]).
+    pub(crate) fn assemble(
+        &mut self,
+        robot: &Robot,
+        trig: &PoseTrig,
+        points_mm: &[Vector3<f64>],
+        weights: Option<&[f64]>,
+        free: &[usize],
+    ) -> f64 {
+        self.dispatch(robot, trig, points_mm, weights, free, None)
+    }
+
+    /// [`NormalWork::assemble`] that also writes the stacked weighted Jacobian
+    /// `diag(w)·∂p/∂x_free` (3m × P) into `jac`.
+    pub(crate) fn assemble_stacked(
+        &mut self,
+        robot: &Robot,
+        trig: &PoseTrig,
+        points_mm: &[Vector3<f64>],
+        weights: Option<&[f64]>,
+        free: &[usize],
+        jac: &mut DMatrix<f64>,
+    ) -> f64 {
+        assert_eq!(
+            jac.shape(),
+            (3 * points_mm.len(), free.len()),
+            "Jacobian shape"
+        );
+        self.dispatch(
+            robot,
+            trig,
+            points_mm,
+            weights,
+            free,
+            Some(jac.as_mut_slice()),
+        )
+    }
+
+    fn dispatch(
+        &mut self,
+        robot: &Robot,
+        trig: &PoseTrig,
+        points_mm: &[Vector3<f64>],
+        weights: Option<&[f64]>,
+        free: &[usize],
+        stack: Option<&mut [f64]>,
+    ) -> f64 {
+        debug_assert_eq!(free.len(), self.pf);
+        match simd_level() {
+            #[cfg(target_arch = "x86_64")]
+            SimdLevel::Avx512 => {
+                // SAFETY: simd_level() never returns a level the CPU does not support.
+                unsafe { self.assemble_avx512(robot, trig, points_mm, weights, free, stack) }
+            }
+            #[cfg(target_arch = "x86_64")]
+            SimdLevel::Avx2 => {
+                // SAFETY: as above.
+                unsafe { self.assemble_avx2(robot, trig, points_mm, weights, free, stack) }
+            }
+            _ => self.assemble_impl(robot, trig, points_mm, weights, free, stack),
+        }
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx512f")]
+    fn assemble_avx512(
+        &mut self,
+        robot: &Robot,
+        trig: &PoseTrig,
+        points_mm: &[Vector3<f64>],
+        weights: Option<&[f64]>,
+        free: &[usize],
+        stack: Option<&mut [f64]>,
+    ) -> f64 {
+        self.assemble_impl(robot, trig, points_mm, weights, free, stack)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    fn assemble_avx2(
+        &mut self,
+        robot: &Robot,
+        trig: &PoseTrig,
+        points_mm: &[Vector3<f64>],
+        weights: Option<&[f64]>,
+        free: &[usize],
+        stack: Option<&mut [f64]>,
+    ) -> f64 {
+        self.assemble_impl(robot, trig, points_mm, weights, free, stack)
+    }
+
+    #[inline(always)]
+    fn assemble_impl(
+        &mut self,
+        robot: &Robot,
+        trig: &PoseTrig,
+        points_mm: &[Vector3<f64>],
+        weights: Option<&[f64]>,
+        free: &[usize],
+        mut stack: Option<&mut [f64]>,
+    ) -> f64 {
+        let (pf, ld) = (self.pf, self.ld);
+        self.a.fill(0.0);
+        self.g.fill(0.0);
+        let mut cost = 0.0;
+        let [jx, jy, jz] = &mut self.jac;
+        let m = points_mm.len();
+        for first in (0..m).step_by(GROUP) {
+            let last = (first + GROUP).min(m);
+            if last - first < GROUP {
+                self.b.fill(0.0);
+                self.e = [Vector3::zeros(); GROUP];
+            }
+            for (slot, meas) in points_mm[first..last].iter().enumerate() {
+                let j = first + slot;
+                let p = robot.point_jacobian_trig(trig.pose(j), jx, jy, jz);
+                let w = pose_weights(weights, j);
+                let e = (meas - p).component_mul(&w);
+                cost += e.norm_squared();
+                self.e[slot] = e;
+                for (c, &k) in free.iter().enumerate() {
+                    let at = c / LANES * PANEL + 3 * slot * LANES + c % LANES;
+                    self.b[at] = jx[k] * w.x;
+                    self.b[at + LANES] = jy[k] * w.y;
+                    self.b[at + 2 * LANES] = jz[k] * w.z;
+                }
+                if let Some(st) = stack.as_deref_mut() {
+                    let rows = 3 * m;
+                    for c in 0..pf {
+                        let at = c / LANES * PANEL + 3 * slot * LANES + c % LANES;
+                        st[c * rows + 3 * j] = self.b[at];
+                        st[c * rows + 3 * j + 1] = self.b[at + LANES];
+                        st[c * rows + 3 * j + 2] = self.b[at + 2 * LANES];
+                    }
+                }
+            }
+            group_update(&mut self.a, &mut self.g, pf, ld, &self.b, &self.e);
+        }
+        cost
+    }
+
+    /// The assembled system as a full symmetric `a` (P × P) and `g`.
+    pub(crate) fn copy_to(&self, a: &mut DMatrix<f64>, g: &mut DVector<f64>) {
+        let (pf, ld) = (self.pf, self.ld);
+        debug_assert_eq!(a.shape(), (pf, pf));
+        for l in 0..pf {
+            for k in 0..=l {
+                let v = self.a[l * ld + k];
+                a[(k, l)] = v;
+                a[(l, k)] = v;
+            }
+            g[l] = self.g[l];
+        }
+    }
+}
+
+/// `g += Σ_p B_pᵀ e_p` and the upper triangle of `A += Σ_p B_pᵀ B_p` for the [`GROUP`]
+/// blocks `B_p` in `b` (layout of [`NormalWork`], padded with zeros to `ld`, a multiple of
+/// [`LANES`]). Every entry adds the poses' terms `(x·x_l + y·y_l) + z·z_l` one after the
+/// other, exactly as a pose-by-pose accumulation would. The loops run over whole blocks of
+/// [`LANES`] rows, loaded before they are stored, which is what lets them vectorise at any
+/// width.
+#[inline(always)]
+fn group_update(
+    a: &mut [f64],
+    g: &mut [f64],
+    pf: usize,
+    ld: usize,
+    b: &[f64],
+    e: &[Vector3<f64>; GROUP],
+) {
+    let panel = |blk: usize| -> &[f64; PANEL] {
+        b[blk * PANEL..(blk + 1) * PANEL].try_into().expect("panel")
+    };
+    let lane = |pn: &[f64; PANEL], p: usize, c: usize| -> [f64; LANES] {
+        pn[(3 * p + c) * LANES..(3 * p + c + 1) * LANES]
+            .try_into()
+            .expect("lanes")
+    };
+    for (blk, gk) in g[..ld].chunks_exact_mut(LANES).enumerate() {
+        let pn = panel(blk);
+        let mut acc: [f64; LANES] = (&*gk).try_into().expect("block");
+        for (p, ep) in e.iter().enumerate() {
+            let (x, y, z) = (lane(pn, p, 0), lane(pn, p, 1), lane(pn, p, 2));
+            for t in 0..LANES {
+                acc[t] += x[t] * ep.x + y[t] * ep.y + z[t] * ep.z;
+            }
+        }
+        gk.copy_from_slice(&acc);
+    }
+    for l in 0..pf {
+        let own = panel(l / LANES);
+        let mut coef = [[0.0; 3]; GROUP];
+        for (p, c) in coef.iter_mut().enumerate() {
+            for (r, v) in c.iter_mut().enumerate() {
+                *v = own[(3 * p + r) * LANES + l % LANES];
+            }
+        }
+        let blocks = (l + 1).div_ceil(LANES);
+        for (blk, ak) in a[l * ld..l * ld + blocks * LANES]
+            .chunks_exact_mut(LANES)
+            .enumerate()
+        {
+            let pn = panel(blk);
+            let mut acc: [f64; LANES] = (&*ak).try_into().expect("block");
+            for (p, [xl, yl, zl]) in coef.iter().enumerate() {
+                let (x, y, z) = (lane(pn, p, 0), lane(pn, p, 1), lane(pn, p, 2));
+                for t in 0..LANES {
+                    acc[t] += x[t] * xl + y[t] * yl + z[t] * zl;
+                }
+            }
+            ak.copy_from_slice(&acc);
+        }
+    }
 }
 
 /// Assembles the normal equations on the free parameters at `robot`:

@@ -14,7 +14,7 @@
 use nalgebra::{Matrix3, Matrix6, Rotation3, Vector3, Vector6};
 
 use crate::model::MAX_JOINTS;
-use crate::robot::{Frame, Robot};
+use crate::robot::{Frame, Robot, joint_sin_cos};
 
 /// What the IK must reach: a point fixed in the flange frame at a position, with the flange at
 /// an orientation (both in the measurement frame).
@@ -166,22 +166,37 @@ struct Residual {
     cost: f64,
 }
 
+/// Joint axes `(z_{i−1}, o_{i−1})` of one configuration and its target point `p`: what the
+/// IK Jacobian needs, kept from the residual evaluation so an accepted point costs one chain.
+#[derive(Clone, Copy)]
+struct Axes {
+    axes: [(Vector3<f64>, Vector3<f64>); MAX_JOINTS],
+    point: Vector3<f64>,
+}
+
 impl Robot {
-    fn ik_residual(&self, target: &IkTarget, q_rad: &[f64], scale: f64) -> (Residual, Frame) {
-        let f = self.flange(q_rad);
+    /// Residual at `q_rad`; fills `axes` with the chain's joint axes and the point.
+    fn ik_residual(
+        &self,
+        target: &IkTarget,
+        q_rad: &[f64],
+        scale: f64,
+        axes: &mut Axes,
+    ) -> Residual {
+        let mut sc = [[0.0; 2]; MAX_JOINTS];
+        joint_sin_cos(q_rad, &mut sc);
+        let f = self.joint_axes_trig(&sc[..q_rad.len()], &mut axes.axes);
         let p = f.transform_point(&target.point_in_flange_mm);
+        axes.point = p;
         let ep = target.position_mm - p;
         let er = log_so3(&(target.rotation * f.rot.transpose()));
         let e = Vector6::new(ep.x, ep.y, ep.z, er.x * scale, er.y * scale, er.z * scale);
-        (
-            Residual {
-                e,
-                pos_err_mm: ep.norm(),
-                rot_err_rad: er.norm(),
-                cost: e.norm_squared(),
-            },
-            f,
-        )
+        Residual {
+            e,
+            pos_err_mm: ep.norm(),
+            rot_err_rad: er.norm(),
+            cost: e.norm_squared(),
+        }
     }
 
     /// Solves IK for `target` starting from `q_rad` (radians), which is overwritten with the
@@ -287,10 +302,14 @@ impl Robot {
         // Stop refining once well inside the tolerance: Newton's last step then costs nothing.
         let tight_pos = opts.tol_pos_mm * 1e-3;
         let tight_rot = opts.tol_rot_rad * 1e-3;
-        let (mut res, _) = self.ik_residual(target, q_rad, scale);
+        let mut axes = Axes {
+            axes: [(Vector3::zeros(), Vector3::zeros()); MAX_JOINTS],
+            point: Vector3::zeros(),
+        };
+        let mut trial_axes = axes;
+        let mut res = self.ik_residual(target, q_rad, scale, &mut axes);
         let mut mu = opts.mu0;
         let mut trial = [0.0; MAX_JOINTS];
-        let mut axes = [(Vector3::zeros(), Vector3::zeros()); MAX_JOINTS];
         let mut cols = [Vector6::zeros(); MAX_JOINTS];
         let mut iterations = 0;
         let mut need_jacobian = true;
@@ -299,13 +318,10 @@ impl Robot {
                 break;
             }
             if need_jacobian {
-                let f = self.joint_axes(q_rad, &mut axes);
-                let p = f.transform_point(&target.point_in_flange_mm);
-                for i in 0..n {
-                    let (z, o) = axes[i];
+                let p = axes.point;
+                for (c, (z, o)) in cols[..n].iter_mut().zip(&axes.axes) {
                     let lin = z.cross(&(p - o));
-                    cols[i] =
-                        Vector6::new(lin.x, lin.y, lin.z, z.x * scale, z.y * scale, z.z * scale);
+                    *c = Vector6::new(lin.x, lin.y, lin.z, z.x * scale, z.y * scale, z.z * scale);
                 }
                 need_jacobian = false;
             }
@@ -360,10 +376,11 @@ impl Robot {
                 continue;
             }
             clamp(&mut trial[..n]);
-            let (new_res, _) = self.ik_residual(target, &trial[..n], scale);
+            let new_res = self.ik_residual(target, &trial[..n], scale, &mut trial_axes);
             if new_res.cost < res.cost {
                 q_rad.copy_from_slice(&trial[..n]);
                 res = new_res;
+                std::mem::swap(&mut axes, &mut trial_axes);
                 mu = (mu * 0.1).max(1e-15);
                 need_jacobian = true;
             } else {

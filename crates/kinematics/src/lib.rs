@@ -17,4 +17,4 @@ pub use error::ModelError;
 pub use ik::{IkError, IkOptions, IkReport, IkTarget};
 pub use model::{BaseSpec, JointSpec, MAX_JOINTS, RobotSpec};
 pub use params::{BETA_ALPHA_TOL_DEG, ParamInfo, ParamKind, ParamLayout, Unit};
-pub use robot::{Frame, MAX_PARAMS, Robot};
+pub use robot::{Frame, MAX_PARAMS, PoseTrig, Robot, joint_sin_cos};

@@ -7,6 +7,9 @@ use crate::error::ModelError;
 use crate::model::{BaseSpec, JointSpec, MAX_JOINTS, RobotSpec};
 use crate::params::{ParamKind, ParamLayout};
 
+mod fast;
+pub use fast::{PoseTrig, joint_sin_cos};
+
 /// Largest parameter-vector length: 5 per joint plus base and tool.
 pub const MAX_PARAMS: usize = 5 * MAX_JOINTS + 9;
 
@@ -66,12 +69,15 @@ struct Link {
     cos_alpha: f64,
     sin_beta: f64,
     cos_beta: f64,
+    sin_theta: f64,
+    cos_theta: f64,
 }
 
 impl Link {
     fn refresh(&mut self) {
         (self.sin_alpha, self.cos_alpha) = self.alpha_rad.sin_cos();
         (self.sin_beta, self.cos_beta) = self.beta_rad.sin_cos();
+        (self.sin_theta, self.cos_theta) = self.theta_rad.sin_cos();
     }
 
     /// Columns 0 and 1 of `Rz(θ+q)·Rx(α)` and the sin/cos of θ+q, the pieces both the
@@ -109,6 +115,18 @@ impl Base {
             pos_mm: Vector3::from(self.d_mm),
         }
     }
+
+    /// The axes of the base rotations in the measurement frame: `Rz Ry e_x` (rx),
+    /// `Rz e_y` (ry) and `e_z` (rz).
+    fn axes(&self) -> [Vector3<f64>; 3] {
+        let [_, ry, rz] = self.r_rad;
+        let rzm = Rotation3::from_axis_angle(&Vector3::z_axis(), rz);
+        [
+            rzm * Rotation3::from_axis_angle(&Vector3::y_axis(), ry) * Vector3::x(),
+            rzm * Vector3::y(),
+            Vector3::z(),
+        ]
+    }
 }
 
 /// A serial revolute robot with its full geometric parameter set.
@@ -123,6 +141,8 @@ pub struct Robot {
     links: Vec<Link>,
     base: Base,
     base_frame: Frame,
+    /// [`Base::axes`] of `base`, cached.
+    base_axes: [Vector3<f64>; 3],
     tool_mm: Vector3<f64>,
     layout: ParamLayout,
     /// Parameter index of β for each joint (`None` where β is not a parameter).
@@ -158,6 +178,8 @@ impl Robot {
                     cos_alpha: 1.0,
                     sin_beta: 0.0,
                     cos_beta: 1.0,
+                    sin_theta: 0.0,
+                    cos_theta: 1.0,
                 };
                 l.refresh();
                 l
@@ -178,6 +200,7 @@ impl Robot {
             links,
             base,
             base_frame: base.frame(),
+            base_axes: base.axes(),
             tool_mm: Vector3::from(spec.tool_mm),
             layout,
             beta_index,
@@ -328,6 +351,7 @@ impl Robot {
             l.refresh();
         }
         self.base_frame = self.base.frame();
+        self.base_axes = self.base.axes();
         Ok(())
     }
 
@@ -342,11 +366,15 @@ impl Robot {
     /// base; frame i the link frame after joint i; frame N the flange). No allocation.
     #[inline]
     pub fn frames_into(&self, q_rad: &[f64], frames: &mut [Frame; MAX_JOINTS + 1]) {
-        self.chain(q_rad, frames)
+        assert_eq!(q_rad.len(), self.links.len(), "joint vector length");
+        let mut sc = [[0.0; 2]; MAX_JOINTS];
+        joint_sin_cos(q_rad, &mut sc);
+        self.frames_trig(&sc[..q_rad.len()], frames)
     }
 
+    /// The straightforward chain: one [`Frame::compose`] per link with `sin_cos(θ+q)`.
     #[inline]
-    fn chain(&self, q_rad: &[f64], frames: &mut [Frame; MAX_JOINTS + 1]) {
+    fn chain_reference(&self, q_rad: &[f64], frames: &mut [Frame; MAX_JOINTS + 1]) {
         debug_assert_eq!(q_rad.len(), self.links.len(), "joint vector length");
         frames[0] = self.base_frame;
         for (i, (l, q)) in self.links.iter().zip(q_rad).enumerate() {
@@ -360,6 +388,15 @@ impl Robot {
     /// joint counts with a named error before this point).
     pub fn flange(&self, q_rad: &[f64]) -> Frame {
         assert_eq!(q_rad.len(), self.links.len(), "joint vector length");
+        let mut sc = [[0.0; 2]; MAX_JOINTS];
+        joint_sin_cos(q_rad, &mut sc);
+        self.flange_trig(&sc[..q_rad.len()])
+    }
+
+    /// [`Robot::flange`] by the straightforward composition of one [`Frame`] per link: the
+    /// reference the fast kernels are tested against (equal up to rounding).
+    pub fn flange_reference(&self, q_rad: &[f64]) -> Frame {
+        assert_eq!(q_rad.len(), self.links.len(), "joint vector length");
         let mut f = self.base_frame;
         for (l, q) in self.links.iter().zip(q_rad) {
             f = f.compose(&l.frame(*q));
@@ -368,8 +405,18 @@ impl Robot {
     }
 
     /// The measured point `p = T_flange · t` in the measurement frame, mm.
+    ///
+    /// Panics if `q_rad.len() != n_joints()`.
     pub fn point(&self, q_rad: &[f64]) -> Vector3<f64> {
-        self.flange(q_rad).transform_point(&self.tool_mm)
+        assert_eq!(q_rad.len(), self.links.len(), "joint vector length");
+        let mut sc = [[0.0; 2]; MAX_JOINTS];
+        joint_sin_cos(q_rad, &mut sc);
+        self.point_trig(&sc[..q_rad.len()])
+    }
+
+    /// [`Robot::point`] through [`Robot::flange_reference`] (equal up to rounding).
+    pub fn point_reference(&self, q_rad: &[f64]) -> Vector3<f64> {
+        self.flange_reference(q_rad).transform_point(&self.tool_mm)
     }
 
     /// Measured points for a batch of poses stored row after row (`poses_rad.len() = m·N`).
@@ -391,7 +438,9 @@ impl Robot {
     ///   `∂p/∂rx = (Rz Ry e_x) × (p − d)`, `∂p/∂d = I`,
     /// - tool: `∂p/∂t = R_flange`.
     ///
-    /// No heap allocation.
+    /// No heap allocation. This is the straightforward implementation (one [`Frame`] composed
+    /// per link), kept as the reference of the fast [`Robot::point_jacobian_trig`] that the
+    /// batch methods use; the two agree up to rounding.
     pub fn point_jacobian_into(&self, q_rad: &[f64], cols: &mut [Vector3<f64>]) -> Vector3<f64> {
         assert_eq!(
             cols.len(),
@@ -400,7 +449,7 @@ impl Robot {
         );
         assert_eq!(q_rad.len(), self.links.len(), "joint vector length");
         let mut frames = [Frame::identity(); MAX_JOINTS + 1];
-        self.chain(q_rad, &mut frames);
+        self.chain_reference(q_rad, &mut frames);
         let n = self.links.len();
         let p = frames[n].transform_point(&self.tool_mm);
         for (i, (l, q)) in self.links.iter().zip(q_rad).enumerate() {
@@ -455,13 +504,15 @@ impl Robot {
         assert_eq!(poses_rad.len(), m * n, "pose buffer is not a multiple of N");
         assert_eq!(points.len(), m, "points buffer length");
         assert_eq!(jac.shape(), (3 * m, np), "Jacobian shape");
-        let mut cols = [Vector3::zeros(); MAX_PARAMS];
+        let (mut jx, mut jy, mut jz) = ([0.0; MAX_PARAMS], [0.0; MAX_PARAMS], [0.0; MAX_PARAMS]);
+        let mut sc = [[0.0; 2]; MAX_JOINTS];
         for (j, q) in poses_rad.chunks_exact(n).enumerate() {
-            points[j] = self.point_jacobian_into(q, &mut cols[..np]);
-            for (k, c) in cols[..np].iter().enumerate() {
-                jac[(3 * j, k)] = c.x;
-                jac[(3 * j + 1, k)] = c.y;
-                jac[(3 * j + 2, k)] = c.z;
+            joint_sin_cos(q, &mut sc);
+            points[j] = self.point_jacobian_trig(&sc[..n], &mut jx, &mut jy, &mut jz);
+            for k in 0..np {
+                jac[(3 * j, k)] = jx[k];
+                jac[(3 * j + 1, k)] = jy[k];
+                jac[(3 * j + 2, k)] = jz[k];
             }
         }
     }
@@ -514,11 +565,9 @@ impl Robot {
         q_rad: &[f64],
         axes: &mut [(Vector3<f64>, Vector3<f64>); MAX_JOINTS],
     ) -> Frame {
-        let mut frames = [Frame::identity(); MAX_JOINTS + 1];
-        self.chain(q_rad, &mut frames);
-        for i in 0..self.links.len() {
-            axes[i] = (frames[i].rot.column(2).into_owned(), frames[i].pos_mm);
-        }
-        frames[self.links.len()]
+        assert_eq!(q_rad.len(), self.links.len(), "joint vector length");
+        let mut sc = [[0.0; 2]; MAX_JOINTS];
+        joint_sin_cos(q_rad, &mut sc);
+        self.joint_axes_trig(&sc[..q_rad.len()], axes)
     }
 }

@@ -2,7 +2,8 @@
 //! inverse kinematics and model-file validation.
 
 use kinematics::{
-    BaseSpec, IkError, IkOptions, IkTarget, JointSpec, ModelError, Robot, RobotSpec, Unit,
+    BaseSpec, Frame, IkError, IkOptions, IkTarget, JointSpec, MAX_JOINTS, ModelError, PoseTrig,
+    Robot, RobotSpec, Unit,
 };
 use nalgebra::Vector3;
 use proptest::prelude::*;
@@ -182,6 +183,50 @@ proptest! {
         check_jacobian(&r, &in_limit_pose(&r, &uq))?;
     }
 
+    /// The fast kernels (sin/cos once per pose, the point backwards, frames by column
+    /// mixing) against the straightforward composition, within 1e-12 relative to the reach.
+    #[test]
+    fn fast_kernels_match_the_reference(
+        ug in prop::collection::vec(0.0..1.0f64, 51),
+        uq in prop::collection::vec(0.0..1.0f64, 7),
+        up in prop::collection::vec(0.0..1.0f64, 7 * 5 + 9),
+    ) {
+        let r = perturbed(&random_chain(&ug), &up);
+        check_fast_against_reference(&r, &in_limit_pose(&r, &uq))?;
+        let k = perturbed(&kr1000(), &up[..34]);
+        check_fast_against_reference(&k, &in_limit_pose(&k, &uq[..6]))?;
+    }
+}
+
+fn check_fast_against_reference(r: &Robot, q: &[f64]) -> Result<(), TestCaseError> {
+    let tol = 1e-12 * 1e4;
+    let reference = r.flange_reference(q);
+    let fast = r.flange(q);
+    prop_assert!((fast.pos_mm - reference.pos_mm).norm() < tol);
+    prop_assert!((fast.rot - reference.rot).norm() < 1e-12);
+    let mut frames = [Frame::identity(); MAX_JOINTS + 1];
+    r.frames_into(q, &mut frames);
+    prop_assert_eq!(frames[r.n_joints()], fast);
+    prop_assert!((r.point(q) - r.point_reference(q)).norm() < tol);
+    let trig = PoseTrig::new(r.n_joints(), q);
+    prop_assert_eq!(r.point_trig(trig.pose(0)), r.point(q));
+    // Jacobian: reference columns vs the fast rows.
+    let np = r.n_params();
+    let mut cols = vec![Vector3::zeros(); np];
+    r.point_jacobian_into(q, &mut cols);
+    let (mut jx, mut jy, mut jz) = (vec![0.0; np], vec![0.0; np], vec![0.0; np]);
+    let p = r.point_jacobian_trig(trig.pose(0), &mut jx, &mut jy, &mut jz);
+    prop_assert_eq!(p, r.point(q));
+    for k in 0..np {
+        let d = (Vector3::new(jx[k], jy[k], jz[k]) - cols[k]).norm();
+        prop_assert!(d <= 1e-12 * cols[k].norm().max(1e4), "column {k}: {d:e}");
+    }
+    let (pts, jac) = r.jacobian_batch(q);
+    prop_assert_eq!(pts[0], p);
+    for k in 0..np {
+        prop_assert_eq!(jac[(0, k)], jx[k]);
+    }
+    Ok(())
 }
 
 /// xorshift64*: a fixed, dependency-free uniform stream so the IK sample is the same on

@@ -1,0 +1,128 @@
+//! Normal equations, LM solves and whole identifications on the paper's problem size (50
+//! poses, 34 parameters, tracker-like noise, from the nominal model), and the real UR10 data
+//! set (100 poses, 35 parameters, registration first). `cargo bench -p identify`.
+
+use std::hint::black_box;
+use std::path::{Path, PathBuf};
+use std::time::Duration;
+
+use criterion::{Criterion, criterion_group, criterion_main};
+use identify::{
+    Damping, IdentifyOptions, LmOptions, ParamSet, Problem, RegistrationPolicy, identify,
+    random_poses, solve,
+};
+use kinematics::{Robot, RobotSpec};
+use nalgebra::{DMatrix, DVector, Vector3};
+use rand::SeedableRng;
+use rand::rngs::ChaCha8Rng;
+use rand_distr::{Distribution, Normal};
+
+fn workspace() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
+}
+
+fn robot(file: &str, tool_mm: Option<[f64; 3]>) -> Robot {
+    let path = workspace().join("scenarios/robots").join(file);
+    let text = std::fs::read_to_string(&path).expect("robot file");
+    let mut spec = RobotSpec::from_json_str(&text, &path.display().to_string()).expect("model");
+    if let Some(t) = tool_mm {
+        spec.tool_mm = t;
+    }
+    Robot::from_spec(&spec).expect("robot")
+}
+
+/// The nominal model with errors of the paper's size (≈0.02° on angles, ≈0.4 mm on lengths).
+fn perturbed(nominal: &Robot) -> Robot {
+    let mut p = nominal.params();
+    for (k, v) in p.iter_mut().enumerate() {
+        *v += if nominal.layout().get(k).unit == kinematics::Unit::Deg {
+            0.02f64.to_radians() * (((k * 7) % 5) as f64 - 2.0) / 2.0
+        } else {
+            0.4 * (((k * 3) % 5) as f64 - 2.0) / 2.0
+        };
+    }
+    nominal.with_params(&p).expect("perturbed")
+}
+
+/// The real UR10 series (Fraunhofer IPA), if present: every 15th row → 100 poses.
+fn ur10_data() -> Option<(Vec<f64>, Vec<Vector3<f64>>)> {
+    let candidates = [
+        std::env::var_os("KINCAL_UR10_CSV").map(PathBuf::from),
+        Some(workspace().join("data/ur10-ipa/series-b-joint-configurations.csv")),
+        Some(workspace().join("../shared/data/ur10-ipa/series-b-joint-configurations.csv")),
+    ];
+    let path = candidates.into_iter().flatten().find(|p| p.exists())?;
+    let set =
+        measurements::read_file(&path, &measurements::ReadOptions::new(6)).expect("UR10 data");
+    let mut poses = Vec::new();
+    let mut points = Vec::new();
+    for row in set.rows.iter().step_by(15).take(100) {
+        poses.extend(row.q_deg.iter().map(|v| v.to_radians()));
+        points.push(Vector3::from(row.point_mm.expect("measured point")));
+    }
+    Some((poses, points))
+}
+
+fn benches(c: &mut Criterion) {
+    let nominal = robot("kr1000-titan.json", Some([60.0, 20.0, 150.0]));
+    let truth = perturbed(&nominal);
+    let poses = random_poses(&nominal, 50, 1).expect("poses");
+    let mut rng = ChaCha8Rng::seed_from_u64(7);
+    let noise = Normal::new(0.0, 0.02).expect("normal");
+    let measured: Vec<Vector3<f64>> = truth
+        .points(&poses)
+        .iter()
+        .map(|p| {
+            p + Vector3::new(
+                noise.sample(&mut rng),
+                noise.sample(&mut rng),
+                noise.sample(&mut rng),
+            )
+        })
+        .collect();
+    let all: Vec<usize> = (0..nominal.n_params()).collect();
+    let problem = Problem::new(&nominal, &poses, &measured, all).expect("problem");
+
+    let mut g = c.benchmark_group("identify");
+    g.sample_size(30)
+        .warm_up_time(Duration::from_millis(500))
+        .measurement_time(Duration::from_secs(2));
+
+    let mut a = DMatrix::zeros(0, 0);
+    let mut v = DVector::zeros(0);
+    g.bench_function("normal_equations_50x34", |b| {
+        b.iter(|| black_box(&problem).normal_equations(&mut a, &mut v))
+    });
+    for damping in [Damping::levenberg(), Damping::nielsen()] {
+        let lm = LmOptions::with_damping(damping);
+        g.bench_function(format!("lm_{}_50x34", damping.name()), |b| {
+            b.iter(|| solve(black_box(&problem), &lm).expect("solves"))
+        });
+        let opts = IdentifyOptions {
+            lm,
+            registration: RegistrationPolicy::Never,
+            ..IdentifyOptions::default()
+        };
+        g.bench_function(format!("identify_{}_50x34", damping.name()), |b| {
+            b.iter(|| identify(black_box(&problem), &opts).expect("identifies"))
+        });
+    }
+
+    if let Some((ur_poses, ur_points)) = ur10_data() {
+        let ur10 = robot("ur10.json", None);
+        let free = ParamSet::Paper
+            .resolve(&ur10, &ur_poses, None, &Default::default())
+            .expect("free set");
+        let ur_problem = Problem::new(&ur10, &ur_poses, &ur_points, free).expect("problem");
+        let opts = IdentifyOptions::default();
+        g.bench_function("identify_ur10_real_100x35", |b| {
+            b.iter(|| identify(black_box(&ur_problem), &opts).expect("identifies"))
+        });
+    } else {
+        eprintln!("UR10 data not found (set KINCAL_UR10_CSV): skipping identify_ur10_real_100x35");
+    }
+    g.finish();
+}
+
+criterion_group!(identify_benches, benches);
+criterion_main!(identify_benches);

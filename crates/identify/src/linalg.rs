@@ -1,0 +1,108 @@
+//! Small dense kernels on column-major `n × n` buffers (leading dimension n), without
+//! allocation: the Cholesky factorisation and solve of the damped normal equations, a
+//! symmetric matrix–vector product.
+//!
+//! The inner loops are element-wise updates (`y[i] -= a·x[i]`), never floating-point
+//! reductions split across lanes, so a vectorised build gives the same bits as a scalar
+//! one; sums that are reductions (the back substitution) run sequentially.
+
+/// In-place Cholesky factorisation `A = L Lᵀ` of the symmetric matrix in `a` (column-major,
+/// n × n; only the lower triangle is read). On success the lower triangle holds L (the
+/// strict upper triangle is left as it was). Returns `false` when a pivot is not positive
+/// and finite (A is not numerically positive definite).
+///
+/// Right-looking: after column k is scaled, the trailing lower triangle is updated column by
+/// column with contiguous `axpy`s.
+pub(crate) fn cholesky_in_place(a: &mut [f64], n: usize) -> bool {
+    debug_assert!(a.len() >= n * n);
+    for k in 0..n {
+        let (head, tail) = a.split_at_mut((k + 1) * n);
+        let col_k = &mut head[k * n..];
+        let d = col_k[k];
+        if !(d > 0.0 && d.is_finite()) {
+            return false;
+        }
+        let lkk = d.sqrt();
+        col_k[k] = lkk;
+        for v in &mut col_k[k + 1..n] {
+            *v /= lkk;
+        }
+        let col_k = &col_k[..n];
+        for (jj, col_j) in tail.chunks_exact_mut(n).enumerate() {
+            let j = k + 1 + jj;
+            let ljk = col_k[j];
+            for (aij, lik) in col_j[j..n].iter_mut().zip(&col_k[j..n]) {
+                *aij -= ljk * lik;
+            }
+        }
+    }
+    true
+}
+
+/// Solves `L Lᵀ x = b` in place (`b` becomes x) with the factor from
+/// [`cholesky_in_place`].
+pub(crate) fn cholesky_solve(l: &[f64], n: usize, b: &mut [f64]) {
+    // L y = b, column by column.
+    for k in 0..n {
+        let col = &l[k * n..(k + 1) * n];
+        b[k] /= col[k];
+        let bk = b[k];
+        let (_, rest) = b.split_at_mut(k + 1);
+        for (bi, lik) in rest[..n - k - 1].iter_mut().zip(&col[k + 1..]) {
+            *bi -= lik * bk;
+        }
+    }
+    // Lᵀ x = y, sequential dot products.
+    for k in (0..n).rev() {
+        let col = &l[k * n..(k + 1) * n];
+        let mut s = b[k];
+        for i in k + 1..n {
+            s -= col[i] * b[i];
+        }
+        b[k] = s / col[k];
+    }
+}
+
+/// `y = A x` for a full (both triangles stored) n × n matrix, column by column.
+pub(crate) fn mat_vec(a: &[f64], n: usize, x: &[f64], y: &mut [f64]) {
+    y[..n].fill(0.0);
+    for (l, col) in a.chunks_exact(n).take(n).enumerate() {
+        let xl = x[l];
+        for (yk, akl) in y[..n].iter_mut().zip(col) {
+            *yk += akl * xl;
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::DMatrix;
+
+    #[test]
+    fn cholesky_and_solve_match_nalgebra() {
+        let n = 9;
+        let b = DMatrix::from_fn(15, n, |i, j| {
+            ((i * 7 + j * 3) as f64 * 0.37).sin() + (i == j) as u8 as f64
+        });
+        let a = b.transpose() * &b;
+        let mut buf = a.as_slice().to_vec();
+        assert!(cholesky_in_place(&mut buf, n));
+        let mut x: Vec<f64> = (0..n).map(|k| k as f64 - 3.0).collect();
+        let rhs = nalgebra::DVector::from_vec(x.clone());
+        cholesky_solve(&buf, n, &mut x);
+        let expected = a.clone().cholesky().unwrap().solve(&rhs);
+        for k in 0..n {
+            assert!((x[k] - expected[k]).abs() <= 1e-12 * expected.amax(), "{k}");
+        }
+        let mut y = vec![0.0; n];
+        mat_vec(a.as_slice(), n, &x, &mut y);
+        for k in 0..n {
+            assert!((y[k] - rhs[k]).abs() <= 1e-10 * rhs.amax());
+        }
+        // Not positive definite.
+        let mut bad = a.as_slice().to_vec();
+        bad[0] = -1.0;
+        assert!(!cholesky_in_place(&mut bad, n));
+    }
+}
