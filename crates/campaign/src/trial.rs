@@ -392,16 +392,16 @@ fn recovery(
     let free = &ctx.minimal_free;
     let lm = &ctx.id_options.lm;
     let truth_min = reexpress(nominal, truth, poses, free, lm)?;
-    let est_min = reexpress(nominal, &fit.robot, poses, free, lm)?;
-    let est_robot = nominal
-        .with_params(&est_min)
-        .map_err(identify::IdentifyError::Model)?;
-    let Some(cov) = identify::covariance(
-        &est_robot,
-        poses,
+    // The estimate's re-expression, then its covariance with the trial's measurements at
+    // that solution (reusing the normal matrix the solver assembled there).
+    let est_points = fit.robot.points(poses);
+    let est_problem = Problem::new(nominal, poses, &est_points, free.to_vec())?;
+    let est = identify::solve(&est_problem, lm)?;
+    let est_min = &est.params;
+    let Some(cov) = identify::covariance_at_solution(
+        &est_problem,
+        &est,
         measured,
-        None,
-        free,
         &ctx.id_options.identifiability,
         ctx.id_options.correlation_flag,
     )?

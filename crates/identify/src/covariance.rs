@@ -26,7 +26,8 @@ use crate::error::IdentifyError;
 use crate::identifiability::{
     IdentifiabilityOptions, analyze_matrix, keep_priority, kept_by_cholesky,
 };
-use crate::problem::{NormalWork, weighted_jacobian, weighted_rss};
+use crate::lm::{FinalSystem, LmSolution};
+use crate::problem::{NormalWork, Problem, weighted_jacobian, weighted_rss, weighted_rss_trig};
 
 /// A pair of parameters with a large correlation.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -98,7 +99,7 @@ pub fn covariance(
     correlation_flag: f64,
 ) -> Result<Option<Covariance>, IdentifyError> {
     covariance_on(
-        true,
+        Source::Fast,
         robot,
         poses_rad,
         points_mm,
@@ -107,6 +108,54 @@ pub fn covariance(
         opts,
         correlation_flag,
     )
+}
+
+/// [`covariance`] at the solution of [`crate::solve`], reusing the normal matrix the solver
+/// assembled there instead of assembling it again: the same result, bit for bit, as
+/// `covariance(&solution.robot, …)` with the problem's poses, weights and free parameters.
+/// `points_mm` (one per pose) give the residual sum of squares; they may differ from the
+/// problem's, e.g. the measurements when the solve fitted a model's points. When the
+/// solution does not match the problem (other poses, weights or free set) or comes from the
+/// reference path, the matrix is assembled afresh.
+pub fn covariance_at_solution(
+    problem: &Problem,
+    solution: &LmSolution,
+    points_mm: &[Vector3<f64>],
+    opts: &IdentifiabilityOptions,
+    correlation_flag: f64,
+) -> Result<Option<Covariance>, IdentifyError> {
+    let (poses, weights, free) = (problem.poses_rad(), problem.weights(), problem.free());
+    let source = match &solution.system {
+        Some(sys)
+            if sys.free == free
+                && sys.poses == poses
+                && sys.weights.as_deref() == weights
+                && points_mm.len() == sys.trig.n_poses() =>
+        {
+            Source::Solved(sys)
+        }
+        _ => Source::Fast,
+    };
+    covariance_on(
+        source,
+        &solution.robot,
+        poses,
+        points_mm,
+        weights,
+        free,
+        opts,
+        correlation_flag,
+    )
+}
+
+/// Where [`covariance_on`] gets the Jacobian and normal matrix from.
+enum Source<'s> {
+    /// The reference Jacobian and the SVD, always.
+    Reference,
+    /// The fast assembly, then the Cholesky path when certified.
+    Fast,
+    /// The solver's normal matrix at the solution, then the Cholesky path when certified.
+    Solved(&'s FinalSystem),
 }
 
 /// [`covariance`] always through the SVD, with the reference Jacobian: the straightforward
@@ -123,7 +172,7 @@ pub fn covariance_reference(
     correlation_flag: f64,
 ) -> Result<Option<Covariance>, IdentifyError> {
     covariance_on(
-        false,
+        Source::Reference,
         robot,
         poses_rad,
         points_mm,
@@ -163,7 +212,7 @@ fn inverse_by_svd(
 
 #[allow(clippy::too_many_arguments)]
 fn covariance_on(
-    fast: bool,
+    source: Source,
     robot: &Robot,
     poses_rad: &[f64],
     points_mm: &[Vector3<f64>],
@@ -180,25 +229,46 @@ fn covariance_on(
         .into_iter()
         .filter_map(|k| free.iter().position(|&f| f == k))
         .collect();
-    let (jac, rss, certified) = if fast {
-        let trig = PoseTrig::new(n, poses_rad);
-        let mut work = NormalWork::new(pf);
-        let mut jac = DMatrix::zeros(3 * m, pf);
-        let rss = work.assemble_stacked(robot, &trig, points_mm, weights, free, &mut jac);
-        let mut a = DMatrix::zeros(pf, pf);
-        let mut g = DVector::zeros(pf);
-        work.copy_to(&mut a, &mut g);
-        let certified = kept_by_cholesky(&jac, &a, &priority, opts);
-        (jac, rss, certified)
-    } else {
-        let jac = weighted_jacobian(robot, poses_rad, weights, free);
-        let rss = weighted_rss(robot, poses_rad, points_mm, weights);
-        (jac, rss, None)
+    // The stacked Jacobian, computed at most once and only when needed.
+    let mut jac: Option<DMatrix<f64>> = None;
+    let (rss, certified) = match source {
+        Source::Reference => {
+            jac = Some(weighted_jacobian(robot, poses_rad, weights, free));
+            (weighted_rss(robot, poses_rad, points_mm, weights), None)
+        }
+        Source::Fast => {
+            let trig = PoseTrig::new(n, poses_rad);
+            let mut work = NormalWork::new(pf);
+            let mut j = DMatrix::zeros(3 * m, pf);
+            let cost = work.assemble_stacked(robot, &trig, points_mm, weights, free, &mut j);
+            let mut a = DMatrix::zeros(pf, pf);
+            let mut g = DVector::zeros(pf);
+            work.copy_to(&mut a, &mut g);
+            let certified = kept_by_cholesky(&mut || j.clone(), &a, &priority, opts);
+            jac = Some(j);
+            (cost, certified)
+        }
+        Source::Solved(sys) => {
+            let rss = weighted_rss_trig(robot, &sys.trig, points_mm, weights);
+            let mut make = || {
+                let mut j = DMatrix::zeros(3 * m, pf);
+                NormalWork::stacked_jacobian(robot, &sys.trig, weights, free, &mut j);
+                j
+            };
+            let certified = kept_by_cholesky(&mut make, &sys.a, &priority, opts);
+            if certified.is_none() {
+                jac = Some(make());
+            }
+            (rss, certified)
+        }
     };
     let (kept, dropped, scale, cs) = match certified {
         Some(k) => (k.kept, k.dropped, k.scale, Some(k.inv)),
         None => {
-            let an = analyze_matrix(jac.clone(), &priority, opts)?;
+            let j = jac
+                .as_ref()
+                .expect("the Jacobian is computed when not certified");
+            let an = analyze_matrix(j.clone(), &priority, opts)?;
             (an.kept, an.dropped, an.scale, None)
         }
     };
@@ -210,7 +280,12 @@ fn covariance_on(
     let sigma2 = rss / dof as f64;
     let cs = match cs {
         Some(cs) => cs,
-        None => inverse_by_svd(&jac, &kept, &scale)?,
+        None => inverse_by_svd(
+            jac.as_ref()
+                .expect("the Jacobian is computed when not certified"),
+            &kept,
+            &scale,
+        )?,
     };
 
     let indices: Vec<usize> = kept.iter().map(|&k| free[k]).collect();

@@ -3,7 +3,7 @@
 use kinematics::{Robot, Unit};
 use serde::{Deserialize, Serialize, Serializer};
 
-use crate::covariance::{Covariance, covariance};
+use crate::covariance::{Covariance, covariance_at_solution};
 use crate::error::IdentifyError;
 use crate::identifiability::IdentifiabilityOptions;
 use crate::lm::{Damping, LmOptions, StopReason, TraceEntry, solve};
@@ -136,7 +136,7 @@ pub fn identify(problem: &Problem, options: &IdentifyOptions) -> Result<Fit, Ide
             reason: "must lie in (0, 1]",
         });
     }
-    let (poses, points, weights) = (problem.poses_rad(), problem.points_mm(), problem.weights());
+    let (poses, points) = (problem.poses_rad(), problem.points_mm());
     let start = problem.robot();
     let (registered, registration) = match options.registration {
         RegistrationPolicy::Never => (None, None),
@@ -160,12 +160,10 @@ pub fn identify(problem: &Problem, options: &IdentifyOptions) -> Result<Fit, Ide
 
     let m = problem.n_poses();
     let free = problem.free();
-    let cov = covariance(
-        &sol.robot,
-        poses,
+    let cov = covariance_at_solution(
+        &problem,
+        &sol,
         points,
-        weights,
-        free,
         &options.identifiability,
         options.correlation_flag,
     )?;

@@ -351,8 +351,9 @@ pub(crate) struct Kept {
 }
 
 /// The identifiable subset and `(J̃_KᵀJ̃_K)⁻¹` from the normal matrix `a = JᵀJ` (P × P) and
-/// the stacked Jacobian `jac` (3m × P), *when it can be certified* to be exactly what the
-/// SVD of [`analyze_matrix`] would choose; `None` otherwise (the caller then runs the SVD).
+/// the stacked Jacobian (3m × P, asked of `jac` only when a column is dropped), *when it can
+/// be certified* to be exactly what the SVD of [`analyze_matrix`] would choose; `None`
+/// otherwise (the caller then runs the SVD).
 ///
 /// 1. The columns are visited in priority order with a Cholesky factorisation of the
 ///    scaled J̃ᵀJ̃ that skips a column whose squared distance `s` from the span of the kept
@@ -369,7 +370,7 @@ pub(crate) struct Kept {
 /// With a clear gap (exact redundancies at rounding level, the rest well conditioned, the
 /// usual case) this costs a few µs where the SVD costs a few hundred.
 pub(crate) fn kept_by_cholesky(
-    jac: &DMatrix<f64>,
+    jac: &mut dyn FnMut() -> DMatrix<f64>,
     a: &DMatrix<f64>,
     priority: &[usize],
     opts: &IdentifiabilityOptions,
@@ -458,6 +459,11 @@ pub(crate) fn kept_by_cholesky(
     // 3. Residual of the dropped (non-zero) columns in the 3m-space: J̃_d − J̃_K c with
     //    L Lᵀ c = J̃_KᵀJ̃_d (all kept columns: a redundancy may involve columns of lower
     //    priority than the dropped one, e.g. β2 in d3's).
+    let jac = if drops.is_empty() {
+        DMatrix::zeros(0, 0)
+    } else {
+        jac()
+    };
     let rows = jac.nrows();
     let js = jac.as_slice();
     let col = |k: usize| &js[k * rows..(k + 1) * rows];
@@ -578,7 +584,7 @@ pub fn cholesky_certifies(
         .into_iter()
         .filter_map(|k| free.iter().position(|&f| f == k))
         .collect();
-    kept_by_cholesky(&jac, &a, &priority, opts).is_some()
+    kept_by_cholesky(&mut || jac.clone(), &a, &priority, opts).is_some()
 }
 
 /// Analyses the identifiability of the parameters `free` (indices into the robot's parameter

@@ -60,7 +60,7 @@ pub mod sampling;
 pub mod simd;
 
 pub use compensation::{compensate, compensation_target};
-pub use covariance::{CorrelatedPair, Covariance, covariance};
+pub use covariance::{CorrelatedPair, Covariance, covariance, covariance_at_solution};
 pub use error::IdentifyError;
 pub use fit::{Fit, IdentifyOptions, ParamEstimate, identify};
 pub use identifiability::{

@@ -12,7 +12,8 @@
 /// and finite (A is not numerically positive definite).
 ///
 /// Right-looking: after column k is scaled, the trailing lower triangle is updated column by
-/// column with contiguous `axpy`s.
+/// column with contiguous `axpy`s. (The unpadded reference of [`cholesky_padded`].)
+#[cfg(test)]
 pub(crate) fn cholesky_in_place(a: &mut [f64], n: usize) -> bool {
     debug_assert!(a.len() >= n * n);
     for k in 0..n {
@@ -39,8 +40,108 @@ pub(crate) fn cholesky_in_place(a: &mut [f64], n: usize) -> bool {
     true
 }
 
+/// Rows per block of the padded factorisation.
+const BLOCK: usize = 8;
+
+/// Leading dimension of an n × n matrix for [`cholesky_padded`]: n rounded up to 8.
+pub(crate) fn padded_ld(n: usize) -> usize {
+    n.div_ceil(BLOCK) * BLOCK
+}
+
+/// The Cholesky factorisation `A = L Lᵀ` in place (see `cholesky_in_place`, its unpadded
+/// reference) on a matrix stored with leading dimension `ld` =
+/// [`padded_ld`]`(n)` (rows n..ld of every column zero on entry), vectorised at the run-time
+/// SIMD level: the trailing updates run over whole blocks of 8 rows, starting at the block
+/// that holds the diagonal. Rows above the diagonal inside that block (the strict upper
+/// triangle) receive meaningless values that are never read; every lower entry gets the
+/// same operations in the same order as in [`cholesky_in_place`], so the factor L is
+/// bit for bit the same at any width.
+pub(crate) fn cholesky_padded(a: &mut [f64], n: usize, ld: usize) -> bool {
+    use kinematics::simd::{SimdLevel, simd_level};
+    match simd_level() {
+        #[cfg(target_arch = "x86_64")]
+        // SAFETY: simd_level() never returns a level the CPU does not support.
+        SimdLevel::Avx512 => unsafe { chol_avx512(a, n, ld) },
+        #[cfg(target_arch = "x86_64")]
+        // SAFETY: as above.
+        SimdLevel::Avx2 => unsafe { chol_avx2(a, n, ld) },
+        _ => chol_impl(a, n, ld),
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+fn chol_avx512(a: &mut [f64], n: usize, ld: usize) -> bool {
+    chol_impl(a, n, ld)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn chol_avx2(a: &mut [f64], n: usize, ld: usize) -> bool {
+    chol_impl(a, n, ld)
+}
+
+#[inline(always)]
+fn chol_impl(a: &mut [f64], n: usize, ld: usize) -> bool {
+    debug_assert!(ld.is_multiple_of(BLOCK) && ld >= n && a.len() >= ld * n);
+    for k in 0..n {
+        let (head, tail) = a.split_at_mut((k + 1) * ld);
+        let col_k = &mut head[k * ld..];
+        let d = col_k[k];
+        if !(d > 0.0 && d.is_finite()) {
+            return false;
+        }
+        let lkk = d.sqrt();
+        col_k[k] = lkk;
+        for v in &mut col_k[k + 1..n] {
+            *v /= lkk;
+        }
+        let col_k = &col_k[..ld];
+        for (jj, col_j) in tail.chunks_exact_mut(ld).take(n - k - 1).enumerate() {
+            let j = k + 1 + jj;
+            let ljk = col_k[j];
+            let start = j / BLOCK * BLOCK;
+            for (aj, lk) in col_j[start..ld]
+                .chunks_exact_mut(BLOCK)
+                .zip(col_k[start..ld].chunks_exact(BLOCK))
+            {
+                let l: [f64; BLOCK] = lk.try_into().expect("block");
+                let mut v: [f64; BLOCK] = (&*aj).try_into().expect("block");
+                for t in 0..BLOCK {
+                    v[t] -= ljk * l[t];
+                }
+                aj.copy_from_slice(&v);
+            }
+        }
+    }
+    true
+}
+
+/// Solves `L Lᵀ x = b` in place (`b` becomes x) with the factor from [`cholesky_padded`]
+/// (leading dimension `ld`).
+pub(crate) fn cholesky_solve_padded(l: &[f64], n: usize, ld: usize, b: &mut [f64]) {
+    for k in 0..n {
+        let col = &l[k * ld..k * ld + n];
+        b[k] /= col[k];
+        let bk = b[k];
+        let (_, rest) = b.split_at_mut(k + 1);
+        for (bi, lik) in rest[..n - k - 1].iter_mut().zip(&col[k + 1..]) {
+            *bi -= lik * bk;
+        }
+    }
+    for k in (0..n).rev() {
+        let col = &l[k * ld..k * ld + n];
+        let mut s = b[k];
+        for i in k + 1..n {
+            s -= col[i] * b[i];
+        }
+        b[k] = s / col[k];
+    }
+}
+
 /// Solves `L Lᵀ x = b` in place (`b` becomes x) with the factor from
 /// [`cholesky_in_place`].
+#[cfg(test)]
 pub(crate) fn cholesky_solve(l: &[f64], n: usize, b: &mut [f64]) {
     // L y = b, column by column.
     for k in 0..n {
@@ -100,6 +201,21 @@ mod tests {
         for k in 0..n {
             assert!((y[k] - rhs[k]).abs() <= 1e-10 * rhs.amax());
         }
+        // The padded, vectorised factorisation gives the same factor and solution bits.
+        let ld = padded_ld(n);
+        let mut pad = vec![0.0; ld * n];
+        for c in 0..n {
+            pad[c * ld..c * ld + n].copy_from_slice(&a.as_slice()[c * n..(c + 1) * n]);
+        }
+        assert!(cholesky_padded(&mut pad, n, ld));
+        for c in 0..n {
+            for r in c..n {
+                assert_eq!(pad[c * ld + r], buf[c * n + r]);
+            }
+        }
+        let mut y: Vec<f64> = (0..n).map(|k| k as f64 - 3.0).collect();
+        cholesky_solve_padded(&pad, n, ld, &mut y);
+        assert_eq!(y, x);
         // Not positive definite.
         let mut bad = a.as_slice().to_vec();
         bad[0] = -1.0;

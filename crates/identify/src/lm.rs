@@ -28,6 +28,8 @@
 //! A damped matrix that is not positive definite, or a non-finite step or cost, is an error
 //! ([`IdentifyError::Singular`], [`IdentifyError::NonFiniteStep`]); no NaN is ever returned.
 
+use std::sync::Arc;
+
 use nalgebra::{DMatrix, DVector, Vector3, linalg::Cholesky};
 use serde::{Deserialize, Serialize};
 
@@ -391,6 +393,19 @@ pub struct LmSolution {
     pub column_scale: Vec<f64>,
     /// max_k |J_kᵀe| / (‖J_k‖‖e‖) at the solution (0 for a zero residual).
     pub gradient_cosine: f64,
+    /// The normal matrix at the solution, for [`crate::covariance_at_solution`].
+    pub(crate) system: Option<Arc<FinalSystem>>,
+}
+
+/// What the fast path leaves behind at the solution: the poses' sines and cosines and the
+/// unscaled `JᵀJ` (weighted, free parameters), with what they were computed for.
+#[derive(Clone, Debug)]
+pub(crate) struct FinalSystem {
+    pub trig: PoseTrig,
+    pub a: DMatrix<f64>,
+    pub free: Vec<usize>,
+    pub weights: Option<Vec<f64>>,
+    pub poses: Vec<f64>,
 }
 
 /// Reusable buffers of the scaled system.
@@ -480,6 +495,7 @@ fn damped_step(
     mu: &mut f64,
     floor: f64,
     work: &mut DMatrix<f64>,
+    pad: &mut Vec<f64>,
     step: &mut DVector<f64>,
     iteration: usize,
 ) -> Result<(), IdentifyError> {
@@ -496,8 +512,18 @@ fn damped_step(
                 }
             }
             Path::Fast => {
-                if linalg::cholesky_in_place(work.as_mut_slice(), pf) {
-                    linalg::cholesky_solve(work.as_slice(), pf, step.as_mut_slice());
+                // Padded to whole vector blocks (same factor bits, vectorised).
+                let ld = linalg::padded_ld(pf);
+                pad.clear();
+                pad.resize(ld * pf, 0.0);
+                for (dst, src) in pad
+                    .chunks_exact_mut(ld)
+                    .zip(work.as_slice().chunks_exact(pf))
+                {
+                    dst[..pf].copy_from_slice(src);
+                }
+                if linalg::cholesky_padded(pad, pf, ld) {
+                    linalg::cholesky_solve_padded(pad, pf, ld, step.as_mut_slice());
                     return Ok(());
                 }
             }
@@ -638,6 +664,7 @@ fn solve_on(
     };
 
     let mut work = DMatrix::zeros(pf, pf);
+    let mut pad = Vec::new();
     let mut step = DVector::zeros(pf);
     let mut a_step = DVector::zeros(pf);
     let mut trace = Vec::new();
@@ -666,6 +693,7 @@ fn solve_on(
                 &mut mu,
                 floor,
                 &mut work,
+                &mut pad,
                 &mut step,
                 iterations,
             )?;
@@ -773,7 +801,17 @@ fn solve_on(
     };
 
     let gradient_cosine = sys.gradient_cosine(cost);
+    let system = (path == Path::Fast).then(|| {
+        Arc::new(FinalSystem {
+            trig: std::mem::take(&mut asm.trig),
+            a,
+            free: free.to_vec(),
+            weights: problem.weights().map(<[f64]>::to_vec),
+            poses: problem.poses_rad().to_vec(),
+        })
+    });
     Ok(LmSolution {
+        system,
         robot,
         params: x,
         iterations,

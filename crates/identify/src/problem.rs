@@ -1,7 +1,7 @@
 //! The identification problem: start model, poses, measured points, weights, free parameters;
 //! and the allocation-free assembly of its residual, cost and normal equations.
 
-use kinematics::{MAX_PARAMS, PoseTrig, Robot};
+use kinematics::{MAX_PARAMS, POSE_LANES, PoseTrig, Robot};
 use nalgebra::{DMatrix, DVector, Vector3};
 
 use crate::error::IdentifyError;
@@ -345,24 +345,73 @@ pub(crate) fn weighted_rss_trig(
     points_mm: &[Vector3<f64>],
     weights: Option<&[f64]>,
 ) -> f64 {
-    points_mm
-        .iter()
-        .enumerate()
-        .map(|(j, meas)| {
-            let e =
-                (meas - robot.point_trig(trig.pose(j))).component_mul(&pose_weights(weights, j));
-            e.norm_squared()
-        })
-        .sum()
+    match simd_level() {
+        #[cfg(target_arch = "x86_64")]
+        // SAFETY: simd_level() never returns a level the CPU does not support.
+        SimdLevel::Avx512 => unsafe { rss_avx512(robot, trig, points_mm, weights) },
+        #[cfg(target_arch = "x86_64")]
+        // SAFETY: as above.
+        SimdLevel::Avx2 => unsafe { rss_avx2(robot, trig, points_mm, weights) },
+        _ => rss_impl(robot, trig, points_mm, weights),
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+fn rss_avx512(
+    robot: &Robot,
+    trig: &PoseTrig,
+    points_mm: &[Vector3<f64>],
+    weights: Option<&[f64]>,
+) -> f64 {
+    rss_impl(robot, trig, points_mm, weights)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn rss_avx2(
+    robot: &Robot,
+    trig: &PoseTrig,
+    points_mm: &[Vector3<f64>],
+    weights: Option<&[f64]>,
+) -> f64 {
+    rss_impl(robot, trig, points_mm, weights)
+}
+
+/// The points [`POSE_LANES`] at a time, the sum in pose order.
+#[inline(always)]
+fn rss_impl(
+    robot: &Robot,
+    trig: &PoseTrig,
+    points_mm: &[Vector3<f64>],
+    weights: Option<&[f64]>,
+) -> f64 {
+    let m = points_mm.len();
+    let mut sum = 0.0;
+    for block in 0..trig.n_blocks() {
+        let (s, c) = trig.lanes(block);
+        let p = robot.point_lanes(s, c);
+        let first = block * POSE_LANES;
+        for (t, meas) in points_mm[first..m.min(first + POSE_LANES)]
+            .iter()
+            .enumerate()
+        {
+            let pt = Vector3::new(p[0][t], p[1][t], p[2][t]);
+            let e = (meas - pt).component_mul(&pose_weights(weights, first + t));
+            sum += e.norm_squared();
+        }
+    }
+    sum
 }
 
 /// Width the rows of the fast assembly are padded to: the widest vector (8 doubles).
 pub(crate) const LANES: usize = 8;
 
-/// Poses whose blocks are added to `A` in one pass over it (each entry still receives the
-/// poses' contributions one after the other, in pose order: the same sums as pose by pose,
-/// with a quarter of the loads and stores of `A`).
-const GROUP: usize = 4;
+/// Poses whose blocks are computed together ([`Robot::point_jacobian_lanes`]) and added to
+/// `A` in one pass over it (each entry still receives the poses' contributions one after the
+/// other, in pose order: the same sums as pose by pose, with an eighth of the loads and
+/// stores of `A`).
+const GROUP: usize = POSE_LANES;
 
 /// Values of one block of [`LANES`] columns for the whole group: `3·GROUP·LANES`.
 const PANEL: usize = 3 * GROUP * LANES;
@@ -377,7 +426,7 @@ pub(crate) struct NormalWork {
     /// diagonal inside a column's last block of [`LANES`] are scratch.
     a: Vec<f64>,
     g: Vec<f64>,
-    jac: [[f64; MAX_PARAMS]; 3],
+    jac: Vec<[[f64; POSE_LANES]; 3]>,
     /// The weighted blocks of the group's poses, block-major: entry (pose p, row c ∈ x, y,
     /// z, column k) at `(k / LANES)·PANEL + (3p + c)·LANES + k % LANES` (zero-padded; unused
     /// poses of a last, partial group are all zero).
@@ -393,7 +442,7 @@ impl NormalWork {
             ld,
             a: vec![0.0; ld * pf],
             g: vec![0.0; ld],
-            jac: [[0.0; MAX_PARAMS]; 3],
+            jac: vec![[[0.0; POSE_LANES]; 3]; MAX_PARAMS],
             b: vec![0.0; ld / LANES * PANEL],
             e: [Vector3::zeros(); GROUP],
         }
@@ -506,31 +555,43 @@ impl NormalWork {
         self.a.fill(0.0);
         self.g.fill(0.0);
         let mut cost = 0.0;
-        let [jx, jy, jz] = &mut self.jac;
         let m = points_mm.len();
-        for first in (0..m).step_by(GROUP) {
-            let last = (first + GROUP).min(m);
-            if last - first < GROUP {
-                self.b.fill(0.0);
-                self.e = [Vector3::zeros(); GROUP];
-            }
-            for (slot, meas) in points_mm[first..last].iter().enumerate() {
-                let j = first + slot;
-                let p = robot.point_jacobian_trig(trig.pose(j), jx, jy, jz);
-                let w = pose_weights(weights, j);
-                let e = (meas - p).component_mul(&w);
+        let np = robot.n_params();
+        for block in 0..trig.n_blocks() {
+            let first = block * GROUP;
+            let count = GROUP.min(m - first);
+            let (sin_q, cos_q) = trig.lanes(block);
+            let p = robot.point_jacobian_lanes(sin_q, cos_q, &mut self.jac[..np]);
+            let mut w = [Vector3::zeros(); GROUP];
+            for (t, meas) in points_mm[first..first + count].iter().enumerate() {
+                w[t] = pose_weights(weights, first + t);
+                let pt = Vector3::new(p[0][t], p[1][t], p[2][t]);
+                let e = (meas - pt).component_mul(&w[t]);
                 cost += e.norm_squared();
-                self.e[slot] = e;
-                for (c, &k) in free.iter().enumerate() {
-                    let at = c / LANES * PANEL + 3 * slot * LANES + c % LANES;
-                    self.b[at] = jx[k] * w.x;
-                    self.b[at + LANES] = jy[k] * w.y;
-                    self.b[at + 2 * LANES] = jz[k] * w.z;
+                self.e[t] = e;
+            }
+            // Padding lanes of a last, partial block contribute exact zeros.
+            for t in count..GROUP {
+                self.e[t] = Vector3::zeros();
+            }
+            for (c, &k) in free.iter().enumerate() {
+                let base = c / LANES * PANEL + c % LANES;
+                let jk = &self.jac[k];
+                for (t, wt) in w.iter().enumerate() {
+                    let at = base + 3 * t * LANES;
+                    let live = t < count;
+                    self.b[at] = if live { jk[0][t] * wt.x } else { 0.0 };
+                    self.b[at + LANES] = if live { jk[1][t] * wt.y } else { 0.0 };
+                    self.b[at + 2 * LANES] = if live { jk[2][t] * wt.z } else { 0.0 };
                 }
-                if let Some(st) = stack.as_deref_mut() {
-                    let rows = 3 * m;
-                    for c in 0..pf {
-                        let at = c / LANES * PANEL + 3 * slot * LANES + c % LANES;
+            }
+            if let Some(st) = stack.as_deref_mut() {
+                let rows = 3 * m;
+                for c in 0..pf {
+                    let base = c / LANES * PANEL + c % LANES;
+                    for t in 0..count {
+                        let at = base + 3 * t * LANES;
+                        let j = first + t;
                         st[c * rows + 3 * j] = self.b[at];
                         st[c * rows + 3 * j + 1] = self.b[at + LANES];
                         st[c * rows + 3 * j + 2] = self.b[at + 2 * LANES];
@@ -540,6 +601,39 @@ impl NormalWork {
             group_update(&mut self.a, &mut self.g, pf, ld, &self.b, &self.e);
         }
         cost
+    }
+
+    /// The stacked weighted Jacobian `diag(w)·∂p/∂x_free` (3m × P) alone, into `jac`, from
+    /// the pose-parallel kernel (the values [`NormalWork::assemble_stacked`] writes).
+    pub(crate) fn stacked_jacobian(
+        robot: &Robot,
+        trig: &PoseTrig,
+        weights: Option<&[f64]>,
+        free: &[usize],
+        jac: &mut DMatrix<f64>,
+    ) {
+        let m = trig.n_poses();
+        assert_eq!(jac.shape(), (3 * m, free.len()), "Jacobian shape");
+        let np = robot.n_params();
+        let rows = 3 * m;
+        let st = jac.as_mut_slice();
+        let mut lanes = vec![[[0.0; POSE_LANES]; 3]; np];
+        for block in 0..trig.n_blocks() {
+            let first = block * POSE_LANES;
+            let count = POSE_LANES.min(m - first);
+            let (sin_q, cos_q) = trig.lanes(block);
+            robot.point_jacobian_lanes(sin_q, cos_q, &mut lanes);
+            for t in 0..count {
+                let j = first + t;
+                let w = pose_weights(weights, j);
+                for (c, &k) in free.iter().enumerate() {
+                    let jk = &lanes[k];
+                    st[c * rows + 3 * j] = jk[0][t] * w.x;
+                    st[c * rows + 3 * j + 1] = jk[1][t] * w.y;
+                    st[c * rows + 3 * j + 2] = jk[2][t] * w.z;
+                }
+            }
+        }
     }
 
     /// The assembled system as a full symmetric `a` (P × P) and `g`.

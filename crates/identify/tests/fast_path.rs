@@ -9,7 +9,7 @@ use identify::identifiability::cholesky_certifies;
 use identify::lm::solve_reference;
 use identify::{
     Covariance, Damping, IdentifiabilityOptions, LmOptions, LmSolution, ParamSet, Problem,
-    SimdLevel, covariance, set_simd_level, solve,
+    SimdLevel, covariance, covariance_at_solution, set_simd_level, solve,
 };
 use kinematics::{Robot, RobotSpec};
 use nalgebra::{DMatrix, DVector, Vector3};
@@ -307,5 +307,36 @@ fn covariance_leaves_near_redundancy_to_the_svd() {
         }
         (None, None) => {}
         other => panic!("{other:?}"),
+    }
+}
+
+/// Reusing the solver's normal matrix gives the covariance assembled afresh, bit for bit.
+#[test]
+fn covariance_at_solution_equals_covariance() {
+    let opts = IdentifiabilityOptions::default();
+    let nominal = kr1000(TOOL);
+    let all: Vec<usize> = (0..nominal.n_params()).collect();
+    let truth = perturbed(&nominal, &all, 90);
+    let q = poses(&nominal, 50, 91);
+    let meas = noisy(&truth.points(&q), 0.02, 92);
+    let other = noisy(&truth.points(&q), 0.05, 93);
+    let minimal = ParamSet::Minimal
+        .resolve(&nominal, &q, None, &opts)
+        .unwrap();
+    let weights: Vec<f64> = (0..150)
+        .map(|r| 1.0 / (0.02 + 0.001 * (r % 3) as f64))
+        .collect();
+    for (free, weighted) in [(&all, false), (&minimal, false), (&minimal, true)] {
+        let mut problem = Problem::new(&nominal, &q, &meas, free.clone()).unwrap();
+        if weighted {
+            problem = problem.with_weights(&weights).unwrap();
+        }
+        let sol = solve(&problem, &LmOptions::default()).unwrap();
+        let w = weighted.then_some(&weights[..]);
+        for points in [&meas, &other] {
+            let direct = covariance(&sol.robot, &q, points, w, free, &opts, 0.9).unwrap();
+            let reused = covariance_at_solution(&problem, &sol, points, &opts, 0.9).unwrap();
+            assert_eq!(direct, reused);
+        }
     }
 }

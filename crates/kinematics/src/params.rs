@@ -9,6 +9,8 @@
 //! Values in a parameter vector are in internal units: radians and millimetres. Use
 //! [`ParamInfo::to_display`] / [`ParamInfo::from_display`] at interfaces (degrees, mm).
 
+use std::sync::Arc;
+
 use serde::{Deserialize, Serialize};
 
 use crate::error::ModelError;
@@ -117,11 +119,38 @@ impl ParamInfo {
     }
 }
 
-/// The ordered parameter vector of one robot.
+/// The ordered parameter vector of one robot. Cloning it is cheap (the entries are shared),
+/// which matters because every [`crate::Robot`] carries one and solvers clone robots.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(from = "LayoutRepr", into = "LayoutRepr")]
 pub struct ParamLayout {
+    params: Arc<[ParamInfo]>,
+    n_joints: usize,
+}
+
+/// The serialised form of [`ParamLayout`] (the fields as they are).
+#[derive(Serialize, Deserialize)]
+struct LayoutRepr {
     params: Vec<ParamInfo>,
     n_joints: usize,
+}
+
+impl From<LayoutRepr> for ParamLayout {
+    fn from(r: LayoutRepr) -> Self {
+        ParamLayout {
+            params: r.params.into(),
+            n_joints: r.n_joints,
+        }
+    }
+}
+
+impl From<ParamLayout> for LayoutRepr {
+    fn from(l: ParamLayout) -> Self {
+        LayoutRepr {
+            params: l.params.to_vec(),
+            n_joints: l.n_joints,
+        }
+    }
 }
 
 impl ParamLayout {
@@ -158,7 +187,7 @@ impl ParamLayout {
             params.push(ParamInfo::new(kind));
         }
         ParamLayout {
-            params,
+            params: params.into(),
             n_joints: n,
         }
     }

@@ -1,14 +1,14 @@
 //! The robot: parameters in internal units, forward kinematics and the identification
 //! Jacobian. One implementation of each; everything else in the workspace calls these.
 
-use nalgebra::{DMatrix, Matrix3, Rotation3, Vector3};
+use nalgebra::{DMatrix, Matrix3, Matrix6, Rotation3, Vector3, Vector6};
 
 use crate::error::ModelError;
 use crate::model::{BaseSpec, JointSpec, MAX_JOINTS, RobotSpec};
 use crate::params::{ParamKind, ParamLayout};
 
 mod fast;
-pub use fast::{PoseTrig, joint_sin_cos};
+pub use fast::{POSE_LANES, PoseTrig, joint_sin_cos};
 
 /// Largest parameter-vector length: 5 per joint plus base and tool.
 pub const MAX_PARAMS: usize = 5 * MAX_JOINTS + 9;
@@ -73,13 +73,26 @@ struct Link {
     cos_theta: f64,
 }
 
-impl Link {
-    fn refresh(&mut self) {
-        (self.sin_alpha, self.cos_alpha) = self.alpha_rad.sin_cos();
-        (self.sin_beta, self.cos_beta) = self.beta_rad.sin_cos();
-        (self.sin_theta, self.cos_theta) = self.theta_rad.sin_cos();
+/// Refreshes the cached sines and cosines of θ, α and β of every link, all at once.
+fn refresh_links(links: &mut [Link]) {
+    let n = links.len();
+    let mut x = [0.0; 3 * MAX_JOINTS];
+    for (i, l) in links.iter().enumerate() {
+        x[3 * i] = l.alpha_rad;
+        x[3 * i + 1] = l.beta_rad;
+        x[3 * i + 2] = l.theta_rad;
     }
+    let mut s = [0.0; 3 * MAX_JOINTS];
+    let mut c = [0.0; 3 * MAX_JOINTS];
+    crate::trig::sin_cos_slice(&x[..3 * n], &mut s[..3 * n], &mut c[..3 * n]);
+    for (i, l) in links.iter_mut().enumerate() {
+        (l.sin_alpha, l.cos_alpha) = (s[3 * i], c[3 * i]);
+        (l.sin_beta, l.cos_beta) = (s[3 * i + 1], c[3 * i + 1]);
+        (l.sin_theta, l.cos_theta) = (s[3 * i + 2], c[3 * i + 2]);
+    }
+}
 
+impl Link {
     /// Columns 0 and 1 of `Rz(θ+q)·Rx(α)` and the sin/cos of θ+q, the pieces both the
     /// link frame and the Jacobian need.
     #[inline]
@@ -163,28 +176,25 @@ impl Robot {
                 beta_index[i] = Some(k);
             }
         }
-        let links = spec
+        let mut links: Vec<Link> = spec
             .joints
             .iter()
-            .map(|j| {
-                let mut l = Link {
-                    theta_rad: j.theta_deg.to_radians(),
-                    d_mm: j.d_mm,
-                    a_mm: j.a_mm,
-                    alpha_rad: j.alpha_deg.to_radians(),
-                    beta_rad: j.beta_deg.to_radians(),
-                    limits_rad: [j.limits_deg[0].to_radians(), j.limits_deg[1].to_radians()],
-                    sin_alpha: 0.0,
-                    cos_alpha: 1.0,
-                    sin_beta: 0.0,
-                    cos_beta: 1.0,
-                    sin_theta: 0.0,
-                    cos_theta: 1.0,
-                };
-                l.refresh();
-                l
+            .map(|j| Link {
+                theta_rad: j.theta_deg.to_radians(),
+                d_mm: j.d_mm,
+                a_mm: j.a_mm,
+                alpha_rad: j.alpha_deg.to_radians(),
+                beta_rad: j.beta_deg.to_radians(),
+                limits_rad: [j.limits_deg[0].to_radians(), j.limits_deg[1].to_radians()],
+                sin_alpha: 0.0,
+                cos_alpha: 1.0,
+                sin_beta: 0.0,
+                cos_beta: 1.0,
+                sin_theta: 0.0,
+                cos_theta: 1.0,
             })
             .collect();
+        refresh_links(&mut links);
         let b = &spec.base;
         let base = Base {
             r_rad: [
@@ -347,9 +357,7 @@ impl Robot {
                 ParamKind::ToolZ => self.tool_mm.z = v,
             }
         }
-        for l in &mut self.links {
-            l.refresh();
-        }
+        refresh_links(&mut self.links);
         self.base_frame = self.base.frame();
         self.base_axes = self.base.axes();
         Ok(())
@@ -546,6 +554,42 @@ impl Robot {
                 z[row - 3] * orientation_scale_mm
             }
         })
+    }
+
+    /// `J Jᵀ` (6 × 6) of [`Robot::geometric_jacobian`], summed over the joints in order,
+    /// without allocation: its eigenvalues are the squared singular values of J (N ≥ 6).
+    pub fn geometric_gram(
+        &self,
+        q_rad: &[f64],
+        point_in_flange_mm: &Vector3<f64>,
+        orientation_scale_mm: f64,
+    ) -> Matrix6<f64> {
+        let mut axes = [(Vector3::zeros(), Vector3::zeros()); MAX_JOINTS];
+        let f = self.joint_axes(q_rad, &mut axes);
+        let p = f.transform_point(point_in_flange_mm);
+        let mut m = Matrix6::zeros();
+        for (z, o) in &axes[..self.n_joints()] {
+            let lin = z.cross(&(p - o));
+            let c = Vector6::new(
+                lin.x,
+                lin.y,
+                lin.z,
+                z.x * orientation_scale_mm,
+                z.y * orientation_scale_mm,
+                z.z * orientation_scale_mm,
+            );
+            for b in 0..6 {
+                for a in 0..=b {
+                    m[(a, b)] += c[a] * c[b];
+                }
+            }
+        }
+        for b in 0..6 {
+            for a in 0..b {
+                m[(b, a)] = m[(a, b)];
+            }
+        }
+        m
     }
 
     /// Condition number σ_max/σ_min of [`Robot::geometric_jacobian`] for the flange origin

@@ -2,8 +2,8 @@
 //! inverse kinematics and model-file validation.
 
 use kinematics::{
-    BaseSpec, Frame, IkError, IkOptions, IkTarget, JointSpec, MAX_JOINTS, ModelError, PoseTrig,
-    Robot, RobotSpec, Unit,
+    BaseSpec, Frame, IkError, IkOptions, IkTarget, JointSpec, MAX_JOINTS, ModelError, POSE_LANES,
+    PoseTrig, Robot, RobotSpec, Unit,
 };
 use nalgebra::Vector3;
 use proptest::prelude::*;
@@ -195,6 +195,45 @@ proptest! {
         check_fast_against_reference(&r, &in_limit_pose(&r, &uq))?;
         let k = perturbed(&kr1000(), &up[..34]);
         check_fast_against_reference(&k, &in_limit_pose(&k, &uq[..6]))?;
+    }
+}
+
+/// The pose-parallel kernels give, lane by lane, the one-pose kernels' bits.
+#[test]
+fn lane_kernels_match_the_one_pose_kernels_bit_for_bit() {
+    let mut u = Uniform(7);
+    for case in 0..20 {
+        let r = perturbed(&random_chain(&u.vec(51)), &u.vec(44));
+        let r = if case % 2 == 0 {
+            r
+        } else {
+            perturbed(&kr1000(), &u.vec(34))
+        };
+        let n = r.n_joints();
+        let m = 3 + case; // partial last blocks too
+        let poses: Vec<f64> = (0..m).flat_map(|_| in_limit_pose(&r, &u.vec(n))).collect();
+        let trig = PoseTrig::new(n, &poses);
+        let np = r.n_params();
+        let mut jac = vec![[[0.0; POSE_LANES]; 3]; np];
+        for b in 0..trig.n_blocks() {
+            let (s, c) = trig.lanes(b);
+            let p = r.point_lanes(s, c);
+            let pj = r.point_jacobian_lanes(s, c, &mut jac);
+            assert_eq!(p, pj);
+            for t in 0..POSE_LANES {
+                let j = (b * POSE_LANES + t).min(m - 1);
+                let (mut jx, mut jy, mut jz) = (vec![0.0; np], vec![0.0; np], vec![0.0; np]);
+                let one = r.point_jacobian_trig(trig.pose(j), &mut jx, &mut jy, &mut jz);
+                assert_eq!(one, r.point(&poses[j * n..(j + 1) * n]));
+                assert_eq!([p[0][t], p[1][t], p[2][t]], [one.x, one.y, one.z]);
+                for k in 0..np {
+                    assert_eq!(
+                        [jac[k][0][t], jac[k][1][t], jac[k][2][t]],
+                        [jx[k], jy[k], jz[k]]
+                    );
+                }
+            }
+        }
     }
 }
 

@@ -320,17 +320,19 @@ enum Reject {
     Condition,
 }
 
-/// Checks the constraints for one pose whose point (robot base frame) is `point`.
+/// Checks the constraints for one pose whose point (robot base frame) is `point(q_rad)`,
+/// computed only once the wrist test has passed.
 fn check(
     cfg: &PoseSampling,
     nominal: &Robot,
     tracker: &Tracker,
     q_rad: &[f64],
-    point: &Vector3<f64>,
+    point: &dyn Fn(&[f64]) -> Vector3<f64>,
 ) -> Result<(), Reject> {
     if q_rad.len() >= 5 && q_rad[4].abs() < cfg.min_abs_q5_deg.to_radians() {
         return Err(Reject::Wrist);
     }
+    let point = &point(q_rad);
     if point.z < cfg.min_point_z_mm {
         return Err(Reject::Floor);
     }
@@ -356,15 +358,7 @@ fn check(
 /// the opposite (reject). Only the undecided remainder (and N < 6) pays for the SVD.
 fn condition_at_most(robot: &Robot, q_rad: &[f64], scale_mm: f64, limit: f64) -> bool {
     if q_rad.len() >= 6 {
-        let j = robot.geometric_jacobian(q_rad, &Vector3::zeros(), scale_mm);
-        let mut m = Matrix6::<f64>::zeros();
-        for a in 0..6 {
-            for b in a..6 {
-                let v = j.row(a).dot(&j.row(b));
-                m[(a, b)] = v;
-                m[(b, a)] = v;
-            }
-        }
+        let m = robot.geometric_gram(q_rad, &Vector3::zeros(), scale_mm);
         let c = 1.0 / (limit * limit);
         let shifted = |t: f64| Cholesky::new(m - Matrix6::identity() * t).is_some();
         if shifted(c * m.trace()) {
@@ -421,8 +415,7 @@ pub(crate) fn sample(
             // Only possible through rounding at a limit; redraw (counted as a draw).
             continue;
         }
-        let p = point(&qr[..n]);
-        match check(cfg, nominal, tracker, &qr[..n], &p) {
+        match check(cfg, nominal, tracker, &qr[..n], point) {
             Ok(()) => {
                 stats.accepted += 1;
                 deg.extend_from_slice(&qd[..n]);

@@ -34,7 +34,7 @@
 
 use std::collections::BTreeMap;
 
-use kinematics::{ParamKind, ParamLayout, Robot};
+use kinematics::{POSE_LANES, ParamKind, ParamLayout, PoseTrig, Robot};
 use nalgebra::Vector3;
 use rand::RngExt;
 use rand::rngs::ChaCha8Rng;
@@ -217,22 +217,30 @@ impl InjectedErrors {
     }
 }
 
-/// Mean ‖p_robot(q_k) − p_nom,k‖ over the poses (flat, stride N).
+/// Mean ‖p_robot(q_k) − p_nom,k‖ over the poses whose sines and cosines are `trig` (the
+/// points [`Robot::point`] gives, [`POSE_LANES`] poses at a time; summed in pose order).
 pub(crate) fn mean_error_mm(
     robot: &Robot,
-    poses_rad: &[f64],
+    trig: &PoseTrig,
     nominal_points: &[Vector3<f64>],
 ) -> f64 {
-    let n = robot.n_joints();
-    let sum: f64 = poses_rad
-        .chunks_exact(n)
-        .zip(nominal_points)
-        .map(|(q, p0)| (robot.point(q) - p0).norm())
-        .sum();
-    sum / nominal_points.len() as f64
+    let m = nominal_points.len();
+    let mut sum = 0.0;
+    for b in 0..trig.n_blocks() {
+        let (s, c) = trig.lanes(b);
+        let p = robot.point_lanes(s, c);
+        let first = b * POSE_LANES;
+        for (t, p0) in nominal_points[first..m.min(first + POSE_LANES)]
+            .iter()
+            .enumerate()
+        {
+            sum += (Vector3::new(p[0][t], p[1][t], p[2][t]) - p0).norm();
+        }
+    }
+    sum / m as f64
 }
 
-/// Finds s > 0 with `mean_error(nominal + s·δ) = target` over `poses_rad` (whose nominal
+/// Finds s > 0 with `mean_error(nominal + s·δ) = target` over the poses of `trig` (whose nominal
 /// points are `nominal_points`). Secant iteration from the exact point (0, 0) and s = 1,
 /// safeguarded by bisection inside the bracket found so far; the mean error is nearly
 /// proportional to s, so about 3 evaluations reach the 1e-11 relative tolerance. `delta` is
@@ -240,7 +248,7 @@ pub(crate) fn mean_error_mm(
 pub(crate) fn solve_scale(
     nominal: &Robot,
     delta: &[f64],
-    poses_rad: &[f64],
+    trig: &PoseTrig,
     nominal_points: &[Vector3<f64>],
     target_mm: f64,
 ) -> Result<ScaleOutcome, SimError> {
@@ -255,7 +263,7 @@ pub(crate) fn solve_scale(
         if scratch.set_params(&params).is_err() {
             return f64::NAN;
         }
-        mean_error_mm(&scratch, poses_rad, nominal_points)
+        mean_error_mm(&scratch, trig, nominal_points)
     };
     let m = nominal_points.len();
     let unscaled = eval(1.0);

@@ -353,7 +353,12 @@ impl ComplianceModel {
         let mut on = cfg.clone();
         on.enabled = true;
         on.validate(n_joints)?;
-        Ok(ComplianceModel {
+        Ok(Self::from_validated(cfg, n_joints))
+    }
+
+    /// [`ComplianceModel::new`] for a configuration already validated (enabled).
+    fn from_validated(cfg: &ComplianceConfig, n_joints: usize) -> Self {
+        ComplianceModel {
             links: cfg
                 .links
                 .iter()
@@ -367,7 +372,7 @@ impl ComplianceModel {
                 })
                 .collect(),
             gravity: cfg.gravity_m_per_s2,
-        })
+        }
     }
 
     /// Gravity torque τ_i about every joint axis, N·m (before the counterbalance), at the
@@ -437,16 +442,18 @@ pub struct Unmodelled {
 }
 
 impl Unmodelled {
-    /// Builds the model; random gear phases are drawn from `gear_rng`.
+    /// Builds the model from a configuration validated against `robot` (as
+    /// [`crate::Setup::new`] does once for all trials); random gear phases are drawn from
+    /// `gear_rng`.
     pub(crate) fn new(
         cfg: &UnmodelledConfig,
         robot: &Robot,
         gear_rng: &mut ChaCha8Rng,
     ) -> Result<Self, ConfigError> {
-        cfg.validate(robot)?;
+        debug_assert!(cfg.validate(robot).is_ok(), "validated configuration");
         let n = robot.n_joints();
         let compliance = if cfg.compliance.enabled {
-            Some(ComplianceModel::new(&cfg.compliance, n)?)
+            Some(ComplianceModel::from_validated(&cfg.compliance, n))
         } else {
             None
         };
@@ -534,8 +541,19 @@ impl Unmodelled {
                 *q += d;
             }
         }
-        for g in &self.gears {
-            q_out[g.joint] += g.amplitude_rad * (g.harmonic * q_cmd[g.joint] + g.phase_rad).sin();
+        // The gear terms' sines all at once (kinematics::trig, eight per vector).
+        let mut arg = [0.0; 4 * MAX_JOINTS];
+        let mut sin = [0.0; 4 * MAX_JOINTS];
+        let mut cos = [0.0; 4 * MAX_JOINTS];
+        for chunk in self.gears.chunks(4 * MAX_JOINTS) {
+            let k = chunk.len();
+            for (a, g) in arg.iter_mut().zip(chunk) {
+                *a = g.harmonic * q_cmd[g.joint] + g.phase_rad;
+            }
+            kinematics::trig::sin_cos_slice(&arg[..k], &mut sin[..k], &mut cos[..k]);
+            for (g, s) in chunk.iter().zip(&sin[..k]) {
+                q_out[g.joint] += g.amplitude_rad * s;
+            }
         }
     }
 }

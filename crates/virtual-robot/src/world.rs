@@ -2,7 +2,7 @@
 
 use std::sync::Arc;
 
-use kinematics::{Frame, MAX_JOINTS, Robot, RobotSpec};
+use kinematics::{Frame, MAX_JOINTS, PoseTrig, Robot, RobotSpec};
 use nalgebra::{Rotation3, Vector3};
 use rand::RngExt;
 use rand::rngs::ChaCha8Rng;
@@ -115,6 +115,9 @@ pub struct Setup {
     nominal: Robot,
     tracker: Tracker,
     scale_poses_rad: Arc<[f64]>,
+    /// Sines and cosines of the scaling poses (computed once; every trial's scaling evaluates
+    /// them at a few parameter vectors).
+    scale_trig: PoseTrig,
     scale_points: Vec<Vector3<f64>>,
     scale_stats: Option<SamplingStats>,
 }
@@ -142,12 +145,14 @@ impl Setup {
             None => (Arc::from(Vec::new()), None),
         };
         let scale_points = nominal.points(&scale_poses_rad);
+        let scale_trig = PoseTrig::new(nominal.n_joints(), &scale_poses_rad);
         Ok(Setup {
             seed,
             config: cfg.clone(),
             nominal: nominal.clone(),
             tracker,
             scale_poses_rad,
+            scale_trig,
             scale_points,
             scale_stats,
         })
@@ -194,7 +199,7 @@ impl Setup {
             let outcome = solve_scale(
                 nominal,
                 &delta,
-                &self.scale_poses_rad,
+                &self.scale_trig,
                 &self.scale_points,
                 target.mean_error_mm,
             )?;

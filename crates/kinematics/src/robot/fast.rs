@@ -8,9 +8,11 @@
 //! - **sin/cos once per pose**: `sin(θ+q)`, `cos(θ+q)` come from the sines and cosines of q
 //!   (computed once per pose, [`PoseTrig`]) and of θ (cached per parameter vector) by the
 //!   angle-addition formulas, so an identification that evaluates the same poses at ten
-//!   parameter vectors calls `sin_cos` once per joint and pose instead of twenty times.
-//!   With θ = 0 the result is exactly `sin_cos(q)`; otherwise it differs by rounding
-//!   (≤ 2 ulp).
+//!   parameter vectors computes them once per joint and pose instead of twenty times.
+//!   The sines and cosines themselves come eight at a time from [`crate::trig`].
+//! - **poses in lanes**: [`Robot::point_lanes`] and [`Robot::point_jacobian_lanes`] run
+//!   [`POSE_LANES`] poses through the same code, one per vector lane; the one-pose methods
+//!   are the same generic code with one lane, so both give the same bits.
 //! - **the point backwards**: `p = T_base(T_1(…(T_N t)))` applied to a vector from the tool
 //!   inwards is three plane rotations per link (12 multiplications) instead of a 3×3 matrix
 //!   product (27).
@@ -28,15 +30,21 @@ use nalgebra::Vector3;
 
 use super::{Frame, Link, Robot};
 use crate::model::MAX_JOINTS;
+use crate::trig::sin_cos_slice;
 
 /// Sines and cosines of the joint values of a pose set, `[sin q, cos q]` per joint, pose
-/// after pose. Build it once for poses that are evaluated at many parameter vectors (an
-/// identification, an error scaling) and pass [`PoseTrig::pose`] to the `*_trig` methods of
-/// [`Robot`].
+/// after pose, and the same in blocks of [`POSE_LANES`] poses for the pose-parallel kernels.
+/// Build it once for poses that are evaluated at many parameter vectors (an identification,
+/// an error scaling) and pass [`PoseTrig::pose`] to the `*_trig` methods of [`Robot`] or
+/// [`PoseTrig::lanes`] to the `*_lanes` ones.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct PoseTrig {
     n_joints: usize,
     sc: Vec<[f64; 2]>,
+    /// Block b, joint i at `b·n_joints + i`: sin q_i of the block's poses (the last block is
+    /// padded with copies of the last pose).
+    lane_sin: Vec<[f64; POSE_LANES]>,
+    lane_cos: Vec<[f64; POSE_LANES]>,
 }
 
 impl PoseTrig {
@@ -48,15 +56,29 @@ impl PoseTrig {
             n_joints > 0 && poses_rad.len().is_multiple_of(n_joints),
             "pose buffer is not a multiple of the joint count"
         );
+        let mut sin = vec![0.0; poses_rad.len()];
+        let mut cos = vec![0.0; poses_rad.len()];
+        sin_cos_slice(poses_rad, &mut sin, &mut cos);
+        let sc: Vec<[f64; 2]> = sin.iter().zip(&cos).map(|(s, c)| [*s, *c]).collect();
+        let m = sc.len() / n_joints;
+        let blocks = m.div_ceil(POSE_LANES);
+        let mut lane_sin = vec![[0.0; POSE_LANES]; blocks * n_joints];
+        let mut lane_cos = vec![[0.0; POSE_LANES]; blocks * n_joints];
+        for b in 0..blocks {
+            for t in 0..POSE_LANES {
+                let j = (b * POSE_LANES + t).min(m - 1);
+                for i in 0..n_joints {
+                    let [s, c] = sc[j * n_joints + i];
+                    lane_sin[b * n_joints + i][t] = s;
+                    lane_cos[b * n_joints + i][t] = c;
+                }
+            }
+        }
         PoseTrig {
             n_joints,
-            sc: poses_rad
-                .iter()
-                .map(|q| {
-                    let (s, c) = q.sin_cos();
-                    [s, c]
-                })
-                .collect(),
+            sc,
+            lane_sin,
+            lane_cos,
         }
     }
 
@@ -75,48 +97,179 @@ impl PoseTrig {
     pub fn pose(&self, j: usize) -> &[[f64; 2]] {
         &self.sc[j * self.n_joints..(j + 1) * self.n_joints]
     }
-}
 
-/// `[sin q_i, cos q_i]` of one joint vector, into `out[..q_rad.len()]`.
-#[inline]
-pub fn joint_sin_cos(q_rad: &[f64], out: &mut [[f64; 2]]) {
-    for (o, q) in out.iter_mut().zip(q_rad) {
-        let (s, c) = q.sin_cos();
-        *o = [s, c];
+    /// Number of blocks of [`POSE_LANES`] poses (the last one may be partial).
+    pub fn n_blocks(&self) -> usize {
+        self.n_poses().div_ceil(POSE_LANES)
+    }
+
+    /// `(sin q_i, cos q_i)` of the poses `b·POSE_LANES + t`, lane t, for every joint i; lanes
+    /// past the last pose repeat it.
+    #[inline]
+    pub fn lanes(&self, block: usize) -> (&[[f64; POSE_LANES]], &[[f64; POSE_LANES]]) {
+        let r = block * self.n_joints..(block + 1) * self.n_joints;
+        (&self.lane_sin[r.clone()], &self.lane_cos[r])
     }
 }
 
-/// `(sin(θ+q), cos(θ+q))` from `[sin q, cos q]` and the link's cached sin/cos of θ.
+/// `[sin q_i, cos q_i]` of one joint vector ([`crate::trig::sin_cos`]), into
+/// `out[..q_rad.len()]`; at most [`MAX_JOINTS`] values.
+#[inline]
+pub fn joint_sin_cos(q_rad: &[f64], out: &mut [[f64; 2]]) {
+    let n = q_rad.len();
+    let mut s = [0.0; MAX_JOINTS];
+    let mut c = [0.0; MAX_JOINTS];
+    sin_cos_slice(q_rad, &mut s[..n], &mut c[..n]);
+    for (o, (s, c)) in out.iter_mut().zip(s.iter().zip(&c)).take(n) {
+        *o = [*s, *c];
+    }
+}
+
+/// Poses evaluated together by the pose-parallel kernels ([`Robot::point_lanes`],
+/// [`Robot::point_jacobian_lanes`]), one per vector lane.
+pub const POSE_LANES: usize = 8;
+
+/// One value per lane.
+type Lanes<const L: usize> = [f64; L];
+
+/// A 3-vector per lane (structure of arrays).
+#[derive(Clone, Copy)]
+struct V3<const L: usize> {
+    x: Lanes<L>,
+    y: Lanes<L>,
+    z: Lanes<L>,
+}
+
+impl<const L: usize> V3<L> {
+    #[inline(always)]
+    fn splat(v: &Vector3<f64>) -> Self {
+        V3 {
+            x: [v.x; L],
+            y: [v.y; L],
+            z: [v.z; L],
+        }
+    }
+
+    #[inline(always)]
+    fn map(a: &Self, b: &Self, f: impl Fn(f64, f64) -> f64) -> Self {
+        let mut r = *a;
+        for t in 0..L {
+            r.x[t] = f(a.x[t], b.x[t]);
+            r.y[t] = f(a.y[t], b.y[t]);
+            r.z[t] = f(a.z[t], b.z[t]);
+        }
+        r
+    }
+
+    /// `a·sa + b·sb` with per-lane factors.
+    #[inline(always)]
+    fn comb(a: &Self, sa: &Lanes<L>, b: &Self, sb: &Lanes<L>) -> Self {
+        let mut r = *a;
+        for t in 0..L {
+            r.x[t] = a.x[t] * sa[t] + b.x[t] * sb[t];
+            r.y[t] = a.y[t] * sa[t] + b.y[t] * sb[t];
+            r.z[t] = a.z[t] * sa[t] + b.z[t] * sb[t];
+        }
+        r
+    }
+
+    /// `a·sa − b·sb` with per-lane factors.
+    #[inline(always)]
+    fn comb_minus(a: &Self, sa: &Lanes<L>, b: &Self, sb: &Lanes<L>) -> Self {
+        let mut r = *a;
+        for t in 0..L {
+            r.x[t] = a.x[t] * sa[t] - b.x[t] * sb[t];
+            r.y[t] = a.y[t] * sa[t] - b.y[t] * sb[t];
+            r.z[t] = a.z[t] * sa[t] - b.z[t] * sb[t];
+        }
+        r
+    }
+
+    /// `a·sa + b·sb` with uniform factors.
+    #[inline(always)]
+    fn comb_u(a: &Self, sa: f64, b: &Self, sb: f64) -> Self {
+        Self::comb(a, &[sa; L], b, &[sb; L])
+    }
+
+    /// `a·sa − b·sb` with uniform factors.
+    #[inline(always)]
+    fn comb_minus_u(a: &Self, sa: f64, b: &Self, sb: f64) -> Self {
+        Self::comb_minus(a, &[sa; L], b, &[sb; L])
+    }
+
+    #[inline(always)]
+    fn sub(a: &Self, b: &Self) -> Self {
+        Self::map(a, b, |u, v| u - v)
+    }
+
+    #[inline(always)]
+    fn add(a: &Self, b: &Self) -> Self {
+        Self::map(a, b, |u, v| u + v)
+    }
+
+    /// `a × b`.
+    #[inline(always)]
+    fn cross(a: &Self, b: &Self) -> Self {
+        let mut r = *a;
+        for t in 0..L {
+            r.x[t] = a.y[t] * b.z[t] - a.z[t] * b.y[t];
+            r.y[t] = a.z[t] * b.x[t] - a.x[t] * b.z[t];
+            r.z[t] = a.x[t] * b.y[t] - a.y[t] * b.x[t];
+        }
+        r
+    }
+
+    /// `r · v` for a rotation given by its columns `c` (uniform) and per-lane v.
+    #[inline(always)]
+    fn rotate(c: &[Vector3<f64>; 3], v: &Self) -> Self {
+        let mut r = *v;
+        for t in 0..L {
+            r.x[t] = c[0].x * v.x[t] + c[1].x * v.y[t] + c[2].x * v.z[t];
+            r.y[t] = c[0].y * v.x[t] + c[1].y * v.y[t] + c[2].y * v.z[t];
+            r.z[t] = c[0].z * v.x[t] + c[1].z * v.y[t] + c[2].z * v.z[t];
+        }
+        r
+    }
+
+    #[inline(always)]
+    fn lane(&self, t: usize) -> Vector3<f64> {
+        Vector3::new(self.x[t], self.y[t], self.z[t])
+    }
+}
+
+/// `(sin(θ+q), cos(θ+q))` per lane from sin q, cos q and the link's cached sin/cos of θ.
 #[inline(always)]
-fn angle(l: &Link, [sq, cq]: [f64; 2]) -> (f64, f64) {
-    (
-        l.sin_theta * cq + l.cos_theta * sq,
-        l.cos_theta * cq - l.sin_theta * sq,
-    )
+fn angle<const L: usize>(l: &Link, sq: &Lanes<L>, cq: &Lanes<L>) -> (Lanes<L>, Lanes<L>) {
+    let (mut st, mut ct) = (*sq, *cq);
+    for t in 0..L {
+        st[t] = l.sin_theta * cq[t] + l.cos_theta * sq[t];
+        ct[t] = l.cos_theta * cq[t] - l.sin_theta * sq[t];
+    }
+    (st, ct)
 }
 
 /// One link forwards: the rotation columns `c` and origin `o` of frame i−1 become those of
 /// frame i. Returns `(x'_i, y'_i)`, the x axis after `Rz(θ+q)` and the y axis after
 /// `Rz(θ+q)·Rx(α)`.
 #[inline(always)]
-fn step(
+fn step<const L: usize>(
     l: &Link,
-    st: f64,
-    ct: f64,
-    c: &mut [Vector3<f64>; 3],
-    o: &mut Vector3<f64>,
-) -> (Vector3<f64>, Vector3<f64>) {
+    st: &Lanes<L>,
+    ct: &Lanes<L>,
+    c: &mut [V3<L>; 3],
+    o: &mut V3<L>,
+) -> (V3<L>, V3<L>) {
     // R·Rz(t): columns 0 and 1 mix; the origin moves by R·(a ct, a st, d).
-    let x = c[0] * ct + c[1] * st;
-    let c1 = c[1] * ct - c[0] * st;
-    *o += x * l.a_mm + c[2] * l.d_mm;
+    let x = V3::comb(&c[0], ct, &c[1], st);
+    let c1 = V3::comb_minus(&c[1], ct, &c[0], st);
+    *o = V3::add(o, &V3::comb_u(&x, l.a_mm, &c[2], l.d_mm));
     // ·Rx(α): columns 1 and 2 mix.
-    let y = c1 * l.cos_alpha + c[2] * l.sin_alpha;
-    let c2 = c[2] * l.cos_alpha - c1 * l.sin_alpha;
+    let y = V3::comb_u(&c1, l.cos_alpha, &c[2], l.sin_alpha);
+    let c2 = V3::comb_minus_u(&c[2], l.cos_alpha, &c1, l.sin_alpha);
     // ·Ry(β): columns 0 and 2 mix.
     if l.sin_beta != 0.0 {
-        c[0] = x * l.cos_beta - c2 * l.sin_beta;
-        c[2] = x * l.sin_beta + c2 * l.cos_beta;
+        c[0] = V3::comb_minus_u(&x, l.cos_beta, &c2, l.sin_beta);
+        c[2] = V3::comb_u(&x, l.sin_beta, &c2, l.cos_beta);
     } else {
         c[0] = x;
         c[2] = c2;
@@ -135,68 +288,182 @@ fn columns(f: &Frame) -> [Vector3<f64>; 3] {
 }
 
 #[inline(always)]
-fn frame(c: &[Vector3<f64>; 3], o: Vector3<f64>) -> Frame {
+fn frame(c: &[V3<1>; 3], o: &V3<1>) -> Frame {
     Frame {
-        rot: nalgebra::Matrix3::from_columns(c),
-        pos_mm: o,
+        rot: nalgebra::Matrix3::from_columns(&[c[0].lane(0), c[1].lane(0), c[2].lane(0)]),
+        pos_mm: o.lane(0),
     }
 }
 
+/// Splits `[sin, cos]` pairs of one pose into single-lane sine and cosine arrays.
+#[inline(always)]
+fn single(sc: &[[f64; 2]]) -> ([Lanes<1>; MAX_JOINTS], [Lanes<1>; MAX_JOINTS]) {
+    let mut s = [[0.0]; MAX_JOINTS];
+    let mut c = [[0.0]; MAX_JOINTS];
+    for (i, [si, ci]) in sc.iter().enumerate() {
+        s[i] = [*si];
+        c[i] = [*ci];
+    }
+    (s, c)
+}
+
 impl Robot {
+    /// The point per lane, backwards from the tool: three plane rotations per link.
+    #[inline(always)]
+    fn point_generic<const L: usize>(&self, s: &[Lanes<L>], c: &[Lanes<L>]) -> V3<L> {
+        let t = self.tool_mm;
+        let mut v = V3::splat(&t);
+        for ((l, sq), cq) in self.links.iter().zip(s).zip(c).rev() {
+            let (st, ct) = angle(l, sq, cq);
+            for k in 0..L {
+                let (mut x, mut y, mut z) = (v.x[k], v.y[k], v.z[k]);
+                if l.sin_beta != 0.0 {
+                    let xb = l.cos_beta * x + l.sin_beta * z;
+                    z = l.cos_beta * z - l.sin_beta * x;
+                    x = xb;
+                }
+                let ya = l.cos_alpha * y - l.sin_alpha * z;
+                z = l.sin_alpha * y + l.cos_alpha * z;
+                y = ya;
+                x += l.a_mm;
+                v.x[k] = ct[k] * x - st[k] * y;
+                v.y[k] = st[k] * x + ct[k] * y;
+                v.z[k] = z + l.d_mm;
+            }
+        }
+        let b = columns(&self.base_frame);
+        V3::add(&V3::rotate(&b, &v), &V3::splat(&self.base_frame.pos_mm))
+    }
+
+    /// Point and Jacobian per lane; `jac[k]` = lanes of (∂p_x, ∂p_y, ∂p_z)/∂param_k.
+    #[inline(always)]
+    fn point_jacobian_generic<const L: usize>(
+        &self,
+        s: &[Lanes<L>],
+        cq: &[Lanes<L>],
+        jac: &mut [[Lanes<L>; 3]],
+    ) -> V3<L> {
+        let np = self.layout.len();
+        assert!(jac.len() >= np, "Jacobian buffer length");
+        let p = self.point_generic(s, cq);
+        let mut set = |k: usize, v: &V3<L>| {
+            jac[k] = [v.x, v.y, v.z];
+        };
+        let bc = columns(&self.base_frame);
+        let mut c = [V3::splat(&bc[0]), V3::splat(&bc[1]), V3::splat(&bc[2])];
+        let mut o = V3::splat(&self.base_frame.pos_mm);
+        for (i, ((l, sq), cqi)) in self.links.iter().zip(s).zip(cq).enumerate() {
+            let z = c[2];
+            let r_prev = V3::sub(&p, &o);
+            let (st, ct) = angle(l, sq, cqi);
+            let (x, y) = step(l, &st, &ct, &mut c, &mut o);
+            let r_this = V3::sub(&p, &o);
+            set(4 * i, &V3::cross(&z, &r_prev));
+            set(4 * i + 1, &z);
+            set(4 * i + 2, &x);
+            set(4 * i + 3, &V3::cross(&x, &r_this));
+            if let Some(k) = self.beta_index[i] {
+                set(k, &V3::cross(&y, &r_this));
+            }
+        }
+        let b = self.base_index;
+        let r_base = V3::sub(&p, &V3::splat(&self.base_frame.pos_mm));
+        let [ax_x, ax_y, ax_z] = self.base_axes;
+        set(b, &V3::cross(&V3::splat(&ax_x), &r_base));
+        set(b + 1, &V3::cross(&V3::splat(&ax_y), &r_base));
+        set(b + 2, &V3::cross(&V3::splat(&ax_z), &r_base));
+        set(b + 3, &V3::splat(&Vector3::x()));
+        set(b + 4, &V3::splat(&Vector3::y()));
+        set(b + 5, &V3::splat(&Vector3::z()));
+        set(b + 6, &c[0]);
+        set(b + 7, &c[1]);
+        set(b + 8, &c[2]);
+        p
+    }
+
+    /// [`Robot::point_trig`] for [`POSE_LANES`] poses at once: `sin_q[i][t]`, `cos_q[i][t]`
+    /// are sin and cos of joint i of pose t ([`PoseTrig::lanes`]); returns the lanes of
+    /// x, y, z. Each lane is bit for bit what the one-pose kernel gives for that pose (same
+    /// operations in the same order), at any vector width.
+    #[inline(always)]
+    pub fn point_lanes(
+        &self,
+        sin_q: &[[f64; POSE_LANES]],
+        cos_q: &[[f64; POSE_LANES]],
+    ) -> [[f64; POSE_LANES]; 3] {
+        assert!(
+            sin_q.len() == self.links.len() && cos_q.len() == self.links.len(),
+            "joint vector length"
+        );
+        let p = self.point_generic(sin_q, cos_q);
+        [p.x, p.y, p.z]
+    }
+
+    /// [`Robot::point_jacobian_trig`] for [`POSE_LANES`] poses at once: `jac[k][r][t]` is
+    /// `∂p_r/∂param_k` (r = x, y, z) of pose t; `jac` holds at least `n_params()` entries.
+    /// Returns the points' lanes. Bit for bit the one-pose kernel's values, lane by lane.
+    #[inline(always)]
+    pub fn point_jacobian_lanes(
+        &self,
+        sin_q: &[[f64; POSE_LANES]],
+        cos_q: &[[f64; POSE_LANES]],
+        jac: &mut [[[f64; POSE_LANES]; 3]],
+    ) -> [[f64; POSE_LANES]; 3] {
+        assert!(
+            sin_q.len() == self.links.len() && cos_q.len() == self.links.len(),
+            "joint vector length"
+        );
+        let p = self.point_jacobian_generic(sin_q, cos_q, jac);
+        [p.x, p.y, p.z]
+    }
+
     /// The measured point at the pose whose `[sin q, cos q]` are `sc` (see [`PoseTrig`]):
     /// the same value as [`Robot::point`] of that pose, bit for bit.
     ///
     /// Panics if `sc.len() != n_joints()`.
     #[inline]
     pub fn point_trig(&self, sc: &[[f64; 2]]) -> Vector3<f64> {
-        assert_eq!(sc.len(), self.links.len(), "joint vector length");
-        let t = self.tool_mm;
-        let (mut x, mut y, mut z) = (t.x, t.y, t.z);
-        for (l, &tq) in self.links.iter().zip(sc).rev() {
-            let (st, ct) = angle(l, tq);
-            if l.sin_beta != 0.0 {
-                let xb = l.cos_beta * x + l.sin_beta * z;
-                z = l.cos_beta * z - l.sin_beta * x;
-                x = xb;
-            }
-            let ya = l.cos_alpha * y - l.sin_alpha * z;
-            z = l.sin_alpha * y + l.cos_alpha * z;
-            y = ya;
-            x += l.a_mm;
-            let xz = ct * x - st * y;
-            y = st * x + ct * y;
-            x = xz;
-            z += l.d_mm;
+        let n = self.links.len();
+        assert_eq!(sc.len(), n, "joint vector length");
+        let (s, c) = single(sc);
+        self.point_generic(&s[..n], &c[..n]).lane(0)
+    }
+
+    /// The forward chain at one pose, calling `visit(i, z_{i−1}, o_{i−1})` before each link;
+    /// returns the flange's columns and origin.
+    #[inline(always)]
+    fn chain_trig(
+        &self,
+        sc: &[[f64; 2]],
+        mut visit: impl FnMut(usize, &[V3<1>; 3], &V3<1>),
+    ) -> ([V3<1>; 3], V3<1>) {
+        let n = self.links.len();
+        assert_eq!(sc.len(), n, "joint vector length");
+        let (s, cq) = single(sc);
+        let bc = columns(&self.base_frame);
+        let mut c = [V3::splat(&bc[0]), V3::splat(&bc[1]), V3::splat(&bc[2])];
+        let mut o = V3::splat(&self.base_frame.pos_mm);
+        for (i, ((l, sq), cqi)) in self.links.iter().zip(&s[..n]).zip(&cq[..n]).enumerate() {
+            visit(i, &c, &o);
+            let (st, ct) = angle(l, sq, cqi);
+            step(l, &st, &ct, &mut c, &mut o);
         }
-        self.base_frame.transform_point(&Vector3::new(x, y, z))
+        (c, o)
     }
 
     /// The flange frame at the pose whose `[sin q, cos q]` are `sc`.
     #[inline]
     pub fn flange_trig(&self, sc: &[[f64; 2]]) -> Frame {
-        assert_eq!(sc.len(), self.links.len(), "joint vector length");
-        let mut c = columns(&self.base_frame);
-        let mut o = self.base_frame.pos_mm;
-        for (l, &tq) in self.links.iter().zip(sc) {
-            let (st, ct) = angle(l, tq);
-            step(l, st, ct, &mut c, &mut o);
-        }
-        frame(&c, o)
+        let (c, o) = self.chain_trig(sc, |_, _, _| {});
+        frame(&c, &o)
     }
 
     /// Frames `T_base · T_1 ··· T_i`, i = 0..N, into `frames[0..=N]`, at the pose whose
     /// `[sin q, cos q]` are `sc`.
     #[inline]
     pub fn frames_trig(&self, sc: &[[f64; 2]], frames: &mut [Frame; MAX_JOINTS + 1]) {
-        assert_eq!(sc.len(), self.links.len(), "joint vector length");
-        let mut c = columns(&self.base_frame);
-        let mut o = self.base_frame.pos_mm;
-        frames[0] = self.base_frame;
-        for (i, (l, &tq)) in self.links.iter().zip(sc).enumerate() {
-            let (st, ct) = angle(l, tq);
-            step(l, st, ct, &mut c, &mut o);
-            frames[i + 1] = frame(&c, o);
-        }
+        let (c, o) = self.chain_trig(sc, |i, c, o| frames[i] = frame(c, o));
+        frames[self.links.len()] = frame(&c, &o);
     }
 
     /// For every joint the axis `z_{i−1}` and its origin `o_{i−1}`, and the flange frame, at
@@ -207,14 +474,8 @@ impl Robot {
         sc: &[[f64; 2]],
         axes: &mut [(Vector3<f64>, Vector3<f64>); MAX_JOINTS],
     ) -> Frame {
-        let mut c = columns(&self.base_frame);
-        let mut o = self.base_frame.pos_mm;
-        for (i, (l, &tq)) in self.links.iter().zip(sc).enumerate() {
-            axes[i] = (c[2], o);
-            let (st, ct) = angle(l, tq);
-            step(l, st, ct, &mut c, &mut o);
-        }
-        frame(&c, o)
+        let (c, o) = self.chain_trig(sc, |i, c, o| axes[i] = (c[2].lane(0), o.lane(0)));
+        frame(&c, &o)
     }
 
     /// The measured point ([`Robot::point_trig`], bit for bit) and its derivative with
@@ -235,40 +496,14 @@ impl Robot {
             jx.len() >= np && jy.len() >= np && jz.len() >= np,
             "Jacobian row length"
         );
-        let p = self.point_trig(sc);
-        let mut set = |k: usize, v: Vector3<f64>| {
-            jx[k] = v.x;
-            jy[k] = v.y;
-            jz[k] = v.z;
-        };
-        let mut c = columns(&self.base_frame);
-        let mut o = self.base_frame.pos_mm;
-        for (i, (l, &tq)) in self.links.iter().zip(sc).enumerate() {
-            let z = c[2];
-            let r_prev = p - o;
-            let (st, ct) = angle(l, tq);
-            let (x, y) = step(l, st, ct, &mut c, &mut o);
-            let r_this = p - o;
-            set(4 * i, z.cross(&r_prev));
-            set(4 * i + 1, z);
-            set(4 * i + 2, x);
-            set(4 * i + 3, x.cross(&r_this));
-            if let Some(k) = self.beta_index[i] {
-                set(k, y.cross(&r_this));
-            }
+        let (s, c) = single(sc);
+        let mut jac = [[[0.0]; 3]; crate::robot::MAX_PARAMS];
+        let p = self.point_jacobian_generic(&s[..n], &c[..n], &mut jac[..np]);
+        for (k, [x, y, z]) in jac[..np].iter().enumerate() {
+            jx[k] = x[0];
+            jy[k] = y[0];
+            jz[k] = z[0];
         }
-        let b = self.base_index;
-        let r_base = p - self.base_frame.pos_mm;
-        let [ax_x, ax_y, ax_z] = self.base_axes;
-        set(b, ax_x.cross(&r_base));
-        set(b + 1, ax_y.cross(&r_base));
-        set(b + 2, ax_z.cross(&r_base));
-        set(b + 3, Vector3::x());
-        set(b + 4, Vector3::y());
-        set(b + 5, Vector3::z());
-        set(b + 6, c[0]);
-        set(b + 7, c[1]);
-        set(b + 8, c[2]);
-        p
+        p.lane(0)
     }
 }
