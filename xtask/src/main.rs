@@ -1,6 +1,7 @@
 //! `cargo xtask …`: the kincal command line. Parses arguments, calls the library crates,
 //! prints. No calibration logic lives here.
 
+mod bench;
 mod calibrate;
 mod campaign_cmd;
 mod identifiability;
@@ -51,6 +52,9 @@ enum Cmd {
     Predict(calibrate::PredictArgs),
     /// Joints to command so that the calibrated robot reaches the nominal targets.
     Compensate(calibrate::CompensateArgs),
+    /// Run the criterion benchmarks (kinematics, identification, one campaign trial) and
+    /// write results/bench.json with the machine's CPU, SIMD features and cores.
+    Bench(bench::BenchArgs),
 }
 
 fn main() -> Result<()> {
@@ -66,6 +70,7 @@ fn main() -> Result<()> {
         Cmd::Identify(args) => identify_cmd::run(&args),
         Cmd::Predict(args) => calibrate::predict(&args),
         Cmd::Compensate(args) => calibrate::compensate_cmd(&args),
+        Cmd::Bench(args) => bench::run(args),
     }
 }
 

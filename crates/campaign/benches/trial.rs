@@ -22,10 +22,12 @@ fn benches(c: &mut Criterion) {
     let name = loaded.scenario.name.clone();
     let ctx = Context::new(loaded).expect("context");
 
+    // `cargo xtask bench --quick` sets KINCAL_BENCH_QUICK: shorter measurements.
+    let quick = std::env::var_os("KINCAL_BENCH_QUICK").is_some();
     let mut g = c.benchmark_group("campaign");
-    g.sample_size(20)
-        .warm_up_time(Duration::from_millis(500))
-        .measurement_time(Duration::from_secs(3));
+    g.sample_size(if quick { 10 } else { 20 })
+        .warm_up_time(Duration::from_millis(if quick { 200 } else { 500 }))
+        .measurement_time(Duration::from_millis(if quick { 1500 } else { 3000 }));
     let mut trial = 0u64;
     g.bench_function(format!("trial_{name}_no_iso"), |b| {
         b.iter(|| {

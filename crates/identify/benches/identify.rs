@@ -8,8 +8,8 @@ use std::time::Duration;
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use identify::{
-    Damping, IdentifyOptions, LmOptions, ParamSet, Problem, RegistrationPolicy, identify,
-    random_poses, solve,
+    Damping, IdentifyOptions, LmOptions, ParamSet, Problem, RegistrationPolicy, SimdLevel,
+    identify, random_poses, set_simd_level, solve,
 };
 use kinematics::{Robot, RobotSpec};
 use nalgebra::{DMatrix, DVector, Vector3};
@@ -83,10 +83,12 @@ fn benches(c: &mut Criterion) {
     let all: Vec<usize> = (0..nominal.n_params()).collect();
     let problem = Problem::new(&nominal, &poses, &measured, all).expect("problem");
 
+    // `cargo xtask bench --quick` sets KINCAL_BENCH_QUICK: shorter measurements.
+    let quick = std::env::var_os("KINCAL_BENCH_QUICK").is_some();
     let mut g = c.benchmark_group("identify");
-    g.sample_size(30)
-        .warm_up_time(Duration::from_millis(500))
-        .measurement_time(Duration::from_secs(2));
+    g.sample_size(if quick { 10 } else { 30 })
+        .warm_up_time(Duration::from_millis(if quick { 200 } else { 500 }))
+        .measurement_time(Duration::from_millis(if quick { 700 } else { 2000 }));
 
     let mut a = DMatrix::zeros(0, 0);
     let mut v = DVector::zeros(0);
@@ -108,6 +110,25 @@ fn benches(c: &mut Criterion) {
         });
     }
 
+    // The same on the portable build of the vector kernels (SSE2 on x86-64), for
+    // comparison with machines without AVX2/AVX-512 (results are bit-identical).
+    if SimdLevel::detect() > SimdLevel::Portable {
+        set_simd_level(Some(SimdLevel::Portable));
+        g.bench_function("normal_equations_50x34_portable", |b| {
+            b.iter(|| black_box(&problem).normal_equations(&mut a, &mut v))
+        });
+        let lm = LmOptions::default();
+        let opts = IdentifyOptions {
+            lm,
+            registration: RegistrationPolicy::Never,
+            ..IdentifyOptions::default()
+        };
+        g.bench_function("identify_levenberg_50x34_portable", |b| {
+            b.iter(|| identify(black_box(&problem), &opts).expect("identifies"))
+        });
+        set_simd_level(None);
+    }
+
     if let Some((ur_poses, ur_points)) = ur10_data() {
         let ur10 = robot("ur10.json", None);
         let free = ParamSet::Paper
@@ -117,6 +138,16 @@ fn benches(c: &mut Criterion) {
         let opts = IdentifyOptions::default();
         g.bench_function("identify_ur10_real_100x35", |b| {
             b.iter(|| identify(black_box(&ur_problem), &opts).expect("identifies"))
+        });
+        // The paper set above reaches the iteration cap on these data (a nearly flat
+        // direction); the minimal set converges in a few iterations.
+        let minimal = ParamSet::Minimal
+            .resolve(&ur10, &ur_poses, None, &Default::default())
+            .expect("minimal set");
+        let name = format!("identify_ur10_real_100x{}_minimal", minimal.len());
+        let ur_min = Problem::new(&ur10, &ur_poses, &ur_points, minimal).expect("problem");
+        g.bench_function(name, |b| {
+            b.iter(|| identify(black_box(&ur_min), &opts).expect("identifies"))
         });
     } else {
         eprintln!("UR10 data not found (set KINCAL_UR10_CSV): skipping identify_ur10_real_100x35");

@@ -396,15 +396,21 @@ pub(crate) fn kept_by_cholesky(
     }
     // The scaled normal matrix G̃ = S·A·S, dense column-major.
     let mut gm = vec![0.0; p * p];
-    for j in 0..p {
-        for i in 0..p {
-            gm[j * p + i] = scale[i] * a[(i, j)] * scale[j];
+    for ((dst, src), sj) in gm
+        .chunks_exact_mut(p)
+        .zip(a.as_slice().chunks_exact(p))
+        .zip(&scale)
+    {
+        for ((d, v), si) in dst.iter_mut().zip(src).zip(&scale) {
+            *d = si * v * sj;
         }
     }
 
-    // 1. Greedy Cholesky in priority order; `l` row-major (row i at i·p).
+    // 1. Greedy Cholesky in priority order; `l` row-major (row i at i·p), `inv_d` the
+    //    reciprocals of its diagonal (multiplications in the dependent chains, not divisions).
     let mut kp: Vec<usize> = Vec::with_capacity(p);
     let mut l = vec![0.0; p * p];
+    let mut inv_d = vec![0.0; p];
     let mut y = vec![0.0; p];
     let mut drops: Vec<usize> = Vec::new();
     for &k in priority {
@@ -420,12 +426,14 @@ pub(crate) fn kept_by_cholesky(
             for (lij, yj) in row.iter().zip(&y[..i]) {
                 v -= lij * yj;
             }
-            y[i] = v / l[i * p + i];
+            y[i] = v * inv_d[i];
             s -= y[i] * y[i];
         }
         if s > CHOL_KEEP_S {
             l[r * p..r * p + r].copy_from_slice(&y[..r]);
-            l[r * p + r] = s.sqrt();
+            let d = s.sqrt();
+            l[r * p + r] = d;
+            inv_d[r] = 1.0 / d;
             kp.push(k);
         } else if s < CHOL_DROP_S {
             drops.push(k);
@@ -438,22 +446,33 @@ pub(crate) fn kept_by_cholesky(
         return None;
     }
 
-    // 2. L⁻¹ (lower, row-major r × r) and the bound on σ_min.
+    // 2. L⁻¹ column by column (`li` column-major: column c at c·r) and the bound on σ_min.
     let mut li = vec![0.0; r * r];
     for c in 0..r {
-        li[c * r + c] = 1.0 / l[c * p + c];
+        let x = &mut li[c * r..(c + 1) * r];
+        x[c] = inv_d[c];
         for i in c + 1..r {
             let mut v = 0.0;
-            for j in c..i {
-                v -= l[i * p + j] * li[j * r + c];
+            for (lij, xj) in l[i * p + c..i * p + i].iter().zip(&x[c..i]) {
+                v -= lij * xj;
             }
-            li[i * r + c] = v / l[i * p + i];
+            x[i] = v * inv_d[i];
         }
     }
     let frob = li.iter().map(|v| v * v).sum::<f64>().sqrt();
     let sigma_lower = 1.0 / frob;
     if !(sigma_lower >= CHOL_MIN_SIGMA && sigma_lower > 10.0 * opts.rank_rtol * (p as f64).sqrt()) {
         return None;
+    }
+    // (J̃_KᵀJ̃_K)⁻¹ = L⁻ᵀL⁻¹ (priority order, symmetric, row i at i·r).
+    let mut ginv = vec![0.0; r * r];
+    for i in 0..r {
+        for j in 0..=i {
+            let (ci, cj) = (&li[i * r + i..(i + 1) * r], &li[j * r + i..(j + 1) * r]);
+            let v: f64 = ci.iter().zip(cj).map(|(u, w)| u * w).sum();
+            ginv[i * r + j] = v;
+            ginv[j * r + i] = v;
+        }
     }
 
     // 3. Residual of the dropped (non-zero) columns in the 3m-space: J̃_d − J̃_K c with
@@ -473,19 +492,8 @@ pub(crate) fn kept_by_cholesky(
     let mut c = vec![0.0; r];
     for dpos in &drops {
         let gd = &gm[dpos * p..(dpos + 1) * p];
-        for i in 0..r {
-            let mut v = gd[kp[i]];
-            for (lij, cj) in l[i * p..i * p + i].iter().zip(&c[..i]) {
-                v -= lij * cj;
-            }
-            c[i] = v / l[i * p + i];
-        }
-        for i in (0..r).rev() {
-            let mut v = c[i];
-            for t in i + 1..r {
-                v -= l[t * p + i] * c[t];
-            }
-            c[i] = v / l[i * p + i];
+        for (ci, row) in c.iter_mut().zip(ginv.chunks_exact(r)) {
+            *ci = row.iter().zip(&kp).map(|(v, &k)| v * gd[k]).sum();
         }
         let sd = scale[*dpos];
         for (o, v) in res.iter_mut().zip(col(*dpos)) {
@@ -536,18 +544,7 @@ pub(crate) fn kept_by_cholesky(
         return None;
     }
 
-    // (J̃_KᵀJ̃_K)⁻¹ = L⁻ᵀL⁻¹ (priority order), then in ascending order of the positions.
-    let mut ginv = vec![0.0; r * r];
-    for i in 0..r {
-        for j in 0..=i {
-            let mut v = 0.0;
-            for t in i..r {
-                v += li[t * r + i] * li[t * r + j];
-            }
-            ginv[i * r + j] = v;
-            ginv[j * r + i] = v;
-        }
-    }
+    // The inverse in ascending order of the kept positions.
     let mut order: Vec<usize> = (0..r).collect();
     order.sort_by_key(|&i| kp[i]);
     let kept: Vec<usize> = order.iter().map(|&i| kp[i]).collect();

@@ -598,7 +598,7 @@ impl NormalWork {
                     }
                 }
             }
-            group_update(&mut self.a, &mut self.g, pf, ld, &self.b, &self.e);
+            group_update(&mut self.a, &mut self.g, pf, ld, &self.b, &self.e, count);
         }
         cost
     }
@@ -651,13 +651,20 @@ impl NormalWork {
     }
 }
 
-/// `g += Σ_p B_pᵀ e_p` and the upper triangle of `A += Σ_p B_pᵀ B_p` for the [`GROUP`]
-/// blocks `B_p` in `b` (layout of [`NormalWork`], padded with zeros to `ld`, a multiple of
-/// [`LANES`]). Every entry adds the poses' terms `(x·x_l + y·y_l) + z·z_l` one after the
-/// other, exactly as a pose-by-pose accumulation would. The loops run over whole blocks of
-/// [`LANES`] rows, loaded before they are stored, which is what lets them vectorise at any
-/// width.
+/// Columns of `A` updated together by [`group_update`] (they share every load of the
+/// panel).
+const COLS: usize = 4;
+
+/// `g += Σ_p B_pᵀ e_p` and the upper triangle of `A += Σ_p B_pᵀ B_p` for the first `count`
+/// of the [`GROUP`] blocks `B_p` in `b` (layout of [`NormalWork`], padded with zeros to `ld`,
+/// a multiple of [`LANES`]). Every entry adds the poses' terms `(x·x_l + y·y_l) + z·z_l` one
+/// after the other, exactly as a pose-by-pose accumulation would (no FMA, so the same bits
+/// at any vector width). The loops run over whole blocks of [`LANES`] rows and [`COLS`]
+/// columns at a time (a small GEMM micro-kernel: each load of the panel serves four
+/// columns, four independent accumulation chains), which is what lets them vectorise at any
+/// width and keep the arithmetic units busy.
 #[inline(always)]
+#[allow(clippy::too_many_arguments)]
 fn group_update(
     a: &mut [f64],
     g: &mut [f64],
@@ -665,6 +672,7 @@ fn group_update(
     ld: usize,
     b: &[f64],
     e: &[Vector3<f64>; GROUP],
+    count: usize,
 ) {
     let panel = |blk: usize| -> &[f64; PANEL] {
         b[blk * PANEL..(blk + 1) * PANEL].try_into().expect("panel")
@@ -677,7 +685,7 @@ fn group_update(
     for (blk, gk) in g[..ld].chunks_exact_mut(LANES).enumerate() {
         let pn = panel(blk);
         let mut acc: [f64; LANES] = (&*gk).try_into().expect("block");
-        for (p, ep) in e.iter().enumerate() {
+        for (p, ep) in e[..count].iter().enumerate() {
             let (x, y, z) = (lane(pn, p, 0), lane(pn, p, 1), lane(pn, p, 2));
             for t in 0..LANES {
                 acc[t] += x[t] * ep.x + y[t] * ep.y + z[t] * ep.z;
@@ -685,28 +693,39 @@ fn group_update(
         }
         gk.copy_from_slice(&acc);
     }
-    for l in 0..pf {
-        let own = panel(l / LANES);
-        let mut coef = [[0.0; 3]; GROUP];
-        for (p, c) in coef.iter_mut().enumerate() {
-            for (r, v) in c.iter_mut().enumerate() {
-                *v = own[(3 * p + r) * LANES + l % LANES];
-            }
-        }
-        let blocks = (l + 1).div_ceil(LANES);
-        for (blk, ak) in a[l * ld..l * ld + blocks * LANES]
-            .chunks_exact_mut(LANES)
-            .enumerate()
-        {
-            let pn = panel(blk);
-            let mut acc: [f64; LANES] = (&*ak).try_into().expect("block");
-            for (p, [xl, yl, zl]) in coef.iter().enumerate() {
-                let (x, y, z) = (lane(pn, p, 0), lane(pn, p, 1), lane(pn, p, 2));
-                for t in 0..LANES {
-                    acc[t] += x[t] * xl + y[t] * yl + z[t] * zl;
+    for l0 in (0..pf).step_by(COLS) {
+        let ncols = COLS.min(pf - l0);
+        // coef[p][r][c]: row r (x, y, z) of pose p's block in column l0 + c.
+        let mut coef = [[[0.0; COLS]; 3]; GROUP];
+        for c in 0..ncols {
+            let l = l0 + c;
+            let own = panel(l / LANES);
+            for (p, cp) in coef.iter_mut().enumerate().take(count) {
+                for (r, v) in cp.iter_mut().enumerate() {
+                    v[c] = own[(3 * p + r) * LANES + l % LANES];
                 }
             }
-            ak.copy_from_slice(&acc);
+        }
+        let blocks = (l0 + ncols).div_ceil(LANES);
+        for blk in 0..blocks {
+            let pn = panel(blk);
+            let mut acc = [[0.0; LANES]; COLS];
+            for (c, ac) in acc.iter_mut().enumerate().take(ncols) {
+                let at = (l0 + c) * ld + blk * LANES;
+                *ac = a[at..at + LANES].try_into().expect("block");
+            }
+            for (p, [xl, yl, zl]) in coef.iter().enumerate().take(count) {
+                let (x, y, z) = (lane(pn, p, 0), lane(pn, p, 1), lane(pn, p, 2));
+                for c in 0..COLS {
+                    for t in 0..LANES {
+                        acc[c][t] += x[t] * xl[c] + y[t] * yl[c] + z[t] * zl[c];
+                    }
+                }
+            }
+            for (c, ac) in acc.iter().enumerate().take(ncols) {
+                let at = (l0 + c) * ld + blk * LANES;
+                a[at..at + LANES].copy_from_slice(ac);
+            }
         }
     }
 }

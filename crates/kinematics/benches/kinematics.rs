@@ -1,12 +1,13 @@
-//! Forward kinematics of 50 poses, the 50 × 34 identification Jacobian and IK of one pose
-//! (a compensation: nominal target, perturbed model, start at the commanded joints).
+//! Forward kinematics of 50 poses (one by one, and with their sines and cosines prepared as
+//! an identification does), the 50 × 34 identification Jacobian and IK of one pose (a
+//! compensation: nominal target, perturbed model, start at the commanded joints).
 //! `cargo bench -p kinematics` (or `cargo xtask bench`).
 
 use std::hint::black_box;
 use std::time::Duration;
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use kinematics::{IkOptions, IkTarget, Robot, RobotSpec};
+use kinematics::{IkOptions, IkTarget, PoseTrig, Robot, RobotSpec};
 use nalgebra::{DMatrix, Vector3};
 
 fn kr1000() -> Robot {
@@ -59,16 +60,33 @@ fn benches(c: &mut Criterion) {
     let robot = kr1000();
     let n = robot.n_joints();
     let poses = poses(&robot, 50);
+    // `cargo xtask bench --quick` sets KINCAL_BENCH_QUICK: shorter measurements.
+    let quick = std::env::var_os("KINCAL_BENCH_QUICK").is_some();
     let mut g = c.benchmark_group("kinematics");
-    g.sample_size(30)
-        .warm_up_time(Duration::from_millis(500))
-        .measurement_time(Duration::from_secs(2));
+    g.sample_size(if quick { 10 } else { 30 })
+        .warm_up_time(Duration::from_millis(if quick { 200 } else { 500 }))
+        .measurement_time(Duration::from_millis(if quick { 700 } else { 2000 }));
 
     g.bench_function("fk_50_poses", |b| {
         b.iter(|| {
             let mut s = Vector3::zeros();
             for q in black_box(&poses).chunks_exact(n) {
                 s += robot.point(q);
+            }
+            s
+        })
+    });
+
+    let trig = PoseTrig::new(n, &poses);
+    g.bench_function("fk_50_poses_prepared", |b| {
+        b.iter(|| {
+            let mut s = [0.0; 3];
+            for k in 0..trig.n_blocks() {
+                let (sq, cq) = trig.lanes(k);
+                let p = robot.point_lanes(black_box(sq), cq);
+                s[0] += p[0][0];
+                s[1] += p[1][1];
+                s[2] += p[2][2];
             }
             s
         })
