@@ -4,7 +4,7 @@
 
 use evaluate::{IsoCube, IsoReport, ParameterRecovery, Table4};
 use identify::{Fit, IdentifyOptions, ParamSet, Problem};
-use kinematics::{IkTarget, Robot};
+use kinematics::{IkTarget, PoseTrig, Robot};
 use nalgebra::Vector3;
 use serde::{Deserialize, Serialize};
 use virtual_robot::{Setup, Tracker, World};
@@ -302,13 +302,15 @@ pub fn run_trial(ctx: &Context, trial: u64) -> Result<TrialResult, CampaignError
 
     // Validation before compensation, then after.
     let val: Vec<f64> = world.validation_poses_rad().to_vec();
+    // Sines and cosines of the validation poses, once for the four models evaluated there.
+    let val_trig = PoseTrig::new(n, &val);
     let mut before = Vec::with_capacity(val.len() / n);
     let mut measured_val = Vec::with_capacity(val.len() / n);
-    for q in val.chunks_exact(n) {
+    for (j, q) in val.chunks_exact(n).enumerate() {
         match world.measure(q) {
             Ok(p) => {
-                before.push(to_arr(p - nominal.point(q)));
-                measured_val.push((q, p));
+                before.push(to_arr(p - nominal.point_trig(val_trig.pose(j))));
+                measured_val.push((j, q, p));
             }
             Err(_) => unmeasurable += 1,
         }
@@ -317,9 +319,9 @@ pub fn run_trial(ctx: &Context, trial: u64) -> Result<TrialResult, CampaignError
     let mut after = Vec::with_capacity(before.len());
     let mut compensation_failures = 0;
     let mut q_c = vec![0.0; n];
-    for (q, p_meas) in &measured_val {
+    for &(j, q, p_meas) in &measured_val {
         if scenario.compensation.enabled {
-            let target = identify::compensation_target(nominal, &fit.robot, q);
+            let target = identify::compensation_target_trig(nominal, &fit.robot, val_trig.pose(j));
             q_c.copy_from_slice(q);
             if fit.robot.solve_ik(&target, &mut q_c, &ik).is_err() {
                 compensation_failures += 1;
@@ -330,16 +332,18 @@ pub fn run_trial(ctx: &Context, trial: u64) -> Result<TrialResult, CampaignError
                 Err(_) => unmeasurable += 1,
             }
         } else {
-            after.push(to_arr(*p_meas - fit.robot.point(q)));
+            after.push(to_arr(p_meas - fit.robot.point_trig(val_trig.pose(j))));
         }
     }
     let table4 = Table4::from_errors(&before, &after).map_err(eval)?;
 
     // Geometry recovery: identified vs true geometry on the validation poses.
     let truth_robot = world.effective_true_robot().clone();
-    let predicted_error_mm = val
-        .chunks_exact(n)
-        .map(|q| (fit.robot.point(q) - truth_robot.point(q)).norm())
+    let predicted_error_mm = (0..val_trig.n_poses())
+        .map(|j| {
+            let sc = val_trig.pose(j);
+            (fit.robot.point_trig(sc) - truth_robot.point_trig(sc)).norm()
+        })
         .sum::<f64>()
         / (val.len() / n).max(1) as f64;
 

@@ -10,7 +10,15 @@ use kinematics::{IkError, IkOptions, IkReport, IkTarget, Robot};
 
 /// The IK target that compensates commanded joints `q_rad`.
 pub fn compensation_target(nominal: &Robot, identified: &Robot, q_rad: &[f64]) -> IkTarget {
-    let f = nominal.flange(q_rad);
+    let mut sc = [[0.0; 2]; kinematics::MAX_JOINTS];
+    kinematics::joint_sin_cos(q_rad, &mut sc);
+    compensation_target_trig(nominal, identified, &sc[..q_rad.len()])
+}
+
+/// [`compensation_target`] from the sines and cosines of the commanded joints
+/// ([`kinematics::PoseTrig::pose`]): the same target, bit for bit, without recomputing them.
+pub fn compensation_target_trig(nominal: &Robot, identified: &Robot, sc: &[[f64; 2]]) -> IkTarget {
+    let f = nominal.flange_trig(sc);
     IkTarget {
         point_in_flange_mm: identified.tool_mm(),
         position_mm: f.transform_point(&nominal.tool_mm()),

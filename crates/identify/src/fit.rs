@@ -167,8 +167,16 @@ pub fn identify(problem: &Problem, options: &IdentifyOptions) -> Result<Fit, Ide
         &options.identifiability,
         options.correlation_flag,
     )?;
-    let rss_mm2 = weighted_rss(&sol.robot, poses, points, None);
-    let initial_rss = weighted_rss(start, poses, points, None);
+    // Unweighted, the solver's costs are these sums already (the same points, in the same
+    // order: bit for bit).
+    let (rss_mm2, initial_rss) = if problem.weights().is_none() {
+        (sol.cost, sol.initial_cost)
+    } else {
+        (
+            weighted_rss(&sol.robot, poses, points, None),
+            weighted_rss(start, poses, points, None),
+        )
+    };
     let layout = start.layout();
     let x0 = start.params();
     let estimates = free

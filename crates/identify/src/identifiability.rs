@@ -570,7 +570,7 @@ pub fn cholesky_certifies(
     let m = poses_rad.len() / robot.n_joints();
     let pf = free.len();
     let trig = PoseTrig::new(robot.n_joints(), poses_rad);
-    let mut work = NormalWork::new(pf);
+    let mut work = NormalWork::new(pf, robot.n_params());
     let mut jac = DMatrix::zeros(3 * m, pf);
     let zeros = vec![nalgebra::Vector3::zeros(); m];
     work.assemble_stacked(robot, &trig, &zeros, weights, free, &mut jac);

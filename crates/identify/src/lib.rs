@@ -59,7 +59,7 @@ pub mod registration;
 pub mod sampling;
 pub mod simd;
 
-pub use compensation::{compensate, compensation_target};
+pub use compensation::{compensate, compensation_target, compensation_target_trig};
 pub use covariance::{CorrelatedPair, Covariance, covariance, covariance_at_solution};
 pub use error::IdentifyError;
 pub use fit::{Fit, IdentifyOptions, ParamEstimate, identify};

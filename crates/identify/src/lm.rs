@@ -561,7 +561,7 @@ impl<'p> Assembler<'p> {
             } else {
                 PoseTrig::default()
             },
-            normal: fast.then(|| NormalWork::new(free.len())),
+            normal: fast.then(|| NormalWork::new(free.len(), problem.robot().n_params())),
         }
     }
 

@@ -138,7 +138,7 @@ impl<'a> Problem<'a> {
             *g = DVector::zeros(pf);
         }
         let trig = PoseTrig::new(self.robot.n_joints(), self.poses_rad);
-        let mut work = NormalWork::new(pf);
+        let mut work = NormalWork::new(pf, self.robot.n_params());
         let cost = work.assemble(self.robot, &trig, self.points_mm, self.weights, &self.free);
         work.copy_to(a, g);
         cost
@@ -435,14 +435,15 @@ pub(crate) struct NormalWork {
 }
 
 impl NormalWork {
-    pub(crate) fn new(pf: usize) -> Self {
+    /// Buffers for `pf` free parameters of a robot with `np` parameters.
+    pub(crate) fn new(pf: usize, np: usize) -> Self {
         let ld = pf.div_ceil(LANES) * LANES;
         NormalWork {
             pf,
             ld,
             a: vec![0.0; ld * pf],
             g: vec![0.0; ld],
-            jac: vec![[[0.0; POSE_LANES]; 3]; MAX_PARAMS],
+            jac: vec![[[0.0; POSE_LANES]; 3]; np],
             b: vec![0.0; ld / LANES * PANEL],
             e: [Vector3::zeros(); GROUP],
         }
@@ -598,7 +599,7 @@ impl NormalWork {
                     }
                 }
             }
-            group_update(&mut self.a, &mut self.g, pf, ld, &self.b, &self.e, count);
+            group_update(&mut self.a, &mut self.g, pf, ld, &self.b, &self.e);
         }
         cost
     }
@@ -655,16 +656,16 @@ impl NormalWork {
 /// panel).
 const COLS: usize = 4;
 
-/// `g += Σ_p B_pᵀ e_p` and the upper triangle of `A += Σ_p B_pᵀ B_p` for the first `count`
-/// of the [`GROUP`] blocks `B_p` in `b` (layout of [`NormalWork`], padded with zeros to `ld`,
-/// a multiple of [`LANES`]). Every entry adds the poses' terms `(x·x_l + y·y_l) + z·z_l` one
+/// `g += Σ_p B_pᵀ e_p` and the upper triangle of `A += Σ_p B_pᵀ B_p` for the [`GROUP`]
+/// blocks `B_p` in `b` (layout of [`NormalWork`], padded with zeros to `ld`, a multiple of
+/// [`LANES`]; the padding poses of a last, partial group are zero and add exact zeros: the
+/// fixed trip count is what lets the compiler unroll the pose loop). Every entry adds the poses' terms `(x·x_l + y·y_l) + z·z_l` one
 /// after the other, exactly as a pose-by-pose accumulation would (no FMA, so the same bits
 /// at any vector width). The loops run over whole blocks of [`LANES`] rows and [`COLS`]
 /// columns at a time (a small GEMM micro-kernel: each load of the panel serves four
 /// columns, four independent accumulation chains), which is what lets them vectorise at any
 /// width and keep the arithmetic units busy.
 #[inline(always)]
-#[allow(clippy::too_many_arguments)]
 fn group_update(
     a: &mut [f64],
     g: &mut [f64],
@@ -672,7 +673,6 @@ fn group_update(
     ld: usize,
     b: &[f64],
     e: &[Vector3<f64>; GROUP],
-    count: usize,
 ) {
     let panel = |blk: usize| -> &[f64; PANEL] {
         b[blk * PANEL..(blk + 1) * PANEL].try_into().expect("panel")
@@ -685,7 +685,7 @@ fn group_update(
     for (blk, gk) in g[..ld].chunks_exact_mut(LANES).enumerate() {
         let pn = panel(blk);
         let mut acc: [f64; LANES] = (&*gk).try_into().expect("block");
-        for (p, ep) in e[..count].iter().enumerate() {
+        for (p, ep) in e.iter().enumerate() {
             let (x, y, z) = (lane(pn, p, 0), lane(pn, p, 1), lane(pn, p, 2));
             for t in 0..LANES {
                 acc[t] += x[t] * ep.x + y[t] * ep.y + z[t] * ep.z;
@@ -700,7 +700,7 @@ fn group_update(
         for c in 0..ncols {
             let l = l0 + c;
             let own = panel(l / LANES);
-            for (p, cp) in coef.iter_mut().enumerate().take(count) {
+            for (p, cp) in coef.iter_mut().enumerate() {
                 for (r, v) in cp.iter_mut().enumerate() {
                     v[c] = own[(3 * p + r) * LANES + l % LANES];
                 }
@@ -714,7 +714,7 @@ fn group_update(
                 let at = (l0 + c) * ld + blk * LANES;
                 *ac = a[at..at + LANES].try_into().expect("block");
             }
-            for (p, [xl, yl, zl]) in coef.iter().enumerate().take(count) {
+            for (p, [xl, yl, zl]) in coef.iter().enumerate() {
                 let (x, y, z) = (lane(pn, p, 0), lane(pn, p, 1), lane(pn, p, 2));
                 for c in 0..COLS {
                     for t in 0..LANES {

@@ -71,7 +71,7 @@ pub struct Truth {
 pub struct World {
     seed: u64,
     trial: u64,
-    config: VirtualRobotConfig,
+    config: Arc<VirtualRobotConfig>,
     nominal: Robot,
     true_robot: Robot,
     effective_robot: Robot,
@@ -111,7 +111,7 @@ fn reached_point(robot: &Robot, unmodelled: &Unmodelled, q_cmd: &[f64]) -> Vecto
 #[derive(Clone, Debug)]
 pub struct Setup {
     seed: u64,
-    config: VirtualRobotConfig,
+    config: Arc<VirtualRobotConfig>,
     nominal: Robot,
     tracker: Tracker,
     scale_poses_rad: Arc<[f64]>,
@@ -148,7 +148,7 @@ impl Setup {
         let scale_trig = PoseTrig::new(nominal.n_joints(), &scale_poses_rad);
         Ok(Setup {
             seed,
-            config: cfg.clone(),
+            config: Arc::new(cfg.clone()),
             nominal: nominal.clone(),
             tracker,
             scale_poses_rad,
@@ -275,7 +275,7 @@ impl Setup {
         Ok(World {
             seed,
             trial,
-            config: cfg.clone(),
+            config: Arc::clone(&self.config),
             nominal: nominal.clone(),
             drift_robot: true_robot.clone(),
             drift_params: true_params.clone(),
@@ -518,7 +518,7 @@ impl World {
             gear_phases_deg: self.unmodelled.gear_phases_deg(),
             sampling: self.report.clone(),
             moves: self.moves,
-            config: self.config.clone(),
+            config: (*self.config).clone(),
         }
     }
 }
