@@ -510,7 +510,7 @@ impl NormalWork {
                 // SAFETY: as above.
                 unsafe { self.assemble_avx2(robot, trig, points_mm, weights, free, stack) }
             }
-            _ => self.assemble_impl(robot, trig, points_mm, weights, free, stack),
+            _ => self.assemble_impl(robot, trig, points_mm, weights, free, stack, false),
         }
     }
 
@@ -525,7 +525,7 @@ impl NormalWork {
         free: &[usize],
         stack: Option<&mut [f64]>,
     ) -> f64 {
-        self.assemble_impl(robot, trig, points_mm, weights, free, stack)
+        self.assemble_impl(robot, trig, points_mm, weights, free, stack, true)
     }
 
     #[cfg(target_arch = "x86_64")]
@@ -539,10 +539,11 @@ impl NormalWork {
         free: &[usize],
         stack: Option<&mut [f64]>,
     ) -> f64 {
-        self.assemble_impl(robot, trig, points_mm, weights, free, stack)
+        self.assemble_impl(robot, trig, points_mm, weights, free, stack, false)
     }
 
     #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
     fn assemble_impl(
         &mut self,
         robot: &Robot,
@@ -551,7 +552,9 @@ impl NormalWork {
         weights: Option<&[f64]>,
         free: &[usize],
         mut stack: Option<&mut [f64]>,
+        wide: bool,
     ) -> f64 {
+        // (`wide`: the register-hungry four-column kernel; a constant after inlining.)
         let (pf, ld) = (self.pf, self.ld);
         self.a.fill(0.0);
         self.g.fill(0.0);
@@ -599,7 +602,11 @@ impl NormalWork {
                     }
                 }
             }
-            group_update(&mut self.a, &mut self.g, pf, ld, &self.b, &self.e);
+            if wide {
+                group_update::<COLS_WIDE>(&mut self.a, &mut self.g, pf, ld, &self.b, &self.e);
+            } else {
+                group_update::<COLS_NARROW>(&mut self.a, &mut self.g, pf, ld, &self.b, &self.e);
+            }
         }
         cost
     }
@@ -652,21 +659,23 @@ impl NormalWork {
     }
 }
 
-/// Columns of `A` updated together by [`group_update`] (they share every load of the
-/// panel).
-const COLS: usize = 4;
+/// Columns of `A` updated together by [`group_update`] at each vector width (they share
+/// every load of the panel; more columns than registers would spill): four with AVX-512's
+/// 32 registers, one with SSE2's and AVX2's 16.
+const COLS_WIDE: usize = 4;
+const COLS_NARROW: usize = 1;
 
 /// `g += Σ_p B_pᵀ e_p` and the upper triangle of `A += Σ_p B_pᵀ B_p` for the [`GROUP`]
 /// blocks `B_p` in `b` (layout of [`NormalWork`], padded with zeros to `ld`, a multiple of
 /// [`LANES`]; the padding poses of a last, partial group are zero and add exact zeros: the
 /// fixed trip count is what lets the compiler unroll the pose loop). Every entry adds the poses' terms `(x·x_l + y·y_l) + z·z_l` one
 /// after the other, exactly as a pose-by-pose accumulation would (no FMA, so the same bits
-/// at any vector width). The loops run over whole blocks of [`LANES`] rows and [`COLS`]
-/// columns at a time (a small GEMM micro-kernel: each load of the panel serves four
+/// at any vector width and for any `COLS`). The loops run over whole blocks of [`LANES`] rows
+/// and `COLS` columns at a time (a small GEMM micro-kernel: each load of the panel serves four
 /// columns, four independent accumulation chains), which is what lets them vectorise at any
 /// width and keep the arithmetic units busy.
 #[inline(always)]
-fn group_update(
+fn group_update<const COLS: usize>(
     a: &mut [f64],
     g: &mut [f64],
     pf: usize,
