@@ -485,8 +485,8 @@ pub(crate) fn kept_by_cholesky(
     };
     let rows = jac.nrows();
     let js = jac.as_slice();
-    let col = |k: usize| &js[k * rows..(k + 1) * rows];
-    let mut res = vec![0.0; rows];
+    let mut res = Vec::with_capacity(rows);
+    let mut terms: Vec<(usize, f64)> = Vec::with_capacity(r + 1);
     let mut total = 0.0;
     let mut null_cols: Vec<DVector<f64>> = Vec::with_capacity(p - r);
     let mut c = vec![0.0; r];
@@ -495,17 +495,11 @@ pub(crate) fn kept_by_cholesky(
         for (ci, row) in c.iter_mut().zip(ginv.chunks_exact(r)) {
             *ci = row.iter().zip(&kp).map(|(v, &k)| v * gd[k]).sum();
         }
-        let sd = scale[*dpos];
-        for (o, v) in res.iter_mut().zip(col(*dpos)) {
-            *o = sd * v;
-        }
-        for (t, &kpos) in kp.iter().enumerate() {
-            let coef = c[t] * scale[kpos];
-            for (o, v) in res.iter_mut().zip(col(kpos)) {
-                *o -= coef * v;
-            }
-        }
-        total += res.iter().map(|v| v * v).sum::<f64>();
+        // s_d·J_d − Σ_t c_t s_t·J_t (the first term is added, the others subtracted).
+        terms.clear();
+        terms.push((*dpos, scale[*dpos]));
+        terms.extend(kp.iter().zip(&c).map(|(&k, ct)| (k, ct * scale[k])));
+        total += crate::linalg::combination_norm_sq(js, rows, &terms, &mut res);
         let mut v = DVector::zeros(p);
         v[*dpos] = 1.0;
         for (t, &kpos) in kp.iter().enumerate() {

@@ -40,6 +40,56 @@ pub(crate) fn cholesky_in_place(a: &mut [f64], n: usize) -> bool {
     true
 }
 
+/// `‖Σ_i c_i · col(k_i)‖²` for columns of the column-major matrix `js` (`rows` rows): the
+/// terms are added row by row in the given order, then the squares summed in row order, so
+/// the result has the same bits at every vector width (the run-time SIMD level).
+pub(crate) fn combination_norm_sq(
+    js: &[f64],
+    rows: usize,
+    terms: &[(usize, f64)],
+    buf: &mut Vec<f64>,
+) -> f64 {
+    use kinematics::simd::{SimdLevel, simd_level};
+    buf.clear();
+    buf.resize(rows, 0.0);
+    match simd_level() {
+        #[cfg(target_arch = "x86_64")]
+        // SAFETY: simd_level() never returns a level the CPU does not support.
+        SimdLevel::Avx512 => unsafe { comb_avx512(js, rows, terms, buf) },
+        #[cfg(target_arch = "x86_64")]
+        // SAFETY: as above.
+        SimdLevel::Avx2 => unsafe { comb_avx2(js, rows, terms, buf) },
+        _ => comb_impl(js, rows, terms, buf),
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+fn comb_avx512(js: &[f64], rows: usize, terms: &[(usize, f64)], buf: &mut [f64]) -> f64 {
+    comb_impl(js, rows, terms, buf)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn comb_avx2(js: &[f64], rows: usize, terms: &[(usize, f64)], buf: &mut [f64]) -> f64 {
+    comb_impl(js, rows, terms, buf)
+}
+
+#[inline(always)]
+fn comb_impl(js: &[f64], rows: usize, terms: &[(usize, f64)], buf: &mut [f64]) -> f64 {
+    if let Some((&(k0, c0), rest)) = terms.split_first() {
+        for (o, v) in buf.iter_mut().zip(&js[k0 * rows..(k0 + 1) * rows]) {
+            *o = c0 * v;
+        }
+        for &(k, c) in rest {
+            for (o, v) in buf.iter_mut().zip(&js[k * rows..(k + 1) * rows]) {
+                *o -= c * v;
+            }
+        }
+    }
+    buf.iter().map(|v| v * v).sum()
+}
+
 /// Rows per block of the padded factorisation.
 const BLOCK: usize = 8;
 
