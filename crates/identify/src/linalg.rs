@@ -131,38 +131,66 @@ fn chol_avx2(a: &mut [f64], n: usize, ld: usize) -> bool {
     chol_impl(a, n, ld)
 }
 
+/// Columns factored together before the trailing matrix is updated (one pass over the trailing
+/// matrix per panel instead of per column).
+const PANEL_COLS: usize = 4;
+
+/// Updates `col_j` (rows `start..ld`) by the columns `cols` (each `ld` long) in order:
+/// `v -= l_j,k · col_k` for every k — the per-entry sequence of the column-by-column method.
+#[inline(always)]
+fn update_column(col_j: &mut [f64], cols: &[&[f64]], ljk: &[f64], start: usize, ld: usize) {
+    for blk in (start..ld).step_by(BLOCK) {
+        let mut v: [f64; BLOCK] = col_j[blk..blk + BLOCK].try_into().expect("block");
+        for (col_k, l) in cols.iter().zip(ljk) {
+            let lk: [f64; BLOCK] = col_k[blk..blk + BLOCK].try_into().expect("block");
+            for t in 0..BLOCK {
+                v[t] -= l * lk[t];
+            }
+        }
+        col_j[blk..blk + BLOCK].copy_from_slice(&v);
+    }
+}
+
 #[inline(always)]
 fn chol_impl(a: &mut [f64], n: usize, ld: usize) -> bool {
     debug_assert!(ld.is_multiple_of(BLOCK) && ld >= n && a.len() >= ld * n);
-    for k in 0..n {
-        let (head, tail) = a.split_at_mut((k + 1) * ld);
-        let col_k = &mut head[k * ld..];
-        let d = col_k[k];
-        if !(d > 0.0 && d.is_finite()) {
-            return false;
-        }
-        let lkk = d.sqrt();
-        col_k[k] = lkk;
-        for v in &mut col_k[k + 1..n] {
-            *v /= lkk;
-        }
-        let col_k = &col_k[..ld];
-        for (jj, col_j) in tail.chunks_exact_mut(ld).take(n - k - 1).enumerate() {
-            let j = k + 1 + jj;
-            let ljk = col_k[j];
-            let start = j / BLOCK * BLOCK;
-            for (aj, lk) in col_j[start..ld]
-                .chunks_exact_mut(BLOCK)
-                .zip(col_k[start..ld].chunks_exact(BLOCK))
-            {
-                let l: [f64; BLOCK] = lk.try_into().expect("block");
-                let mut v: [f64; BLOCK] = (&*aj).try_into().expect("block");
-                for t in 0..BLOCK {
-                    v[t] -= ljk * l[t];
-                }
-                aj.copy_from_slice(&v);
+    let mut k0 = 0;
+    while k0 < n {
+        let kb = PANEL_COLS.min(n - k0);
+        // The panel's columns, one after the other (each updates the later ones).
+        for k in k0..k0 + kb {
+            let (head, tail) = a.split_at_mut((k + 1) * ld);
+            let col_k = &mut head[k * ld..];
+            let d = col_k[k];
+            if !(d > 0.0 && d.is_finite()) {
+                return false;
+            }
+            let lkk = d.sqrt();
+            col_k[k] = lkk;
+            for v in &mut col_k[k + 1..n] {
+                *v /= lkk;
+            }
+            let col_k = &col_k[..ld];
+            for (jj, col_j) in tail.chunks_exact_mut(ld).take(k0 + kb - k - 1).enumerate() {
+                let j = k + 1 + jj;
+                update_column(col_j, &[col_k], &[col_k[j]], j / BLOCK * BLOCK, ld);
             }
         }
+        // The trailing columns, by the whole panel in one pass.
+        let (head, tail) = a.split_at_mut((k0 + kb) * ld);
+        let mut cols: [&[f64]; PANEL_COLS] = [&[]; PANEL_COLS];
+        for (i, c) in cols.iter_mut().enumerate().take(kb) {
+            *c = &head[(k0 + i) * ld..(k0 + i + 1) * ld];
+        }
+        for (jj, col_j) in tail.chunks_exact_mut(ld).take(n - k0 - kb).enumerate() {
+            let j = k0 + kb + jj;
+            let mut ljk = [0.0; PANEL_COLS];
+            for (l, c) in ljk.iter_mut().zip(&cols).take(kb) {
+                *l = c[j];
+            }
+            update_column(col_j, &cols[..kb], &ljk[..kb], j / BLOCK * BLOCK, ld);
+        }
+        k0 += kb;
     }
     true
 }
@@ -232,8 +260,13 @@ mod tests {
 
     #[test]
     fn cholesky_and_solve_match_nalgebra() {
-        let n = 9;
-        let b = DMatrix::from_fn(15, n, |i, j| {
+        for n in [9, 34] {
+            check(n);
+        }
+    }
+
+    fn check(n: usize) {
+        let b = DMatrix::from_fn(3 * n, n, |i, j| {
             ((i * 7 + j * 3) as f64 * 0.37).sin() + (i == j) as u8 as f64
         });
         let a = b.transpose() * &b;

@@ -501,10 +501,10 @@ fn damped_step(
 ) -> Result<(), IdentifyError> {
     let pf = sys.g.len();
     loop {
-        damped(sys, damping, *mu, floor, work);
         step.copy_from(&sys.g);
         match path {
             Path::Reference => {
+                damped(sys, damping, *mu, floor, work);
                 if let Some(c) = Cholesky::new(std::mem::replace(work, DMatrix::zeros(0, 0))) {
                     c.solve_mut(step);
                     *work = c.unpack();
@@ -512,15 +512,25 @@ fn damped_step(
                 }
             }
             Path::Fast => {
-                // Padded to whole vector blocks (same factor bits, vectorised).
+                // The damped matrix straight into a buffer padded to whole vector blocks
+                // (same factor bits, vectorised). The padding rows stay zero through the
+                // factorisation, so they are zeroed only when the buffer is made.
                 let ld = linalg::padded_ld(pf);
-                pad.clear();
-                pad.resize(ld * pf, 0.0);
-                for (dst, src) in pad
+                if pad.len() != ld * pf {
+                    pad.clear();
+                    pad.resize(ld * pf, 0.0);
+                }
+                for (k, (dst, src)) in pad
                     .chunks_exact_mut(ld)
-                    .zip(work.as_slice().chunks_exact(pf))
+                    .zip(sys.a.as_slice().chunks_exact(pf))
+                    .enumerate()
                 {
                     dst[..pf].copy_from_slice(src);
+                    let dk = match damping {
+                        Damping::Marquardt { .. } => src[k],
+                        _ => 1.0,
+                    };
+                    dst[k] += (*mu * dk).max(floor);
                 }
                 if linalg::cholesky_padded(pad, pf, ld) {
                     linalg::cholesky_solve_padded(pad, pf, ld, step.as_mut_slice());
