@@ -237,6 +237,14 @@ impl Counts {
         *self.0.entry(key.into()).or_insert(0) += 1;
     }
 
+    /// [`Counts::add`] without allocating when `key` has been seen before.
+    pub fn add_str(&mut self, key: &str) {
+        match self.0.get_mut(key) {
+            Some(n) => *n += 1,
+            None => self.add(key),
+        }
+    }
+
     /// Adds another set of counts.
     pub fn merge(&mut self, other: &Counts) {
         for (k, v) in &other.0 {

@@ -1,9 +1,12 @@
 //! Running trials in parallel and folding them into a mergeable [`Aggregate`].
 //!
-//! Trials run in chunks of [`CHUNK`] on rayon's pool; each chunk's results are collected in
-//! trial order and folded sequentially, so memory stays flat in the trial count and the
-//! aggregate (exact integer sums, histograms) is identical for any thread count. A range of
-//! trials (a shard) gives an aggregate that merges exactly with the others'.
+//! Trials run on rayon's pool; each worker folds the trials it runs into its own
+//! [`Aggregate`] as they finish, and the partial aggregates are merged. Every part of an
+//! aggregate merges exactly and independently of order (integer sums, extremes, histogram
+//! buckets, counts, the lowest-index trial), so the result is identical for any thread
+//! count and any way rayon splits the range, memory stays flat in the trial count (no
+//! per-trial results are kept), and no thread waits for a sequential fold. A range of trials
+//! (a shard) gives an aggregate that merges exactly with the others'.
 
 use std::collections::BTreeMap;
 use std::ops::Range;
@@ -13,9 +16,6 @@ use serde::{Deserialize, Serialize};
 
 use crate::aggregate::{Counts, Stat};
 use crate::trial::{Context, TrialResult, run_trial};
-
-/// Trials per parallel chunk: bounds memory while keeping both cores busy.
-pub const CHUNK: u64 = 512;
 
 /// Accumulated recovery statistics of one parameter.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
@@ -52,14 +52,22 @@ pub struct Aggregate {
 
 impl Aggregate {
     fn metric(&mut self, name: &str, value: f64) {
-        self.metrics
-            .entry(name.to_string())
-            .or_default()
-            .push(value);
+        // Look up before inserting: no key allocation once the metric exists.
+        match self.metrics.get_mut(name) {
+            Some(s) => s.push(value),
+            None => self
+                .metrics
+                .entry(name.to_string())
+                .or_default()
+                .push(value),
+        }
     }
 
-    fn count(&mut self, name: &str, key: impl Into<String>) {
-        self.counts.entry(name.to_string()).or_default().add(key);
+    fn count(&mut self, name: &str, key: &str) {
+        match self.counts.get_mut(name) {
+            Some(c) => c.add_str(key),
+            None => self.counts.entry(name.to_string()).or_default().add(key),
+        }
     }
 
     /// Folds one trial's result in.
@@ -75,13 +83,25 @@ impl Aggregate {
         self.metric("after_rms_mm", t.after.norm.rms_mm);
         self.metric("before_p95_mm", t.before.norm.p95_mm);
         self.metric("after_p95_mm", t.after.norm.p95_mm);
-        for (axis, b, a) in [
-            ("x", &t.before.x, &t.after.x),
-            ("y", &t.before.y, &t.after.y),
-            ("z", &t.before.z, &t.after.z),
+        for (names, b, a) in [
+            (
+                ["before_mean_x_mm", "after_mean_x_mm"],
+                &t.before.x,
+                &t.after.x,
+            ),
+            (
+                ["before_mean_y_mm", "after_mean_y_mm"],
+                &t.before.y,
+                &t.after.y,
+            ),
+            (
+                ["before_mean_z_mm", "after_mean_z_mm"],
+                &t.before.z,
+                &t.after.z,
+            ),
         ] {
-            self.metric(&format!("before_mean_{axis}_mm"), b.mean_mm);
-            self.metric(&format!("after_mean_{axis}_mm"), a.mean_mm);
+            self.metric(names[0], b.mean_mm);
+            self.metric(names[1], a.mean_mm);
         }
         self.metric("improvement_pct", imp.norm.mean_pct.unwrap_or(f64::NAN));
         self.metric("improvement_max_pct", imp.norm.max_pct.unwrap_or(f64::NAN));
@@ -90,16 +110,21 @@ impl Aggregate {
         self.metric("lm_iterations", r.fit.iterations as f64);
         self.metric("compensation_failures", r.compensation_failures as f64);
         self.metric("unmeasurable_poses", r.unmeasurable as f64);
-        self.count("stop_reason", r.fit.stop.clone());
+        self.count("stop_reason", &r.fit.stop);
         self.count(
             "rank",
-            r.fit
+            &r.fit
                 .rank
                 .map_or_else(|| "unknown".to_string(), |k| format!("{k:03}")),
         );
         for rec in &r.recovery {
-            let e = self.recovery.entry(rec.name.clone()).or_default();
-            e.unit.clone_from(&rec.unit);
+            let e = match self.recovery.get_mut(&rec.name) {
+                Some(e) => e,
+                None => self.recovery.entry(rec.name.clone()).or_default(),
+            };
+            if e.unit != rec.unit {
+                e.unit.clone_from(&rec.unit);
+            }
             e.error.push(rec.error);
             e.abs_error.push(rec.error.abs());
             e.z.push(rec.z);
@@ -152,24 +177,14 @@ impl Aggregate {
     }
 }
 
-/// Runs the trials in `range` on the current rayon pool; `progress(k)` is called after
-/// each finished chunk with the number of trials done so far.
+/// Runs the trials in `range` on the current rayon pool; `progress(1)` is called after
+/// each finished trial.
 pub fn run_range(ctx: &Context, range: Range<u64>, progress: &(dyn Fn(u64) + Sync)) -> Aggregate {
-    let mut agg = Aggregate::default();
-    let mut start = range.start;
-    while start < range.end {
-        let end = (start + CHUNK).min(range.end);
-        let results: Vec<_> = (start..end)
-            .into_par_iter()
-            .map(|t| {
-                let r = run_trial(ctx, t);
-                progress(1);
-                r
-            })
-            .collect();
-        for r in &results {
-            match r {
-                Ok(r) => agg.add(r),
+    range
+        .into_par_iter()
+        .fold(Aggregate::default, |mut agg, t| {
+            match run_trial(ctx, t) {
+                Ok(r) => agg.add(&r),
                 Err(e) => {
                     // Count by cause, not by trial: drop the "trial N: " prefix.
                     let msg = e.to_string();
@@ -180,8 +195,11 @@ pub fn run_range(ctx: &Context, range: Range<u64>, progress: &(dyn Fn(u64) + Syn
                     agg.add_failure(&cause)
                 }
             }
-        }
-        start = end;
-    }
-    agg
+            progress(1);
+            agg
+        })
+        .reduce(Aggregate::default, |mut a, b| {
+            a.merge(&b);
+            a
+        })
 }
