@@ -121,6 +121,29 @@ pub struct Observability {
     pub o5: f64,
 }
 
+impl Observability {
+    /// The indices of the identifiable singular values `sv` (σ_1 ≥ … ≥ σ_r > 0, L = r) of a
+    /// Jacobian over `m` poses; `None` when `sv` is empty or not positive and descending.
+    pub fn from_singular_values(sv: &[f64], m: usize) -> Option<Observability> {
+        let r = sv.len();
+        if r == 0 || m == 0 || !sv.iter().all(|s| s.is_finite() && *s > 0.0) {
+            return None;
+        }
+        if sv.windows(2).any(|w| w[1] > w[0]) {
+            return None;
+        }
+        let (s1, sr) = (sv[0], sv[r - 1]);
+        let mean_ln = sv.iter().map(|s| s.ln()).sum::<f64>() / r as f64;
+        Some(Observability {
+            o1: mean_ln.exp() / (m as f64).sqrt(),
+            o2: sr / s1,
+            o3: sr,
+            o4: sr * sr / s1,
+            o5: 1.0 / sv.iter().map(|s| 1.0 / s).sum::<f64>(),
+        })
+    }
+}
+
 /// One term of a redundancy: a kept parameter and its null-vector weight.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct ConfoundTerm {
@@ -665,17 +688,9 @@ pub fn analyze(
         (None, None)
     } else {
         let ident = &sv[..r];
-        let (s1, sr) = (ident[0], ident[r - 1]);
-        let mean_ln = ident.iter().map(|s| s.ln()).sum::<f64>() / r as f64;
         (
-            Some(s1 / sr),
-            Some(Observability {
-                o1: mean_ln.exp() / (m as f64).sqrt(),
-                o2: sr / s1,
-                o3: sr,
-                o4: sr * sr / s1,
-                o5: 1.0 / ident.iter().map(|s| 1.0 / s).sum::<f64>(),
-            }),
+            Some(ident[0] / ident[r - 1]),
+            Observability::from_singular_values(ident, m),
         )
     };
 
