@@ -253,16 +253,26 @@ impl CampaignSummary {
             o.push('\n');
         }
         o.push_str("## Identification\n\n| metric | value |\n|---|---:|\n");
-        for (label, key) in [
+        for (label, key, d) in [
             (
                 "geometry error on validation poses (mm)",
                 "predicted_error_mm",
+                3,
             ),
-            ("fit RMS residual (mm)", "fit_rms_mm"),
-            ("LM iterations", "lm_iterations"),
-            ("compensation failures per trial", "compensation_failures"),
+            ("fit RMS residual (mm)", "fit_rms_mm", 3),
+            ("LM iterations", "lm_iterations", 3),
+            (
+                "compensation failures per trial",
+                "compensation_failures",
+                3,
+            ),
+            ("O1 (Borm–Menq), minimal set", "observability_o1", 5),
+            ("O2 = σ_min/σ_max (1/condition)", "observability_o2", 5),
+            ("O3 = σ_min", "observability_o3", 5),
+            ("O4 = σ_min²/σ_max", "observability_o4", 5),
+            ("O5 = (Σ 1/σ_i)⁻¹", "observability_o5", 5),
         ] {
-            o.push_str(&format!("| {label} | {} |\n", fmt(self.metric(key), 3)));
+            o.push_str(&format!("| {label} | {} |\n", fmt(self.metric(key), d)));
         }
         for (name, counts) in &self.counts {
             let list: Vec<String> = counts.iter().map(|(k, v)| format!("{k}: {v}")).collect();

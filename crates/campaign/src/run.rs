@@ -130,6 +130,17 @@ impl Aggregate {
             e.z.push(rec.z);
             e.std_error.push(rec.std_error);
         }
+        if let Some(o) = &r.observability {
+            for (name, v) in [
+                ("observability_o1", o.o1),
+                ("observability_o2", o.o2),
+                ("observability_o3", o.o3),
+                ("observability_o4", o.o4),
+                ("observability_o5", o.o5),
+            ] {
+                self.metric(name, v);
+            }
+        }
         if let Some(iso) = &r.iso {
             self.metric("iso_ap_before_mm", iso.mean_ap_p_before_mm());
             self.metric("iso_ap_after_mm", iso.mean_ap_p_after_mm());

@@ -3,9 +3,9 @@
 //! recovery scoring, ISO 9283.
 
 use evaluate::{IsoCube, IsoReport, ParameterRecovery, Table4};
-use identify::{Fit, IdentifyOptions, ParamSet, Problem};
+use identify::{Fit, IdentifyOptions, Observability, ParamSet, Problem};
 use kinematics::{IkTarget, PoseTrig, Robot};
-use nalgebra::Vector3;
+use nalgebra::{DMatrix, DVector, SymmetricEigen, Vector3};
 use serde::{Deserialize, Serialize};
 use virtual_robot::{Setup, Tracker, World};
 
@@ -241,6 +241,8 @@ pub struct TrialResult {
     pub predicted_error_mm: f64,
     /// Recovery per minimal-set parameter (when enabled and computable).
     pub recovery: Vec<ParameterRecovery>,
+    /// Observability indices O1–O5 of the identification poses ([`observability`]).
+    pub observability: Option<Observability>,
     /// ISO 9283 results (when enabled).
     pub iso: Option<IsoReport>,
 }
@@ -347,6 +349,8 @@ pub fn run_trial(ctx: &Context, trial: u64) -> Result<TrialResult, CampaignError
         .sum::<f64>()
         / (val.len() / n).max(1) as f64;
 
+    let observability = observability(nominal, &id_poses, &id_points, &ctx.minimal_free);
+
     let recovery = if scenario.recovery.enabled {
         recovery(ctx, &fit, &truth_robot, &id_poses, &id_points).map_err(ident)?
     } else {
@@ -377,8 +381,38 @@ pub fn run_trial(ctx: &Context, trial: u64) -> Result<TrialResult, CampaignError
         },
         predicted_error_mm,
         recovery,
+        observability,
         iso,
     })
+}
+
+/// Observability indices O1–O5 (spec §3) of a trial's identification poses: on the singular
+/// values of the Jacobian of the minimal identifiable set at the nominal model, columns
+/// scaled to unit Euclidean norm — the square roots of the eigenvalues of the scaled Gram
+/// matrix `D·JᵀJ·D`, `D = diag(1/‖J_k‖)` (relative accuracy ≈ ε·cond², ample for the
+/// condition numbers of a full-rank set). `None` if the set is degenerate on these poses.
+fn observability(
+    nominal: &Robot,
+    poses_rad: &[f64],
+    points_mm: &[Vector3<f64>],
+    free: &[usize],
+) -> Option<Observability> {
+    let problem = Problem::new(nominal, poses_rad, points_mm, free.to_vec()).ok()?;
+    let (mut a, mut g) = (DMatrix::zeros(0, 0), DVector::zeros(0));
+    problem.normal_equations(&mut a, &mut g);
+    let p = a.nrows();
+    let d: Vec<f64> = (0..p).map(|k| a[(k, k)].sqrt()).collect();
+    if d.iter().any(|&x| !(x.is_finite() && x > 0.0)) {
+        return None;
+    }
+    let scaled = DMatrix::from_fn(p, p, |i, j| a[(i, j)] / (d[i] * d[j]));
+    let mut sv: Vec<f64> = SymmetricEigen::new(scaled)
+        .eigenvalues
+        .iter()
+        .map(|&l| l.max(0.0).sqrt())
+        .collect();
+    sv.sort_by(|x, y| y.total_cmp(x));
+    Observability::from_singular_values(&sv, problem.n_poses())
 }
 
 /// Scores the estimate against the truth on the minimal set: both are re-expressed in it (a
@@ -480,4 +514,39 @@ fn iso_trial(
         [&after[0], &after[1], &after[2], &after[3], &after[4]],
     )
     .map_err(|source| CampaignError::Evaluate { trial, source })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The trial's O1–O5 (eigenvalues of the scaled Gram matrix) agree with the
+    /// identifiability report's (SVD of the scaled Jacobian) on the same minimal set.
+    #[test]
+    fn observability_matches_the_identifiability_report() {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../../scenarios/robots/kr1000-titan.json");
+        let text = std::fs::read_to_string(&path).unwrap();
+        let spec = kinematics::RobotSpec::from_json_str(&text, "kr1000").unwrap();
+        let robot = Robot::from_spec(&spec).unwrap();
+        let poses = identify::random_poses(&robot, 50, 3).unwrap();
+        let points = robot.points(&poses);
+        let opts = identify::IdentifiabilityOptions::default();
+        let free = ParamSet::Minimal
+            .resolve(&robot, &poses, None, &opts)
+            .unwrap();
+        let ours = observability(&robot, &poses, &points, &free).unwrap();
+        let report = identify::analyze(&robot, &poses, None, &free, &opts).unwrap();
+        assert_eq!(report.rank, free.len());
+        let theirs = report.observability.unwrap();
+        for (a, b) in [
+            (ours.o1, theirs.o1),
+            (ours.o2, theirs.o2),
+            (ours.o3, theirs.o3),
+            (ours.o4, theirs.o4),
+            (ours.o5, theirs.o5),
+        ] {
+            assert!((a - b).abs() <= 1e-9 * b.abs(), "{ours:?} vs {theirs:?}");
+        }
+    }
 }
