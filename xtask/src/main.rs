@@ -4,6 +4,7 @@
 mod bench;
 mod calibrate;
 mod campaign_cmd;
+mod check_cmd;
 mod identifiability;
 mod identify_cmd;
 
@@ -44,6 +45,10 @@ enum Cmd {
     Sweep(campaign_cmd::SweepArgs),
     /// Regenerate results/ from every committed scenario and sweep (`--check`: compare only).
     Regenerate(campaign_cmd::RegenerateArgs),
+    /// Identifiability regression: small fixed-seed campaigns (rank, redundant set,
+    /// recovery, improvement, O1–O5) against results/baselines/ within the check file's
+    /// tolerances; non-zero exit on regression (`--bless` writes the baselines).
+    Check(check_cmd::CheckArgs),
     /// Calibrate a robot from measurements (spec §8 CSV): register, identify, screen
     /// outliers, validate; writes identified.json, registered-nominal.json, parameters.json
     /// and report.md.
@@ -67,6 +72,7 @@ fn main() -> Result<()> {
         Cmd::Simulate(args) => campaign_cmd::simulate(args),
         Cmd::Sweep(args) => campaign_cmd::sweep(args),
         Cmd::Regenerate(args) => campaign_cmd::regenerate(args),
+        Cmd::Check(args) => check_cmd::run(&args),
         Cmd::Identify(args) => identify_cmd::run(&args),
         Cmd::Predict(args) => calibrate::predict(&args),
         Cmd::Compensate(args) => calibrate::compensate_cmd(&args),

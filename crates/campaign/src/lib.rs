@@ -1,6 +1,7 @@
 //! Monte Carlo campaigns: scenarios, trials, sweeps, deterministic aggregation and plots.
 
 pub mod aggregate;
+pub mod check;
 pub mod plots;
 pub mod report;
 pub mod run;
@@ -8,6 +9,7 @@ pub mod scenario;
 pub mod sweep;
 pub mod trial;
 
+pub use check::{Baseline, CheckFile, CheckSpec, Comparison, Figures, compare, run_check};
 pub use report::{
     CampaignSummary, ShardFile, ShardManifest, merge_shards, shard_range, write_outputs,
 };

@@ -119,7 +119,7 @@ pub struct SweepResult {
     pub points: Vec<SweepPoint>,
 }
 
-fn set_path(
+pub(crate) fn set_path(
     root: &mut serde_json::Value,
     path: &str,
     value: serde_json::Value,
