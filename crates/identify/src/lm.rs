@@ -595,6 +595,38 @@ impl<'p> Assembler<'p> {
         }
     }
 
+    /// [`Assembler::assemble`] straight into the column-scaled system `sys` (the fast path
+    /// skips the full unscaled matrix: same bits as assembling into `a`, `g` and
+    /// [`Scaled::set`]); `a`, `g` are then stale until [`Assembler::unscaled`].
+    fn assemble_scaled(
+        &mut self,
+        robot: &Robot,
+        a: &mut DMatrix<f64>,
+        g: &mut DVector<f64>,
+        scale: &[f64],
+        sys: &mut Scaled,
+    ) -> f64 {
+        match &mut self.normal {
+            Some(normal) => {
+                let cost = normal.assemble(robot, &self.trig, self.points, self.weights, self.free);
+                normal.scaled_to(scale, sys.a.as_mut_slice(), sys.g.as_mut_slice());
+                cost
+            }
+            None => {
+                let cost = self.assemble(robot, a, g);
+                sys.set(a, g, scale);
+                cost
+            }
+        }
+    }
+
+    /// Brings `a`, `g` up to date with the last assembly.
+    fn unscaled(&self, a: &mut DMatrix<f64>, g: &mut DVector<f64>) {
+        if let Some(normal) = &self.normal {
+            normal.copy_to(a, g);
+        }
+    }
+
     /// The cost at `robot` (bit for bit the cost [`Assembler::assemble`] returns).
     fn cost(&self, robot: &Robot) -> f64 {
         match self.path {
@@ -756,8 +788,7 @@ fn solve_on(
                 std::mem::swap(&mut x, &mut xt);
                 std::mem::swap(&mut robot, &mut trial);
                 let cost_old = cost;
-                cost = asm.assemble(&robot, &mut a, &mut g);
-                sys.set(&a, &g, &scale);
+                cost = asm.assemble_scaled(&robot, &mut a, &mut g, &scale, &mut sys);
                 if !cost.is_finite() || !sys.finite() {
                     return Err(IdentifyError::NonFiniteStep {
                         iteration: iterations,
@@ -812,6 +843,7 @@ fn solve_on(
 
     let gradient_cosine = sys.gradient_cosine(cost);
     let system = (path == Path::Fast).then(|| {
+        asm.unscaled(&mut a, &mut g);
         Arc::new(FinalSystem {
             trig: std::mem::take(&mut asm.trig),
             a,

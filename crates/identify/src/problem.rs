@@ -428,8 +428,8 @@ pub(crate) struct NormalWork {
     g: Vec<f64>,
     jac: Vec<[[f64; POSE_LANES]; 3]>,
     /// The weighted blocks of the group's poses, block-major: entry (pose p, row c ∈ x, y,
-    /// z, column k) at `(k / LANES)·PANEL + (3p + c)·LANES + k % LANES` (zero-padded; unused
-    /// poses of a last, partial group are all zero).
+    /// z, column k) at `(k / LANES)·PANEL + (3p + c)·LANES + k % LANES` (columns past `pf`
+    /// zero; the rows of unused poses of a last, partial group are never read).
     b: Vec<f64>,
     e: [Vector3<f64>; GROUP],
 }
@@ -556,39 +556,31 @@ impl NormalWork {
     ) -> f64 {
         // (`wide`: the register-hungry four-column kernel; a constant after inlining.)
         let (pf, ld) = (self.pf, self.ld);
-        self.a.fill(0.0);
-        self.g.fill(0.0);
         let mut cost = 0.0;
         let m = points_mm.len();
         let np = robot.n_params();
+        if trig.n_blocks() == 0 {
+            self.a.fill(0.0);
+            self.g.fill(0.0);
+        }
         for block in 0..trig.n_blocks() {
             let first = block * GROUP;
             let count = GROUP.min(m - first);
             let (sin_q, cos_q) = trig.lanes(block);
             let p = robot.point_jacobian_lanes(sin_q, cos_q, &mut self.jac[..np]);
-            let mut w = [Vector3::zeros(); GROUP];
+            // w[r][t]: weight of row r (x, y, z) of pose t.
+            let mut w = [[1.0; GROUP]; 3];
             for (t, meas) in points_mm[first..first + count].iter().enumerate() {
-                w[t] = pose_weights(weights, first + t);
+                let wt = pose_weights(weights, first + t);
                 let pt = Vector3::new(p[0][t], p[1][t], p[2][t]);
-                let e = (meas - pt).component_mul(&w[t]);
+                let e = (meas - pt).component_mul(&wt);
                 cost += e.norm_squared();
                 self.e[t] = e;
-            }
-            // Padding lanes of a last, partial block contribute exact zeros.
-            for t in count..GROUP {
-                self.e[t] = Vector3::zeros();
-            }
-            for (c, &k) in free.iter().enumerate() {
-                let base = c / LANES * PANEL + c % LANES;
-                let jk = &self.jac[k];
-                for (t, wt) in w.iter().enumerate() {
-                    let at = base + 3 * t * LANES;
-                    let live = t < count;
-                    self.b[at] = if live { jk[0][t] * wt.x } else { 0.0 };
-                    self.b[at + LANES] = if live { jk[1][t] * wt.y } else { 0.0 };
-                    self.b[at + 2 * LANES] = if live { jk[2][t] * wt.z } else { 0.0 };
+                for (wr, v) in w.iter_mut().zip(wt.iter()) {
+                    wr[t] = *v;
                 }
             }
+            self.pack(free, weights.is_some().then_some(&w));
             if let Some(st) = stack.as_deref_mut() {
                 let rows = 3 * m;
                 for c in 0..pf {
@@ -602,13 +594,49 @@ impl NormalWork {
                     }
                 }
             }
+            let fresh = block == 0;
+            let (a, g, b, e) = (&mut self.a, &mut self.g, &self.b, &self.e[..count]);
             if wide {
-                group_update::<COLS_WIDE>(&mut self.a, &mut self.g, pf, ld, &self.b, &self.e);
+                group_update::<COLS_WIDE, { COLS_WIDE / 2 }>(a, g, pf, ld, b, e, fresh);
             } else {
-                group_update::<COLS_NARROW>(&mut self.a, &mut self.g, pf, ld, &self.b, &self.e);
+                group_update::<COLS_NARROW, COLS_NARROW>(a, g, pf, ld, b, e, fresh);
             }
         }
         cost
+    }
+
+    /// Packs the group's blocks into `b` (layout of [`NormalWork::b`]) from the Jacobian
+    /// lanes in `jac`: a transpose (parameters × poses → poses × parameters), each value
+    /// multiplied by its row's weight when weighted (`w[r][t]`; unweighted the factor would
+    /// be 1: exact, so it is skipped). Columns past `pf` stay zero (never written); rows of
+    /// the padding poses of a last, partial group hold the repeated last pose's values and
+    /// are never read. Element by element: every vectorised transpose tried (gathers,
+    /// shuffles) was slower.
+    #[inline(always)]
+    fn pack(&mut self, free: &[usize], w: Option<&[[f64; GROUP]; 3]>) {
+        for (c, &k) in free.iter().enumerate() {
+            let jk = &self.jac[k];
+            let dst: &mut [f64; PANEL - LANES + 1] = (&mut self.b[c / LANES * PANEL + c % LANES..]
+                [..PANEL - LANES + 1])
+                .try_into()
+                .expect("panel");
+            match w {
+                None => {
+                    for t in 0..GROUP {
+                        for r in 0..3 {
+                            dst[(3 * t + r) * LANES] = jk[r][t];
+                        }
+                    }
+                }
+                Some(w) => {
+                    for t in 0..GROUP {
+                        for r in 0..3 {
+                            dst[(3 * t + r) * LANES] = jk[r][t] * w[r][t];
+                        }
+                    }
+                }
+            }
+        }
     }
 
     /// The stacked weighted Jacobian `diag(w)·∂p/∂x_free` (3m × P) alone, into `jac`, from
@@ -644,6 +672,27 @@ impl NormalWork {
         }
     }
 
+    /// The assembled system column-scaled, as [`NormalWork::copy_to`] followed by
+    /// `a_kl·s_k·s_l` would give it, bit for bit (`(s_k·a_kl)·s_l` in both triangles, so the
+    /// result may differ from symmetric in the last bit, exactly as the two-step way):
+    /// `sa` column-major P × P, `sg_l = s_l·g_l`.
+    pub(crate) fn scaled_to(&self, s: &[f64], sa: &mut [f64], sg: &mut [f64]) {
+        let (pf, ld) = (self.pf, self.ld);
+        debug_assert!(s.len() == pf && sa.len() == pf * pf && sg.len() == pf);
+        for (l, col) in sa.chunks_exact_mut(pf).enumerate() {
+            let sl = s[l];
+            let (upper, lower) = col.split_at_mut(l + 1);
+            for ((d, v), sk) in upper.iter_mut().zip(&self.a[l * ld..]).zip(s) {
+                *d = sk * v * sl;
+            }
+            for (i, d) in lower.iter_mut().enumerate() {
+                let k = l + 1 + i;
+                *d = s[k] * self.a[k * ld + l] * sl;
+            }
+            sg[l] = sl * self.g[l];
+        }
+    }
+
     /// The assembled system as a full symmetric `a` (P × P) and `g`.
     pub(crate) fn copy_to(&self, a: &mut DMatrix<f64>, g: &mut DVector<f64>) {
         let (pf, ld) = (self.pf, self.ld);
@@ -665,24 +714,29 @@ impl NormalWork {
 const COLS_WIDE: usize = 4;
 const COLS_NARROW: usize = 1;
 
-/// `g += Σ_p B_pᵀ e_p` and the upper triangle of `A += Σ_p B_pᵀ B_p` for the [`GROUP`]
-/// blocks `B_p` in `b` (layout of [`NormalWork`], padded with zeros to `ld`, a multiple of
-/// [`LANES`]; the padding poses of a last, partial group are zero and add exact zeros: the
-/// fixed trip count is what lets the compiler unroll the pose loop). Every entry adds the poses' terms `(x·x_l + y·y_l) + z·z_l` one
-/// after the other, exactly as a pose-by-pose accumulation would (no FMA, so the same bits
-/// at any vector width and for any `COLS`). The loops run over whole blocks of [`LANES`] rows
-/// and `COLS` columns at a time (a small GEMM micro-kernel: each load of the panel serves four
-/// columns, four independent accumulation chains), which is what lets them vectorise at any
+/// `g += Σ_p B_pᵀ e_p` and the upper triangle of `A += Σ_p B_pᵀ B_p` for the blocks `B_p`
+/// of the group's live poses (`e.len()` of them) in `b` (layout of [`NormalWork`], padded
+/// with zero columns to `ld`, a multiple of [`LANES`]); with `fresh`, `A` and `g` start from
+/// zero instead of their contents (the first group: no separate zeroing pass). Every entry
+/// adds the poses' terms `(x·x_l + y·y_l) + z·z_l` one after the other, exactly as a
+/// pose-by-pose accumulation would (no FMA, so the same bits at any vector width and for any
+/// `COLS`; the padding poses a fixed-size group would add are exact zeros, which leave a sum
+/// that started at +0 unchanged, so they are skipped). The loops run over whole blocks of
+/// [`LANES`] rows and `COLS` columns at a time (a small GEMM micro-kernel: each load of the
+/// panel serves `COLS` columns, `COLS` independent accumulation chains; the columns' own
+/// values are broadcast straight from the panel), which is what lets them vectorise at any
 /// width and keep the arithmetic units busy.
 #[inline(always)]
-fn group_update<const COLS: usize>(
+fn group_update<const COLS: usize, const HALF: usize>(
     a: &mut [f64],
     g: &mut [f64],
     pf: usize,
     ld: usize,
     b: &[f64],
-    e: &[Vector3<f64>; GROUP],
+    e: &[Vector3<f64>],
+    fresh: bool,
 ) {
+    debug_assert!(e.len() <= GROUP && LANES.is_multiple_of(COLS));
     let panel = |blk: usize| -> &[f64; PANEL] {
         b[blk * PANEL..(blk + 1) * PANEL].try_into().expect("panel")
     };
@@ -693,7 +747,11 @@ fn group_update<const COLS: usize>(
     };
     for (blk, gk) in g[..ld].chunks_exact_mut(LANES).enumerate() {
         let pn = panel(blk);
-        let mut acc: [f64; LANES] = (&*gk).try_into().expect("block");
+        let mut acc: [f64; LANES] = if fresh {
+            [0.0; LANES]
+        } else {
+            (&*gk).try_into().expect("block")
+        };
         for (p, ep) in e.iter().enumerate() {
             let (x, y, z) = (lane(pn, p, 0), lane(pn, p, 1), lane(pn, p, 2));
             for t in 0..LANES {
@@ -704,37 +762,87 @@ fn group_update<const COLS: usize>(
     }
     for l0 in (0..pf).step_by(COLS) {
         let ncols = COLS.min(pf - l0);
-        // coef[p][r][c]: row r (x, y, z) of pose p's block in column l0 + c.
-        let mut coef = [[[0.0; COLS]; 3]; GROUP];
-        for c in 0..ncols {
-            let l = l0 + c;
-            let own = panel(l / LANES);
-            for (p, cp) in coef.iter_mut().enumerate() {
-                for (r, v) in cp.iter_mut().enumerate() {
-                    v[c] = own[(3 * p + r) * LANES + l % LANES];
+        // The columns l0..l0 + COLS lie in one block of the panel (COLS divides LANES).
+        let own = panel(l0 / LANES);
+        let off = l0 % LANES;
+        let diag = l0 / LANES;
+        let cols = ColTile {
+            own,
+            off,
+            l0,
+            ncols,
+        };
+        for blk in 0..diag {
+            cols.update::<LANES, COLS>(a, ld, panel(blk), blk, e.len(), fresh);
+        }
+        // The diagonal block: rows past the last column are scratch, so only its first half
+        // is computed when that holds every row needed.
+        if off + ncols <= LANES / 2 {
+            if ncols <= HALF {
+                cols.update::<{ LANES / 2 }, HALF>(a, ld, panel(diag), diag, e.len(), fresh);
+            } else {
+                cols.update::<{ LANES / 2 }, COLS>(a, ld, panel(diag), diag, e.len(), fresh);
+            }
+        } else if ncols <= HALF {
+            cols.update::<LANES, HALF>(a, ld, panel(diag), diag, e.len(), fresh);
+        } else {
+            cols.update::<LANES, COLS>(a, ld, panel(diag), diag, e.len(), fresh);
+        }
+    }
+}
+
+/// Up to `COLS` consecutive columns `l0..l0 + ncols` of `A` whose values (the group's
+/// blocks) sit at offset `off` of the panel block `own`.
+struct ColTile<'b> {
+    own: &'b [f64; PANEL],
+    off: usize,
+    l0: usize,
+    ncols: usize,
+}
+
+impl ColTile<'_> {
+    /// Rows `blk·LANES..blk·LANES + R` of the columns (`C ≥ ncols` of them computed, the
+    /// extra ones from the panel's zero padding or the next columns, and not stored): each
+    /// entry adds the `poses` poses' terms in pose order (or starts from zero when `fresh`).
+    #[inline(always)]
+    fn update<const R: usize, const C: usize>(
+        &self,
+        a: &mut [f64],
+        ld: usize,
+        pn: &[f64; PANEL],
+        blk: usize,
+        poses: usize,
+        fresh: bool,
+    ) {
+        let (own, off, l0, ncols) = (self.own, self.off, self.l0, self.ncols);
+        debug_assert!(ncols <= C && off + C <= LANES);
+        let mut acc = [[0.0; R]; C];
+        if !fresh {
+            for (c, ac) in acc.iter_mut().enumerate().take(ncols) {
+                let at = (l0 + c) * ld + blk * LANES;
+                *ac = a[at..at + R].try_into().expect("block");
+            }
+        }
+        for p in 0..poses {
+            let row = |r: usize| -> &[f64; R] {
+                pn[(3 * p + r) * LANES..][..R].try_into().expect("rows")
+            };
+            let col = |r: usize| -> &[f64; C] {
+                own[(3 * p + r) * LANES + off..][..C]
+                    .try_into()
+                    .expect("cols")
+            };
+            let (x, y, z) = (row(0), row(1), row(2));
+            let (xl, yl, zl) = (col(0), col(1), col(2));
+            for c in 0..C {
+                for t in 0..R {
+                    acc[c][t] += x[t] * xl[c] + y[t] * yl[c] + z[t] * zl[c];
                 }
             }
         }
-        let blocks = (l0 + ncols).div_ceil(LANES);
-        for blk in 0..blocks {
-            let pn = panel(blk);
-            let mut acc = [[0.0; LANES]; COLS];
-            for (c, ac) in acc.iter_mut().enumerate().take(ncols) {
-                let at = (l0 + c) * ld + blk * LANES;
-                *ac = a[at..at + LANES].try_into().expect("block");
-            }
-            for (p, [xl, yl, zl]) in coef.iter().enumerate() {
-                let (x, y, z) = (lane(pn, p, 0), lane(pn, p, 1), lane(pn, p, 2));
-                for c in 0..COLS {
-                    for t in 0..LANES {
-                        acc[c][t] += x[t] * xl[c] + y[t] * yl[c] + z[t] * zl[c];
-                    }
-                }
-            }
-            for (c, ac) in acc.iter().enumerate().take(ncols) {
-                let at = (l0 + c) * ld + blk * LANES;
-                a[at..at + LANES].copy_from_slice(ac);
-            }
+        for (c, ac) in acc.iter().enumerate().take(ncols) {
+            let at = (l0 + c) * ld + blk * LANES;
+            a[at..at + R].copy_from_slice(ac);
         }
     }
 }
