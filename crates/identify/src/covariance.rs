@@ -132,7 +132,9 @@ pub fn covariance_at_solution(
                 && sys.weights.as_deref() == weights
                 && points_mm.len() == sys.trig.n_poses() =>
         {
-            Source::Solved(sys)
+            // The solver's cost is this sum, bit for bit, when the points are the problem's.
+            let cost = std::ptr::eq(points_mm, problem.points_mm()).then_some(solution.cost);
+            Source::Solved(sys, cost)
         }
         _ => Source::Fast,
     };
@@ -154,8 +156,9 @@ enum Source<'s> {
     Reference,
     /// The fast assembly, then the Cholesky path when certified.
     Fast,
-    /// The solver's normal matrix at the solution, then the Cholesky path when certified.
-    Solved(&'s FinalSystem),
+    /// The solver's normal matrix at the solution, then the Cholesky path when certified;
+    /// with the residual sum of squares when it is already known.
+    Solved(&'s FinalSystem, Option<f64>),
 }
 
 /// [`covariance`] always through the SVD, with the reference Jacobian: the straightforward
@@ -248,8 +251,9 @@ fn covariance_on(
             jac = Some(j);
             (cost, certified)
         }
-        Source::Solved(sys) => {
-            let rss = weighted_rss_trig(robot, &sys.trig, points_mm, weights);
+        Source::Solved(sys, cost) => {
+            let rss =
+                cost.unwrap_or_else(|| weighted_rss_trig(robot, &sys.trig, points_mm, weights));
             let mut make = || {
                 let mut j = DMatrix::zeros(3 * m, pf);
                 NormalWork::stacked_jacobian(robot, &sys.trig, weights, free, &mut j);

@@ -488,13 +488,31 @@ pub(crate) fn kept_by_cholesky(
         return None;
     }
     // (J̃_KᵀJ̃_K)⁻¹ = L⁻ᵀL⁻¹ (priority order, symmetric, row i at i·r).
+    // Entry (i, j ≤ i) is the sum over t = i..r, in that order, of L⁻¹_ti·L⁻¹_tj (the
+    // order of a sequential dot product, started as `Iterator::sum` starts): computed for
+    // all j of a row at once from the rows of L⁻¹ (`lt`, row t at t·r), element-wise, so
+    // the sums vectorise without changing a bit.
+    let sum0: f64 = std::iter::empty::<f64>().sum();
+    let mut lt = vec![0.0; r * r];
+    for (c, col) in li.chunks_exact(r).enumerate() {
+        for (t, v) in col.iter().enumerate() {
+            lt[t * r + c] = *v;
+        }
+    }
     let mut ginv = vec![0.0; r * r];
+    let mut acc = vec![0.0; r];
     for i in 0..r {
-        for j in 0..=i {
-            let (ci, cj) = (&li[i * r + i..(i + 1) * r], &li[j * r + i..(j + 1) * r]);
-            let v: f64 = ci.iter().zip(cj).map(|(u, w)| u * w).sum();
-            ginv[i * r + j] = v;
-            ginv[j * r + i] = v;
+        let acc = &mut acc[..=i];
+        acc.fill(sum0);
+        for t in i..r {
+            let u = li[i * r + t];
+            for (a, w) in acc.iter_mut().zip(&lt[t * r..t * r + i + 1]) {
+                *a += u * w;
+            }
+        }
+        for (j, v) in acc.iter().enumerate() {
+            ginv[i * r + j] = *v;
+            ginv[j * r + i] = *v;
         }
     }
 
@@ -515,8 +533,14 @@ pub(crate) fn kept_by_cholesky(
     let mut c = vec![0.0; r];
     for dpos in &drops {
         let gd = &gm[dpos * p..(dpos + 1) * p];
-        for (ci, row) in c.iter_mut().zip(ginv.chunks_exact(r)) {
-            *ci = row.iter().zip(&kp).map(|(v, &k)| v * gd[k]).sum();
+        // c_i = Σ_j ginv_ij·gd_kj in j order, for all i at once (ginv is exactly symmetric:
+        // row i is column i).
+        c.fill(sum0);
+        for (row, &k) in ginv.chunks_exact(r).zip(&kp) {
+            let gk = gd[k];
+            for (ci, v) in c.iter_mut().zip(row) {
+                *ci += v * gk;
+            }
         }
         // s_d·J_d − Σ_t c_t s_t·J_t (the first term is added, the others subtracted).
         terms.clear();
