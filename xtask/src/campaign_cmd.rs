@@ -252,11 +252,22 @@ pub fn simulate(args: SimulateArgs) -> Result<()> {
         .with_context(|| format!("creating {}", args.out.display()))?;
     sim.write(&args.out)
         .with_context(|| format!("writing into {}", args.out.display()))?;
+    let t = sim.truth.sampling.total();
     eprintln!(
-        "{} identification and {} validation measurements, truth → {}",
+        "{} identification and {} validation measurements, truth → {}\n\
+         pose sampling: {} candidate draws, {} rejected ({:.1} %: wrist {}, floor {}, \
+         elevation {}, range {}, condition {})",
         sim.identification.rows.len(),
         sim.validation.rows.len(),
-        args.out.display()
+        args.out.display(),
+        t.draws,
+        t.rejected(),
+        100.0 * t.rejection_rate(),
+        t.rejected_wrist,
+        t.rejected_floor,
+        t.rejected_elevation,
+        t.rejected_range,
+        t.rejected_condition,
     );
     Ok(())
 }

@@ -244,6 +244,11 @@ impl CampaignSummary {
                 ("AP_p improvement (%)", "iso_ap_improvement_pct", "≈ 87"),
                 ("RP_l before (mm)", "iso_rp_before_mm", "–"),
                 ("RP_l after (mm)", "iso_rp_after_mm", "–"),
+                (
+                    "P1–P5 the identified model could not reach",
+                    "iso_compensation_failures",
+                    "–",
+                ),
             ] {
                 o.push_str(&format!(
                     "| {label} | {} | {paper} |\n",
@@ -266,6 +271,7 @@ impl CampaignSummary {
                 "compensation_failures",
                 3,
             ),
+            ("rejected candidate poses (share)", "pose_rejection_rate", 3),
             ("O1 (Borm–Menq), minimal set", "observability_o1", 5),
             ("O2 = σ_min/σ_max (1/condition)", "observability_o2", 5),
             ("O3 = σ_min", "observability_o3", 5),

@@ -110,6 +110,7 @@ impl Aggregate {
         self.metric("lm_iterations", r.fit.iterations as f64);
         self.metric("compensation_failures", r.compensation_failures as f64);
         self.metric("unmeasurable_poses", r.unmeasurable as f64);
+        self.metric("pose_rejection_rate", r.pose_rejection_rate);
         self.count("stop_reason", &r.fit.stop);
         self.count(
             "rank",
@@ -150,6 +151,10 @@ impl Aggregate {
             );
             self.metric("iso_rp_before_mm", iso.mean_rp_l_before_mm());
             self.metric("iso_rp_after_mm", iso.mean_rp_l_after_mm());
+            self.metric(
+                "iso_compensation_failures",
+                r.iso_compensation_failures as f64,
+            );
         }
         if self.typical.as_ref().is_none_or(|t| r.trial < t.trial) {
             self.typical = Some(r.clone());

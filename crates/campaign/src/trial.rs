@@ -234,6 +234,12 @@ pub struct TrialResult {
     pub unmeasurable: usize,
     /// Validation targets the identified model could not reach within limits.
     pub compensation_failures: usize,
+    /// ISO 9283 targets (P1–P5) the identified model could not reach within limits: those
+    /// points are commanded uncompensated in the "after" cycles, and counted here.
+    pub iso_compensation_failures: usize,
+    /// Share of candidate poses the sampler rejected (identification and validation sets):
+    /// wrist, floor, tracker window, range or condition constraints.
+    pub pose_rejection_rate: f64,
     /// Identification summary.
     pub fit: FitSummary,
     /// Mean distance between the identified model's and the true geometry's points on the
@@ -357,11 +363,13 @@ pub fn run_trial(ctx: &Context, trial: u64) -> Result<TrialResult, CampaignError
         Vec::new()
     };
 
-    let iso = match &ctx.iso {
-        Some(plan) => Some(iso_trial(
-            plan, &fit.robot, nominal, &mut world, scenario, trial,
-        )?),
-        None => None,
+    let pose_rejection_rate = world.sampling_report().rejection_rate();
+    let (iso, iso_compensation_failures) = match &ctx.iso {
+        Some(plan) => {
+            let (report, failures) = iso_trial(plan, &fit.robot, &mut world, scenario, trial)?;
+            (Some(report), failures)
+        }
+        None => (None, 0),
     };
 
     Ok(TrialResult {
@@ -371,6 +379,8 @@ pub fn run_trial(ctx: &Context, trial: u64) -> Result<TrialResult, CampaignError
         table4,
         unmeasurable,
         compensation_failures,
+        iso_compensation_failures,
+        pose_rejection_rate,
         fit: FitSummary {
             iterations: fit.iterations,
             stop: fit.stop.as_str().to_string(),
@@ -468,17 +478,19 @@ fn recovery(
         .collect())
 }
 
+/// The ISO 9283 position test of one trial; also returns how many of P1–P5 the identified
+/// model could not reach (commanded uncompensated instead, and counted).
 fn iso_trial(
     plan: &IsoPlan,
     identified: &Robot,
-    nominal: &Robot,
     world: &mut World,
     scenario: &crate::scenario::Scenario,
     trial: u64,
-) -> Result<IsoReport, CampaignError> {
+) -> Result<(IsoReport, usize), CampaignError> {
     let ik = scenario.compensation.ik_options();
-    // Compensated joints of P1…P5 (targets the identified model cannot reach keep the
-    // commanded joints, and the report says so through its AP).
+    // Compensated joints of P1…P5; a target the identified model cannot reach keeps its
+    // commanded joints and is counted.
+    let mut failures = 0;
     let mut q_after: Vec<Vec<f64>> = Vec::with_capacity(5);
     for (t, q) in plan.targets.iter().zip(&plan.q_cmd_rad) {
         let mut qc = q.clone();
@@ -486,12 +498,14 @@ fn iso_trial(
             point_in_flange_mm: identified.tool_mm(),
             ..*t
         };
-        if !scenario.compensation.enabled || identified.solve_ik(&target, &mut qc, &ik).is_err() {
+        if scenario.compensation.enabled && identified.solve_ik(&target, &mut qc, &ik).is_err() {
+            failures += 1;
+            qc.clone_from(q);
+        } else if !scenario.compensation.enabled {
             qc.clone_from(q);
         }
         q_after.push(qc);
     }
-    let _ = nominal;
     let cycles = scenario.iso.cycles;
     let mut before: [Vec<[f64; 3]>; 5] = Default::default();
     let mut after: [Vec<[f64; 3]>; 5] = Default::default();
@@ -508,12 +522,13 @@ fn iso_trial(
             }
         }
     }
-    IsoReport::from_attained(
+    let report = IsoReport::from_attained(
         plan.cube,
         [&before[0], &before[1], &before[2], &before[3], &before[4]],
         [&after[0], &after[1], &after[2], &after[3], &after[4]],
     )
-    .map_err(|source| CampaignError::Evaluate { trial, source })
+    .map_err(|source| CampaignError::Evaluate { trial, source })?;
+    Ok((report, failures))
 }
 
 #[cfg(test)]
