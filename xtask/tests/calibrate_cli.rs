@@ -810,3 +810,73 @@ fn ur10_real_data_every_15th_row() {
     assert!(done >= 0.99 * 1495.0, "{err}");
     println!("UR10 compensation: {}", err.lines().last().unwrap_or(""));
 }
+
+/// `predict` and `compensate` reject malformed joint files by file and line, and write no
+/// output file.
+#[test]
+fn predict_and_compensate_reject_malformed_joint_files() {
+    let (header, rows) = clean_rows(5);
+    let tmp = tempfile::tempdir().unwrap();
+    let cases = [
+        ("text.csv", rows[2].replacen(",", ",abc", 2), "text.csv:4"),
+        (
+            "nan.csv",
+            {
+                let f: Vec<&str> = rows[1].split(',').collect();
+                format!("{},NaN,{}", f[0], f[2..].join(","))
+            },
+            "nan.csv:3",
+        ),
+        ("ragged.csv", format!("{},7", rows[0]), "ragged.csv:2"),
+    ];
+    for (name, bad_row, expect) in cases {
+        let mut body = rows.clone();
+        let at = expect.rsplit(':').next().unwrap().parse::<usize>().unwrap() - 2;
+        body[at] = bad_row;
+        let file = tmp.path().join(name);
+        std::fs::write(&file, format!("{header}\n{}\n", body.join("\n"))).unwrap();
+        let out_file = tmp.path().join(format!("{name}.out.csv"));
+        for args in [
+            vec!["predict", "--robot", s(kr1000()), "--joints", s(&file)],
+            vec![
+                "compensate",
+                "--robot",
+                s(kr1000()),
+                "--nominal",
+                s(kr1000()),
+                "--targets",
+                s(&file),
+            ],
+        ] {
+            let mut args = args.clone();
+            args.extend(["--out", s(&out_file)]);
+            let out = xtask(&args);
+            assert!(!out.status.success(), "{args:?} accepted {name}");
+            assert!(stderr(&out).contains(expect), "{args:?}: {}", stderr(&out));
+            assert!(!out_file.exists(), "{args:?} wrote {}", out_file.display());
+        }
+    }
+}
+
+/// `identifiability --json` carries the keys the issue names, computed for the KR1000.
+#[test]
+fn identifiability_json_has_rank_redundant_condition_and_observability() {
+    let out = xtask(&[
+        "identifiability",
+        "--robot",
+        s(kr1000()),
+        "--random-poses",
+        "50",
+        "--json",
+    ]);
+    let text = ok(&out);
+    let v: serde_json::Value = serde_json::from_str(&text).expect("JSON on stdout");
+    assert_eq!(v["rank"], 27, "{text}");
+    assert_eq!(v["parameter_count"], 34);
+    assert_eq!(v["redundant"].as_array().unwrap().len(), 7);
+    assert!(v["condition_number"].as_f64().unwrap() > 1.0);
+    for k in ["o1", "o2", "o3", "o4", "o5"] {
+        assert!(v["observability"][k].as_f64().unwrap() > 0.0, "{k}");
+    }
+    assert_eq!(v["singular_values"].as_array().unwrap().len(), 34);
+}
