@@ -5,7 +5,7 @@
 use evaluate::{IsoCube, IsoReport, ParameterRecovery, Table4};
 use identify::{Fit, IdentifyOptions, Observability, ParamSet, Problem};
 use kinematics::{IkTarget, PoseTrig, Robot};
-use nalgebra::{DMatrix, DVector, SymmetricEigen, Vector3};
+use nalgebra::{DMatrix, DVector, Vector3};
 use serde::{Deserialize, Serialize};
 use virtual_robot::{Setup, Tracker, World};
 
@@ -416,8 +416,8 @@ fn observability(
         return None;
     }
     let scaled = DMatrix::from_fn(p, p, |i, j| a[(i, j)] / (d[i] * d[j]));
-    let mut sv: Vec<f64> = SymmetricEigen::new(scaled)
-        .eigenvalues
+    let mut sv: Vec<f64> = scaled
+        .symmetric_eigenvalues()
         .iter()
         .map(|&l| l.max(0.0).sqrt())
         .collect();
