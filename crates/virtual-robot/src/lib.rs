@@ -134,6 +134,7 @@ pub mod error;
 pub mod poses;
 pub mod rng;
 pub mod simulate;
+mod sincos;
 pub mod tracker;
 pub mod truth;
 pub mod unmodelled;

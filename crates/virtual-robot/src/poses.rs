@@ -29,8 +29,8 @@
 
 use std::fmt;
 
-use kinematics::{MAX_JOINTS, Robot};
-use nalgebra::{Cholesky, Matrix6, Vector3};
+use kinematics::{Frame, MAX_JOINTS, Robot};
+use nalgebra::{Cholesky, Matrix6, Vector3, Vector6};
 use rand::RngExt;
 use rand::rngs::ChaCha8Rng;
 use serde::de::{self, SeqAccess, Visitor};
@@ -38,6 +38,7 @@ use serde::{Deserialize, Deserializer, Serialize, Serializer};
 
 use crate::error::{ConfigError, NotMeasurable, SimError};
 use crate::tracker::Tracker;
+use crate::unmodelled::{CmdTrig, Unmodelled};
 use crate::validate::{finite, non_negative, positive};
 
 /// Elevation margin kept from the tracker's window edge when sampling, degrees.
@@ -320,33 +321,44 @@ enum Reject {
     Condition,
 }
 
-/// Checks the constraints for one pose whose point (robot base frame) is `point(q_rad)`,
-/// computed only once the wrist test has passed.
+/// Checks the constraints for one pose whose point (robot base frame) is
+/// `point(q_rad, trig)`, computed only once the wrist test has passed; `trig` holds the
+/// sines and cosines of `q_rad` (and of `unmodelled`'s gear terms), computed once for the
+/// point and the condition test. Returns the point of an accepted pose.
 fn check(
     cfg: &PoseSampling,
     nominal: &Robot,
     tracker: &Tracker,
     q_rad: &[f64],
-    point: &dyn Fn(&[f64]) -> Vector3<f64>,
-) -> Result<(), Reject> {
+    unmodelled: Option<&Unmodelled>,
+    point: &dyn Fn(&[f64], &CmdTrig) -> Vector3<f64>,
+) -> Result<Vector3<f64>, Reject> {
     if q_rad.len() >= 5 && q_rad[4].abs() < cfg.min_abs_q5_deg.to_radians() {
         return Err(Reject::Wrist);
     }
-    let point = &point(q_rad);
+    let mut trig = CmdTrig::default();
+    trig.compute(unmodelled, q_rad);
+    let point = point(q_rad, &trig);
     if point.z < cfg.min_point_z_mm {
         return Err(Reject::Floor);
     }
-    match tracker.check_window(point, SAMPLING_MARGIN_DEG, SAMPLING_MARGIN_MM) {
+    match tracker.check_window(&point, SAMPLING_MARGIN_DEG, SAMPLING_MARGIN_MM) {
         Err(NotMeasurable::Elevation { .. }) => return Err(Reject::Elevation),
         Err(_) => return Err(Reject::Range),
         Ok(()) => {}
     }
     if let Some(limit) = cfg.max_condition
-        && !condition_at_most(nominal, q_rad, cfg.condition_orientation_scale_mm, limit)
+        && !condition_at_most_trig(
+            nominal,
+            q_rad,
+            &trig.sc[..q_rad.len()],
+            cfg.condition_orientation_scale_mm,
+            limit,
+        )
     {
         return Err(Reject::Condition);
     }
-    Ok(())
+    Ok(point)
 }
 
 /// `robot.singularity_condition(q, scale) ≤ limit`, decided without an SVD in most cases.
@@ -356,16 +368,108 @@ fn check(
 /// `[max_k M_kk, tr M] ∋ λ_max`, so a Cholesky factorisation of `M − c·tr(M)·I` proves
 /// `λ_min ≥ λ_max/limit²` (accept) and the failure of one of `M − c·max_k M_kk·I` proves
 /// the opposite (reject). Only the undecided remainder (and N < 6) pays for the SVD.
+#[cfg(test)]
 fn condition_at_most(robot: &Robot, q_rad: &[f64], scale_mm: f64, limit: f64) -> bool {
+    let mut sc = [[0.0; 2]; MAX_JOINTS];
+    kinematics::joint_sin_cos(q_rad, &mut sc);
+    condition_at_most_trig(robot, q_rad, &sc[..q_rad.len()], scale_mm, limit)
+}
+
+/// [`Robot::geometric_gram`] of the flange origin at the joints whose `[sin q, cos q]` are
+/// `sc`: the same operations on the same chain ([`Robot::frames_trig`] gives the axes and
+/// origins `joint_axes` does), so the same bits.
+fn geometric_gram_trig(robot: &Robot, sc: &[[f64; 2]], scale_mm: f64) -> Matrix6<f64> {
+    let n = sc.len();
+    let mut frames = [Frame::identity(); MAX_JOINTS + 1];
+    robot.frames_trig(sc, &mut frames);
+    let p = frames[n].transform_point(&Vector3::zeros());
+    let mut m = Matrix6::zeros();
+    for f in &frames[..n] {
+        let z = f.rot.column(2).into_owned();
+        let o = f.pos_mm;
+        let lin = z.cross(&(p - o));
+        let c = Vector6::new(
+            lin.x,
+            lin.y,
+            lin.z,
+            z.x * scale_mm,
+            z.y * scale_mm,
+            z.z * scale_mm,
+        );
+        for b in 0..6 {
+            for a in 0..=b {
+                m[(a, b)] += c[a] * c[b];
+            }
+        }
+    }
+    for b in 0..6 {
+        for a in 0..b {
+            m[(b, a)] = m[(a, b)];
+        }
+    }
+    m
+}
+
+/// Whether nalgebra's `Cholesky::new(m − I·t)` succeeds, decided by the same operations in
+/// the same order (its left-looking column algorithm: `a_ij − a_jk·a_ik` over k, then
+/// `a_jj > 0`, its square root, and the column divided by it) on a fixed-size array.
+/// Non-finite `t` goes to nalgebra itself.
+fn shifted_cholesky_ok(m: &Matrix6<f64>, t: f64) -> bool {
+    if !t.is_finite() {
+        return Cholesky::new(m - Matrix6::identity() * t).is_some();
+    }
+    // l[j][i]: column j, row i (lower triangle), as `m − I·t` elementwise.
+    let mut l = [[0.0; 6]; 6];
+    for (j, col) in l.iter_mut().enumerate() {
+        for (i, v) in col.iter_mut().enumerate().skip(j) {
+            let id = if i == j { 1.0 } else { 0.0 };
+            *v = m[(i, j)] - id * t;
+        }
+    }
+    chol6_in_place(&mut l)
+}
+
+/// nalgebra's Cholesky on the lower triangle of `l` (column-major `l[col][row]`), in place:
+/// false where it returns `None`.
+#[inline(always)]
+#[allow(clippy::needless_range_loop, clippy::neg_cmp_op_on_partial_ord)]
+fn chol6_in_place(l: &mut [[f64; 6]; 6]) -> bool {
+    for j in 0..6 {
+        for k in 0..j {
+            let f = l[k][j];
+            for i in j..6 {
+                l[j][i] += -f * l[k][i];
+            }
+        }
+        let d = l[j][j];
+        if !(d > 0.0) {
+            return false;
+        }
+        let r = d.sqrt();
+        l[j][j] = r;
+        for i in j + 1..6 {
+            l[j][i] /= r;
+        }
+    }
+    true
+}
+
+/// `condition_at_most` at the joints whose `[sin q, cos q]` are `sc`.
+fn condition_at_most_trig(
+    robot: &Robot,
+    q_rad: &[f64],
+    sc: &[[f64; 2]],
+    scale_mm: f64,
+    limit: f64,
+) -> bool {
     if q_rad.len() >= 6 {
-        let m = robot.geometric_gram(q_rad, &Vector3::zeros(), scale_mm);
+        let m = geometric_gram_trig(robot, sc, scale_mm);
         let c = 1.0 / (limit * limit);
-        let shifted = |t: f64| Cholesky::new(m - Matrix6::identity() * t).is_some();
-        if shifted(c * m.trace()) {
+        if shifted_cholesky_ok(&m, c * m.trace()) {
             return true;
         }
         let max_diag = (0..6).map(|k| m[(k, k)]).fold(0.0, f64::max);
-        if !shifted(c * max_diag) {
+        if !shifted_cholesky_ok(&m, c * max_diag) {
             return false;
         }
     }
@@ -380,9 +484,10 @@ pub(crate) fn sample(
     cfg: &PoseSampling,
     nominal: &Robot,
     tracker: &Tracker,
-    point: &dyn Fn(&[f64]) -> Vector3<f64>,
+    unmodelled: Option<&Unmodelled>,
+    point: &dyn Fn(&[f64], &CmdTrig) -> Vector3<f64>,
     rng: &mut ChaCha8Rng,
-) -> Result<(Vec<f64>, Vec<f64>, SamplingStats), SimError> {
+) -> Result<Sampled, SimError> {
     let n = nominal.n_joints();
     let mut limits_deg = [[0.0; 2]; MAX_JOINTS];
     for (i, l) in limits_deg.iter_mut().enumerate().take(n) {
@@ -391,6 +496,7 @@ pub(crate) fn sample(
     }
     let mut deg = Vec::with_capacity(count * n);
     let mut rad = Vec::with_capacity(count * n);
+    let mut points = Vec::with_capacity(count);
     let mut stats = SamplingStats {
         wanted: count,
         ..SamplingStats::default()
@@ -415,11 +521,12 @@ pub(crate) fn sample(
             // Only possible through rounding at a limit; redraw (counted as a draw).
             continue;
         }
-        match check(cfg, nominal, tracker, &qr[..n], point) {
-            Ok(()) => {
+        match check(cfg, nominal, tracker, &qr[..n], unmodelled, point) {
+            Ok(p) => {
                 stats.accepted += 1;
                 deg.extend_from_slice(&qd[..n]);
                 rad.extend_from_slice(&qr[..n]);
+                points.push(p);
             }
             Err(Reject::Wrist) => stats.rejected_wrist += 1,
             Err(Reject::Floor) => stats.rejected_floor += 1,
@@ -428,7 +535,25 @@ pub(crate) fn sample(
             Err(Reject::Condition) => stats.rejected_condition += 1,
         }
     }
-    Ok((deg, rad, stats))
+    Ok(Sampled {
+        deg,
+        rad,
+        points,
+        stats,
+    })
+}
+
+/// A sampled pose set.
+#[derive(Debug, Default)]
+pub(crate) struct Sampled {
+    /// Joints, degrees, flat with stride N.
+    pub(crate) deg: Vec<f64>,
+    /// The same in radians.
+    pub(crate) rad: Vec<f64>,
+    /// The point checked for each pose (what `point` gave).
+    pub(crate) points: Vec<Vector3<f64>>,
+    /// The sampler's counts.
+    pub(crate) stats: SamplingStats,
 }
 
 #[cfg(test)]
@@ -436,6 +561,45 @@ mod tests {
     use super::*;
     use kinematics::RobotSpec;
     use rand::SeedableRng;
+
+    /// The fixed-size Gram and Cholesky decisions are nalgebra's, bit for bit.
+    #[test]
+    fn gram_and_cholesky_replicas_match_nalgebra() {
+        let text = include_str!("../../../scenarios/robots/kr1000-titan.json");
+        let robot = Robot::from_spec(&RobotSpec::from_json_str(text, "kr1000").unwrap()).unwrap();
+        let mut rng = ChaCha8Rng::seed_from_u64(7);
+        let mut q = [0.0; 6];
+        let mut outcomes = [0usize; 2];
+        for _ in 0..3000 {
+            for (i, v) in q.iter_mut().enumerate() {
+                let [lo, hi] = robot.limits_rad(i);
+                *v = lo + (hi - lo) * rng.random::<f64>();
+            }
+            let mut sc = [[0.0; 2]; MAX_JOINTS];
+            kinematics::joint_sin_cos(&q, &mut sc);
+            let m = geometric_gram_trig(&robot, &sc[..6], 1000.0);
+            let reference = robot.geometric_gram(&q, &Vector3::zeros(), 1000.0);
+            assert!(m.iter().zip(reference.iter()).all(|(a, b)| a.to_bits() == b.to_bits()));
+            // Shifts around λ_min, where the factorisation's outcome is decided by rounding.
+            let lmin = m.symmetric_eigenvalues().min();
+            for t in [
+                0.0,
+                lmin * (1.0 - 1e-12),
+                lmin,
+                lmin * (1.0 + 1e-12),
+                lmin * 0.5,
+                lmin * 2.0,
+                1e-4 * m.trace(),
+                f64::INFINITY,
+                f64::NAN,
+            ] {
+                let ok = shifted_cholesky_ok(&m, t);
+                assert_eq!(ok, Cholesky::new(m - Matrix6::identity() * t).is_some());
+                outcomes[usize::from(ok)] += 1;
+            }
+        }
+        assert!(outcomes.iter().all(|n| *n > 3000), "{outcomes:?}");
+    }
 
     #[test]
     fn condition_bounds_agree_with_the_svd() {

@@ -408,6 +408,17 @@ impl ComplianceModel {
         }
     }
 
+    /// [`ComplianceModel::deflection_rad`] at the joints whose `[sin q, cos q]` are `sc`
+    /// (the same bits: the frames come from [`Robot::frames_trig`]).
+    fn deflection_trig(&self, robot: &Robot, sc: &[[f64; 2]], out: &mut [f64]) {
+        let mut frames = [Frame::identity(); MAX_JOINTS + 1];
+        robot.frames_trig(sc, &mut frames);
+        self.torques_from_frames(&frames, out);
+        for (d, k) in out.iter_mut().zip(&self.gain) {
+            *d *= k;
+        }
+    }
+
     /// Displacement of the measured point caused by the deflection,
     /// `p(q + Δq) − p(q)`, mm.
     pub fn point_deflection_mm(&self, robot: &Robot, q_rad: &[f64]) -> Vector3<f64> {
@@ -532,14 +543,34 @@ impl Unmodelled {
     /// (compliance evaluated with `robot`'s frames). `q_out` is a copy of `q_cmd` when both
     /// are off. No allocation.
     pub fn actual_joints(&self, robot: &Robot, q_cmd: &[f64], q_out: &mut [f64]) {
+        let mut trig = CmdTrig::default();
+        trig.compute(Some(self), q_cmd);
+        self.actual_joints_trig(robot, q_cmd, &trig, q_out);
+    }
+
+    /// [`Unmodelled::actual_joints`] with the sines and cosines of `q_cmd` (and the gear
+    /// terms' sines) already in `trig` ([`CmdTrig::compute`] of the same `q_cmd`).
+    pub(crate) fn actual_joints_trig(
+        &self,
+        robot: &Robot,
+        q_cmd: &[f64],
+        trig: &CmdTrig,
+        q_out: &mut [f64],
+    ) {
         q_out.copy_from_slice(q_cmd);
+        let n = q_cmd.len();
         if let Some(c) = &self.compliance {
-            let n = q_cmd.len();
             let mut dq = [0.0; MAX_JOINTS];
-            c.deflection_rad(robot, q_cmd, &mut dq[..n]);
+            c.deflection_trig(robot, &trig.sc[..n], &mut dq[..n]);
             for (q, d) in q_out.iter_mut().zip(&dq[..n]) {
                 *q += d;
             }
+        }
+        if trig.gears_done {
+            for (g, s) in self.gears.iter().zip(&trig.wide_sin[n..]) {
+                q_out[g.joint] += g.amplitude_rad * s;
+            }
+            return;
         }
         // The gear terms' sines all at once (kinematics::trig, eight per vector).
         let mut arg = [0.0; 4 * MAX_JOINTS];
@@ -555,5 +586,58 @@ impl Unmodelled {
                 q_out[g.joint] += g.amplitude_rad * s;
             }
         }
+    }
+}
+
+/// Lanes of [`CmdTrig`]'s one kernel call: the joints and the gear terms' arguments.
+const CMD_LANES: usize = 16;
+
+/// The trigonometry of a commanded joint vector: `[sin q_i, cos q_i]` and, when the joints
+/// and the gear terms fit in [`CMD_LANES`] lanes together, the gear terms' sines, all from
+/// one call of the sine kernel. Every value is the one the separate calls give, bit for bit.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct CmdTrig {
+    /// `[sin q_i, cos q_i]` of the commanded joints.
+    pub(crate) sc: [[f64; 2]; MAX_JOINTS],
+    /// Lane i < N: sin q_i; lane N + t: sine of gear term t's argument.
+    wide_sin: [f64; CMD_LANES],
+    /// Whether the gear sines are in `wide_sin`.
+    gears_done: bool,
+}
+
+impl Default for CmdTrig {
+    fn default() -> Self {
+        CmdTrig {
+            sc: [[0.0; 2]; MAX_JOINTS],
+            wide_sin: [0.0; CMD_LANES],
+            gears_done: false,
+        }
+    }
+}
+
+impl CmdTrig {
+    /// Fills in the trigonometry of `q_cmd` for `unmodelled`'s gear terms (of the joints
+    /// only with `None`).
+    #[inline]
+    pub(crate) fn compute(&mut self, unmodelled: Option<&Unmodelled>, q_cmd: &[f64]) {
+        let n = q_cmd.len();
+        let gears: &[GearRad] = unmodelled.map_or(&[], |u| &u.gears);
+        let k = gears.len();
+        if k == 0 || n + k > CMD_LANES {
+            crate::sincos::joint_trig(q_cmd, &mut self.sc);
+            self.gears_done = false;
+            return;
+        }
+        let mut x = [0.0; CMD_LANES];
+        x[..n].copy_from_slice(q_cmd);
+        for (a, g) in x[n..n + k].iter_mut().zip(gears) {
+            *a = g.harmonic * q_cmd[g.joint] + g.phase_rad;
+        }
+        let (s, c) = crate::sincos::block::<CMD_LANES>(&x);
+        for i in 0..n {
+            self.sc[i] = [s[i], c[i]];
+        }
+        self.wide_sin = s;
+        self.gears_done = true;
     }
 }

@@ -11,11 +11,11 @@ use serde::{Deserialize, Serialize};
 
 use crate::config::VirtualRobotConfig;
 use crate::error::{NotMeasurable, SimError};
-use crate::poses::{PoseSet, SamplingReport, SamplingStats, sample};
+use crate::poses::{PoseSet, Sampled, SamplingReport, SamplingStats, sample};
 use crate::rng::{MAX_TRIAL, Purpose, stream};
 use crate::tracker::Tracker;
 use crate::truth::{ScaleOutcome, solve_scale};
-use crate::unmodelled::Unmodelled;
+use crate::unmodelled::{CmdTrig, Unmodelled};
 
 /// One parameter of the truth, display units (deg or mm).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -91,17 +91,45 @@ pub struct World {
     true_params: Vec<f64>,
     drift_params: Vec<f64>,
     drift_robot: Robot,
+    cache: PointCache,
 }
 
 /// The point the robot reaches without scatter, drift or residual (robot base frame).
 fn reached_point(robot: &Robot, unmodelled: &Unmodelled, q_cmd: &[f64]) -> Vector3<f64> {
-    if !unmodelled.perturbs_joints() {
-        return robot.point(q_cmd);
-    }
+    let mut trig = CmdTrig::default();
+    trig.compute(Some(unmodelled), q_cmd);
+    reached_point_trig(robot, unmodelled, q_cmd, &trig)
+}
+
+/// [`reached_point`] with the trigonometry of `q_cmd` in `trig` (bit for bit the same).
+fn reached_point_trig(
+    robot: &Robot,
+    unmodelled: &Unmodelled,
+    q_cmd: &[f64],
+    trig: &CmdTrig,
+) -> Vector3<f64> {
     let n = q_cmd.len();
+    if !unmodelled.perturbs_joints() {
+        return robot.point_trig(&trig.sc[..n]);
+    }
     let mut q = [0.0; MAX_JOINTS];
-    unmodelled.actual_joints(robot, q_cmd, &mut q[..n]);
-    robot.point(&q[..n])
+    unmodelled.actual_joints_trig(robot, q_cmd, trig, &mut q[..n]);
+    let mut sc = [[0.0; 2]; MAX_JOINTS];
+    crate::sincos::joint_trig(&q[..n], &mut sc);
+    robot.point_trig(&sc[..n])
+}
+
+/// The points [`reached_point`] gave for the sampled poses (identification, then
+/// validation) on the true robot, kept so that measuring those poses again (without drift)
+/// does not recompute them: a lookup by the joints' bits, first at the position after the
+/// last hit (poses are usually measured in order).
+#[derive(Debug, Default)]
+struct PointCache {
+    /// Bits of q_1 per pose, for the search.
+    key: Vec<u64>,
+    points: Vec<Vector3<f64>>,
+    /// Where the next lookup starts.
+    cursor: usize,
 }
 
 /// Everything of a simulation that does not depend on the trial: the validated
@@ -130,17 +158,18 @@ impl Setup {
         let tracker = Tracker::new(&cfg.tracker)?;
         let (scale_poses_rad, scale_stats) = match &cfg.truth.scale_to {
             Some(target) => {
-                let nominal_point = |q: &[f64]| nominal.point(q);
-                let (_, rad, stats) = sample(
+                let nominal_point = |q: &[f64], t: &CmdTrig| nominal.point_trig(&t.sc[..q.len()]);
+                let sampled = sample(
                     "truth.scale_to.poses",
                     target.poses,
                     &cfg.poses,
                     nominal,
                     &tracker,
+                    None,
                     &nominal_point,
                     &mut stream(seed, 0, Purpose::ScalePoses),
                 )?;
-                (Arc::from(rad), Some(stats))
+                (Arc::from(sampled.rad), Some(sampled.stats))
             }
             None => (Arc::from(Vec::new()), None),
         };
@@ -222,7 +251,7 @@ impl Setup {
         )?;
 
         // Pose sets, checked on where the true robot puts the point.
-        let reached = |q: &[f64]| reached_point(&true_robot, &unmodelled, q);
+        let reached = |q: &[f64], t: &CmdTrig| reached_point_trig(&true_robot, &unmodelled, q, t);
         let mut sets = Vec::with_capacity(2);
         for (field, set, purpose) in [
             (
@@ -243,34 +272,56 @@ impl Setup {
                     &cfg.poses,
                     nominal,
                     tracker,
+                    Some(&unmodelled),
                     &reached,
                     &mut stream(seed, trial, purpose),
                 )?,
                 PoseSet::ListDeg(rows) => {
                     let deg: Vec<f64> = rows.iter().flatten().copied().collect();
                     let rad: Vec<f64> = deg.iter().map(|d| d.to_radians()).collect();
+                    let mut points = Vec::with_capacity(rows.len());
                     for (index, q) in rad.chunks_exact(nominal.n_joints()).enumerate() {
-                        tracker.check_visible(&reached(q)).map_err(|source| {
-                            SimError::NotMeasurable {
+                        let p = reached_point(&true_robot, &unmodelled, q);
+                        tracker
+                            .check_visible(&p)
+                            .map_err(|source| SimError::NotMeasurable {
                                 field: field.to_string(),
                                 index,
                                 source,
-                            }
-                        })?;
+                            })?;
+                        points.push(p);
                     }
                     let stats = SamplingStats {
                         wanted: rows.len(),
                         accepted: rows.len(),
                         ..SamplingStats::default()
                     };
-                    (deg, rad, stats)
+                    Sampled {
+                        deg,
+                        rad,
+                        points,
+                        stats,
+                    }
                 }
             });
         }
-        let (val_deg, val_rad, val_stats) = sets.pop().unwrap_or_default();
-        let (id_deg, id_rad, id_stats) = sets.pop().unwrap_or_default();
-        report.identification = id_stats;
-        report.validation = val_stats;
+        let val = sets.pop().unwrap_or_default();
+        let id = sets.pop().unwrap_or_default();
+        report.identification = id.stats;
+        report.validation = val.stats;
+        let n = nominal.n_joints();
+        let cache = PointCache {
+            key: id
+                .rad
+                .chunks_exact(n)
+                .chain(val.rad.chunks_exact(n))
+                .map(|q| q[0].to_bits())
+                .collect(),
+            points: [id.points, val.points].concat(),
+            cursor: 0,
+        };
+        let (id_deg, id_rad) = (id.deg, id.rad);
+        let (val_deg, val_rad) = (val.deg, val.rad);
 
         Ok(World {
             seed,
@@ -295,6 +346,7 @@ impl Setup {
             val_deg,
             val_rad,
             report,
+            cache,
         })
     }
 }
@@ -322,6 +374,10 @@ impl World {
         self.check_joints(q_cmd_rad)?;
         let k = self.moves;
         self.moves += 1;
+        let cached = match self.unmodelled.drift_per_move() {
+            Some(_) => None,
+            None => self.cached_point(q_cmd_rad),
+        };
         let robot = match self.unmodelled.drift_per_move() {
             Some(rates) => {
                 let kf = k as f64;
@@ -339,7 +395,10 @@ impl World {
             }
             None => &self.true_robot,
         };
-        let mut p = reached_point(robot, &self.unmodelled, q_cmd_rad);
+        let mut p = match cached {
+            Some(p) => p,
+            None => reached_point(robot, &self.unmodelled, q_cmd_rad),
+        };
         let sigma = self.unmodelled.scatter_sigma_mm();
         if sigma > 0.0 {
             let e0: f64 = self.scatter_rng.sample(StandardNormal);
@@ -366,6 +425,31 @@ impl World {
             Some(f) => f.transform_point(&p),
             None => p,
         })
+    }
+
+    /// The point of a sampled pose whose joints are `q`, bit for bit (see [`PointCache`]).
+    fn cached_point(&mut self, q: &[f64]) -> Option<Vector3<f64>> {
+        let n = q.len();
+        let n_id = self.id_rad.len() / n.max(1);
+        let (id, val) = (&self.id_rad, &self.val_rad);
+        let same = |k: usize| {
+            let row = if k < n_id {
+                &id[k * n..(k + 1) * n]
+            } else {
+                &val[(k - n_id) * n..(k - n_id + 1) * n]
+            };
+            row.iter().zip(q).all(|(a, b)| a.to_bits() == b.to_bits())
+        };
+        let c = &mut self.cache;
+        let total = c.points.len();
+        let first = q.first()?.to_bits();
+        let hit = if c.cursor < total && c.key[c.cursor] == first && same(c.cursor) {
+            Some(c.cursor)
+        } else {
+            (0..total).find(|&k| c.key[k] == first && same(k))
+        }?;
+        c.cursor = hit + 1;
+        Some(c.points[hit])
     }
 
     fn check_joints(&self, q: &[f64]) -> Result<(), NotMeasurable> {

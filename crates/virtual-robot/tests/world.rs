@@ -308,3 +308,35 @@ fn explicit_pose_lists_are_used_as_given() {
     let r = w.sampling_report();
     assert_eq!((r.validation.draws, r.validation.accepted), (0, 2));
 }
+
+/// Measuring a sampled pose reuses the point its sampling computed: the same bits as the
+/// uncached `true_point`, in any order and repeatedly (noise, scatter and drift off).
+#[test]
+fn measuring_sampled_poses_gives_the_uncached_point_bit_for_bit() {
+    let robot = kr1000();
+    let mut cfg = everything();
+    cfg.unmodelled.drift.enabled = false;
+    cfg.unmodelled.repeatability.enabled = false;
+    cfg.tracker.noise = false;
+    for trial in 0..3 {
+        let mut w = World::new(&robot, &cfg, 3, trial).unwrap();
+        let mut poses = w.identification_poses_rad().to_vec();
+        poses.extend_from_slice(w.validation_poses_rad());
+        let m = poses.len() / 6;
+        let order = (0..m).chain((0..m).rev()).chain((0..m).step_by(3));
+        for j in order {
+            let q = &poses[6 * j..6 * j + 6];
+            let measured = w.measure(q).unwrap();
+            let expected = w.true_point(q).unwrap();
+            assert_eq!(measured.map(f64::to_bits), expected.map(f64::to_bits));
+        }
+        // A pose that was not sampled is computed.
+        let mut q = poses[..6].to_vec();
+        q[0] += 1e-3;
+        let measured = w.measure(&q).unwrap();
+        assert_eq!(
+            measured.map(f64::to_bits),
+            w.true_point(&q).unwrap().map(f64::to_bits)
+        );
+    }
+}
