@@ -11,7 +11,7 @@
 //! λ = μ·max diag(J Jᵀ) adapted as in Levenberg's method (÷10 on success, ×10 on failure).
 //! Steps are clamped to the joint limits.
 
-use nalgebra::{Matrix3, Matrix6, Rotation3, Vector3, Vector6};
+use nalgebra::{Matrix3, Rotation3, Vector3, Vector6};
 
 use crate::model::MAX_JOINTS;
 use crate::robot::{Frame, Robot, joint_sin_cos};
@@ -166,6 +166,80 @@ struct Residual {
     cost: f64,
 }
 
+/// [`joint_sin_cos`] (the same bits) through one whole block of the sine kernel for up to
+/// eight joints: the kernel's partial-block path costs more than the padding.
+#[inline]
+fn padded_sin_cos(q_rad: &[f64], sc: &mut [[f64; 2]; MAX_JOINTS]) {
+    const BLOCK: usize = 8;
+    let n = q_rad.len();
+    if n > BLOCK {
+        joint_sin_cos(q_rad, sc);
+        return;
+    }
+    let mut x = [0.0; BLOCK];
+    x[..n].copy_from_slice(q_rad);
+    let mut s = [0.0; BLOCK];
+    let mut c = [0.0; BLOCK];
+    crate::trig::sin_cos_slice(&x, &mut s, &mut c);
+    for i in 0..n {
+        sc[i] = [s[i], c[i]];
+    }
+}
+
+/// The lower triangle of a symmetric 6×6 matrix, column-major: `l[col][row]`, row ≥ col.
+type Lower6 = [[f64; 6]; 6];
+
+/// nalgebra's `Cholesky::new` on the lower triangle of `l`, in place, by the same
+/// operations in the same order (left-looking columns: `a_ij − a_jk·a_ik` over k, the
+/// pivot's square root if it is positive, the column divided by it): `false` where
+/// nalgebra returns `None`. Fixed size and unrolled, so several times cheaper.
+#[inline(always)]
+#[allow(clippy::needless_range_loop, clippy::neg_cmp_op_on_partial_ord)]
+fn cholesky6(l: &mut Lower6) -> bool {
+    for j in 0..6 {
+        for k in 0..j {
+            let f = l[k][j];
+            for i in j..6 {
+                l[j][i] += -f * l[k][i];
+            }
+        }
+        let d = l[j][j];
+        if !(d > 0.0) {
+            return false;
+        }
+        let r = d.sqrt();
+        l[j][j] = r;
+        for i in j + 1..6 {
+            l[j][i] /= r;
+        }
+    }
+    true
+}
+
+/// `Cholesky::solve` of nalgebra with the factor [`cholesky6`] left in `l`: forward
+/// substitution (`b_r − (b_i/l_ii)·l_ri`), then backward with nalgebra's dot product (a
+/// sum from +0 in row order), the same operations in the same order.
+#[inline(always)]
+#[allow(clippy::needless_range_loop)]
+fn cholesky6_solve(l: &Lower6, b: &Vector6<f64>) -> Vector6<f64> {
+    let mut y = [b[0], b[1], b[2], b[3], b[4], b[5]];
+    for i in 0..6 {
+        let coeff = y[i] / l[i][i];
+        y[i] = coeff;
+        for r in i + 1..6 {
+            y[r] += -coeff * l[i][r];
+        }
+    }
+    for i in (0..6).rev() {
+        let mut dot = 0.0;
+        for k in i + 1..6 {
+            dot += l[i][k] * y[k];
+        }
+        y[i] = (y[i] - dot) / l[i][i];
+    }
+    Vector6::from(y)
+}
+
 /// Joint axes `(z_{i−1}, o_{i−1})` of one configuration and its target point `p`: what the
 /// IK Jacobian needs, kept from the residual evaluation so an accepted point costs one chain.
 #[derive(Clone, Copy)]
@@ -184,7 +258,7 @@ impl Robot {
         axes: &mut Axes,
     ) -> Residual {
         let mut sc = [[0.0; 2]; MAX_JOINTS];
-        joint_sin_cos(q_rad, &mut sc);
+        padded_sin_cos(q_rad, &mut sc);
         let f = self.joint_axes_trig(&sc[..q_rad.len()], &mut axes.axes);
         let p = f.transform_point(&target.point_in_flange_mm);
         axes.point = p;
@@ -302,12 +376,13 @@ impl Robot {
         // Stop refining once well inside the tolerance: Newton's last step then costs nothing.
         let tight_pos = opts.tol_pos_mm * 1e-3;
         let tight_rot = opts.tol_rot_rad * 1e-3;
-        let mut axes = Axes {
+        // The current configuration's chain and the trial's, swapped by index on acceptance.
+        let mut bufs = [Axes {
             axes: [(Vector3::zeros(), Vector3::zeros()); MAX_JOINTS],
             point: Vector3::zeros(),
-        };
-        let mut trial_axes = axes;
-        let mut res = self.ik_residual(target, q_rad, scale, &mut axes);
+        }; 2];
+        let mut cur = 0;
+        let mut res = self.ik_residual(target, q_rad, scale, &mut bufs[cur]);
         let mut mu = opts.mu0;
         let mut trial = [0.0; MAX_JOINTS];
         let mut cols = [Vector6::zeros(); MAX_JOINTS];
@@ -318,6 +393,7 @@ impl Robot {
                 break;
             }
             if need_jacobian {
+                let axes = &bufs[cur];
                 let p = axes.point;
                 for (c, (z, o)) in cols[..n].iter_mut().zip(&axes.axes) {
                     let lin = z.cross(&(p - o));
@@ -331,18 +407,25 @@ impl Robot {
             let mut solved = false;
             iterations += 1;
             for _pass in 0..=n {
-                let mut a = Matrix6::zeros();
+                // J Jᵀ over the free joints (lower triangle: all the factorisation reads;
+                // each entry summed over the joints in order from +0, as `a += c·cᵀ` does).
+                let mut a: Lower6 = [[0.0; 6]; 6];
                 for (c, _) in cols[..n].iter().zip(&frozen).filter(|(_, f)| !**f) {
-                    a += c * c.transpose();
+                    for (k, col) in a.iter_mut().enumerate() {
+                        for (r, v) in col.iter_mut().enumerate().skip(k) {
+                            *v += c[r] * c[k];
+                        }
+                    }
                 }
-                let lambda = mu * a.diagonal().max().max(1e-300);
-                for k in 0..6 {
-                    a[(k, k)] += lambda;
+                let diagonal = Vector6::new(a[0][0], a[1][1], a[2][2], a[3][3], a[4][4], a[5][5]);
+                let lambda = mu * diagonal.max().max(1e-300);
+                for (k, col) in a.iter_mut().enumerate() {
+                    col[k] += lambda;
                 }
-                let Some(chol) = a.cholesky() else {
+                if !cholesky6(&mut a) {
                     break;
-                };
-                let y = chol.solve(&res.e);
+                }
+                let y = cholesky6_solve(&a, &res.e);
                 let mut steps = [0.0; MAX_JOINTS];
                 for i in 0..n {
                     steps[i] = if frozen[i] { 0.0 } else { cols[i].dot(&y) };
@@ -376,11 +459,11 @@ impl Robot {
                 continue;
             }
             clamp(&mut trial[..n]);
-            let new_res = self.ik_residual(target, &trial[..n], scale, &mut trial_axes);
+            let new_res = self.ik_residual(target, &trial[..n], scale, &mut bufs[1 - cur]);
             if new_res.cost < res.cost {
                 q_rad.copy_from_slice(&trial[..n]);
                 res = new_res;
-                std::mem::swap(&mut axes, &mut trial_axes);
+                cur = 1 - cur;
                 mu = (mu * 0.1).max(1e-15);
                 need_jacobian = true;
             } else {
@@ -409,6 +492,64 @@ impl Robot {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use nalgebra::Matrix6;
+
+    /// The fixed-size factorisation and solve are nalgebra's, bit for bit (successes,
+    /// failures and every value), on Gram matrices of rank 1 to 6 with damping from none to
+    /// large.
+    #[test]
+    fn cholesky6_matches_nalgebra_bit_for_bit() {
+        let mut state = 0x9e37_79b9_7f4a_7c15_u64;
+        let mut next = || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
+        };
+        let mut outcomes = [0usize; 2];
+        for case in 0..20_000 {
+            let rank = 1 + case % 7;
+            let mut cols = [Vector6::zeros(); 7];
+            for c in cols.iter_mut().take(rank) {
+                for v in c.iter_mut() {
+                    *v = next() * 10f64.powi((next() * 4.0) as i32);
+                }
+            }
+            let mu = [0.0, 1e-15, 1e-9, 1e-3, 1.0][case % 5];
+            let mut reference = Matrix6::zeros();
+            let mut l: Lower6 = [[0.0; 6]; 6];
+            for c in &cols[..rank] {
+                reference += c * c.transpose();
+                for (k, col) in l.iter_mut().enumerate() {
+                    for (r, v) in col.iter_mut().enumerate().skip(k) {
+                        *v += c[r] * c[k];
+                    }
+                }
+            }
+            let lambda = mu * reference.diagonal().max();
+            for k in 0..6 {
+                reference[(k, k)] += lambda;
+                l[k][k] += lambda;
+            }
+            let b = Vector6::from_fn(|_, _| next());
+            let ok = cholesky6(&mut l);
+            let chol = reference.cholesky();
+            assert_eq!(ok, chol.is_some(), "case {case}");
+            outcomes[usize::from(ok)] += 1;
+            if let Some(chol) = chol {
+                let factor = chol.l_dirty();
+                for j in 0..6 {
+                    for i in j..6 {
+                        assert_eq!(l[j][i].to_bits(), factor[(i, j)].to_bits());
+                    }
+                }
+                let y = cholesky6_solve(&l, &b);
+                let y0 = chol.solve(&b);
+                assert_eq!(y.map(f64::to_bits), y0.map(f64::to_bits), "case {case}");
+            }
+        }
+        assert!(outcomes.iter().all(|n| *n > 1000), "{outcomes:?}");
+    }
 
     #[test]
     fn log_so3_matches_axis_angle_small_medium_and_near_pi() {
