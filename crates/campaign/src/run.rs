@@ -108,10 +108,12 @@ impl Aggregate {
         self.metric("predicted_error_mm", r.predicted_error_mm);
         self.metric("fit_rms_mm", r.fit.rms_mm);
         self.metric("lm_iterations", r.fit.iterations as f64);
+        self.metric("gradient_cosine", r.fit.gradient_cosine);
         self.metric("compensation_failures", r.compensation_failures as f64);
         self.metric("unmeasurable_poses", r.unmeasurable as f64);
         self.metric("pose_rejection_rate", r.pose_rejection_rate);
         self.count("stop_reason", &r.fit.stop);
+        self.count("convergence", r.fit.convergence());
         self.count(
             "rank",
             &r.fit

@@ -108,6 +108,10 @@ pub struct SweepPoint {
     pub metrics: std::collections::BTreeMap<String, Option<Summary>>,
     /// LM stop reasons.
     pub stop_reasons: std::collections::BTreeMap<String, u64>,
+    /// Trials whose LM stopped on a small step or cost change short of the minimum
+    /// ([`crate::trial::STALL_GRADIENT_COSINE`]).
+    #[serde(default)]
+    pub stalled: u64,
 }
 
 /// `sweep.json`.
@@ -244,6 +248,12 @@ pub fn run_sweep(
             failures: s.failed_trials.keys().cloned().collect(),
             metrics: s.metrics.clone(),
             stop_reasons: s.counts.get("stop_reason").cloned().unwrap_or_default(),
+            stalled: s
+                .counts
+                .get("convergence")
+                .and_then(|c| c.get("stalled"))
+                .copied()
+                .unwrap_or(0),
         });
     }
     Ok(SweepResult {
@@ -253,13 +263,15 @@ pub fn run_sweep(
 }
 
 impl SweepPoint {
-    /// Trials whose LM stopped on a cap (iterations or rejections) instead of converging.
+    /// Trials whose LM stopped on a cap (iterations or rejections) or stalled short of the
+    /// minimum instead of converging.
     pub fn not_converged(&self) -> u64 {
         self.stop_reasons
             .iter()
             .filter(|(k, _)| k.as_str() == "max_iterations" || k.as_str() == "too_many_rejections")
             .map(|(_, v)| v)
-            .sum()
+            .sum::<u64>()
+            + self.stalled
     }
 }
 

@@ -201,6 +201,13 @@ fn iso_plan(
     })
 }
 
+/// A stop on a small step or a small cost change with the gradient cosine at the solution
+/// above this is counted as *stalled*, not converged: at a true minimum the residual is
+/// orthogonal to every column (cosines of 10⁻⁹–10⁻⁶ on the shipped scenarios), while an
+/// over-damped solver (e.g. Nielsen with τ = 1000 on an unscaled Jacobian) stops on tiny steps
+/// with cosines of 10⁻³–1.
+pub const STALL_GRADIENT_COSINE: f64 = 1e-4;
+
 /// The identification outcome of one trial, in brief.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct FitSummary {
@@ -216,6 +223,22 @@ pub struct FitSummary {
     pub free: usize,
     /// Numerical rank of the free parameters at the solution (size of the identifiable set).
     pub rank: Option<usize>,
+    /// max_k |J_kᵀe| / (‖J_k‖‖e‖) at the solution (see [`identify::Fit::gradient_cosine`]).
+    pub gradient_cosine: f64,
+}
+
+impl FitSummary {
+    /// `converged`, `stalled` (a converged stop reason but a gradient cosine above
+    /// [`STALL_GRADIENT_COSINE`]) or `cap` (iteration or rejection cap).
+    pub fn convergence(&self) -> &'static str {
+        if !self.converged {
+            "cap"
+        } else if self.gradient_cosine > STALL_GRADIENT_COSINE {
+            "stalled"
+        } else {
+            "converged"
+        }
+    }
 }
 
 /// Everything one trial produces.
@@ -388,6 +411,7 @@ pub fn run_trial(ctx: &Context, trial: u64) -> Result<TrialResult, CampaignError
             rms_mm: fit.rms_mm,
             free: fit.free.len(),
             rank: fit.covariance.as_ref().map(|c| c.parameters.len()),
+            gradient_cosine: fit.gradient_cosine,
         },
         predicted_error_mm,
         recovery,

@@ -82,6 +82,10 @@ pub struct Fit {
     pub accepted_steps: usize,
     /// Why the solver stopped.
     pub stop: StopReason,
+    /// max_k |J_kᵀe| / (‖J_k‖‖e‖) at the solution: ≈ 0 at a true minimum; a stop on a
+    /// small step or cost change with a large value here means the damping stalled the
+    /// solver short of the minimum.
+    pub gradient_cosine: f64,
     /// Per-iteration trace.
     pub trace: Vec<TraceEntry>,
     /// Number of poses m.
@@ -203,6 +207,7 @@ pub fn identify(problem: &Problem, options: &IdentifyOptions) -> Result<Fit, Ide
         iterations: sol.iterations,
         accepted_steps: sol.accepted_steps,
         stop: sol.stop,
+        gradient_cosine: sol.gradient_cosine,
         trace: sol.trace,
         n_poses: m,
         n_equations: 3 * m,
