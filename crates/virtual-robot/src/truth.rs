@@ -219,11 +219,40 @@ impl InjectedErrors {
 
 /// Mean ‖p_robot(q_k) − p_nom,k‖ over the poses whose sines and cosines are `trig` (the
 /// points [`Robot::point`] gives, [`POSE_LANES`] poses at a time; summed in pose order).
+///
+/// The pose lanes run at the run-time [`kinematics::simd::simd_level`] (the FK kernel gives
+/// the same bits at every vector width: no FMA).
 pub(crate) fn mean_error_mm(
     robot: &Robot,
     trig: &PoseTrig,
     nominal_points: &[Vector3<f64>],
 ) -> f64 {
+    use kinematics::simd::{SimdLevel, simd_level};
+    match simd_level() {
+        #[cfg(target_arch = "x86_64")]
+        // SAFETY: simd_level() never returns a level the CPU does not support.
+        SimdLevel::Avx512 => unsafe { mean_error_avx512(robot, trig, nominal_points) },
+        #[cfg(target_arch = "x86_64")]
+        // SAFETY: as above.
+        SimdLevel::Avx2 => unsafe { mean_error_avx2(robot, trig, nominal_points) },
+        _ => mean_error_impl(robot, trig, nominal_points),
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+fn mean_error_avx512(robot: &Robot, trig: &PoseTrig, nominal_points: &[Vector3<f64>]) -> f64 {
+    mean_error_impl(robot, trig, nominal_points)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn mean_error_avx2(robot: &Robot, trig: &PoseTrig, nominal_points: &[Vector3<f64>]) -> f64 {
+    mean_error_impl(robot, trig, nominal_points)
+}
+
+#[inline(always)]
+fn mean_error_impl(robot: &Robot, trig: &PoseTrig, nominal_points: &[Vector3<f64>]) -> f64 {
     let m = nominal_points.len();
     let mut sum = 0.0;
     for b in 0..trig.n_blocks() {
