@@ -1,15 +1,17 @@
 //! Running trials in parallel and folding them into a mergeable [`Aggregate`].
 //!
-//! Trials run on rayon's pool; each worker folds the trials it runs into its own
-//! [`Aggregate`] as they finish, and the partial aggregates are merged. Every part of an
-//! aggregate merges exactly and independently of order (integer sums, extremes, histogram
-//! buckets, counts, the lowest-index trial), so the result is identical for any thread
-//! count and any way rayon splits the range, memory stays flat in the trial count (no
-//! per-trial results are kept), and no thread waits for a sequential fold. A range of trials
+//! Trials run on rayon's pool; each worker thread folds the trials it runs into its own
+//! [`Aggregate`] as they finish, and the per-thread aggregates are merged at the end. Every
+//! part of an aggregate merges exactly and independently of order (integer sums, extremes,
+//! histogram buckets, counts, the lowest-index trial), so the result is identical for any
+//! thread count and any assignment of trials to threads, memory stays flat in the trial
+//! count (one aggregate per thread, no per-trial results kept), and no thread waits for a
+//! sequential fold. A range of trials
 //! (a shard) gives an aggregate that merges exactly with the others'.
 
 use std::collections::BTreeMap;
 use std::ops::Range;
+use std::sync::Mutex;
 
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -197,27 +199,39 @@ impl Aggregate {
 
 /// Runs the trials in `range` on the current rayon pool; `progress(1)` is called after
 /// each finished trial.
+///
+/// Each worker thread folds the trials it runs into its own [`Aggregate`] (a slot indexed by
+/// its pool index, locked only by that thread), and the slots are merged at the end: memory
+/// is one aggregate per thread whatever the trial count, and since every part of an
+/// aggregate merges exactly and order-free, which thread ran which trial does not matter.
 pub fn run_range(ctx: &Context, range: Range<u64>, progress: &(dyn Fn(u64) + Sync)) -> Aggregate {
-    range
-        .into_par_iter()
-        .fold(Aggregate::default, |mut agg, t| {
-            match run_trial(ctx, t) {
-                Ok(r) => agg.add(&r),
-                Err(e) => {
-                    // Count by cause, not by trial: drop the "trial N: " prefix.
-                    let msg = e.to_string();
-                    let cause = match msg.split_once(": ") {
-                        Some((head, rest)) if head.starts_with("trial ") => rest.to_string(),
-                        _ => msg,
-                    };
-                    agg.add_failure(&cause)
-                }
+    let slots: Vec<Mutex<Aggregate>> = (0..rayon::current_num_threads().max(1))
+        .map(|_| Mutex::new(Aggregate::default()))
+        .collect();
+    range.into_par_iter().for_each(|t| {
+        let result = run_trial(ctx, t);
+        let slot = rayon::current_thread_index().unwrap_or(0) % slots.len();
+        // A panic elsewhere cannot leave a slot half-updated in a way that matters: the
+        // panic propagates out of `for_each` and the slots are dropped.
+        let mut agg = slots[slot].lock().unwrap_or_else(|e| e.into_inner());
+        match result {
+            Ok(r) => agg.add(&r),
+            Err(e) => {
+                // Count by cause, not by trial: drop the "trial N: " prefix.
+                let msg = e.to_string();
+                let cause = match msg.split_once(": ") {
+                    Some((head, rest)) if head.starts_with("trial ") => rest.to_string(),
+                    _ => msg,
+                };
+                agg.add_failure(&cause)
             }
-            progress(1);
-            agg
-        })
-        .reduce(Aggregate::default, |mut a, b| {
-            a.merge(&b);
-            a
-        })
+        }
+        drop(agg);
+        progress(1);
+    });
+    let mut total = Aggregate::default();
+    for slot in slots {
+        total.merge(&slot.into_inner().unwrap_or_else(|e| e.into_inner()));
+    }
+    total
 }
