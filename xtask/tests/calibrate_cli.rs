@@ -2,35 +2,21 @@
 //! trip, malformed inputs, file-format variants, outliers, unreachable targets and the real
 //! UR10 data.
 
+mod common;
+
+use common::{root, xtask};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Output;
 use std::sync::OnceLock;
 
 use kinematics::{Robot, RobotSpec};
 use measurements::{ReadOptions, read_file};
 use nalgebra::Vector3;
 
-/// The workspace root (commands run there, as `cargo xtask` does).
-fn root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .parent()
-        .unwrap()
-        .to_path_buf()
-}
-
 fn kr1000() -> &'static Path {
     static P: OnceLock<PathBuf> = OnceLock::new();
     P.get_or_init(|| root().join("scenarios/robots/kr1000-titan.json"))
-}
-
-fn xtask(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_xtask"))
-        .args(args)
-        .current_dir(root())
-        .env("RUST_BACKTRACE", "0")
-        .output()
-        .expect("run xtask")
 }
 
 fn s(p: &Path) -> &str {

@@ -1,24 +1,11 @@
 //! Command-line tests of `check` (issue 6): a regression is reported by figure name with a
 //! non-zero exit, and malformed check files and missing baselines are clear errors.
 
+mod common;
+
+use common::{root, xtask};
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
-
-fn root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .parent()
-        .unwrap()
-        .to_path_buf()
-}
-
-fn xtask(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_xtask"))
-        .args(args)
-        .current_dir(root())
-        .env("RUST_BACKTRACE", "0")
-        .output()
-        .expect("run xtask")
-}
+use std::process::Output;
 
 fn text(out: &Output) -> String {
     format!(

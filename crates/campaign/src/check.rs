@@ -26,7 +26,7 @@ use serde::{Deserialize, Serialize};
 use crate::report::CampaignSummary;
 use crate::run::run_range;
 use crate::scenario::Scenario;
-use crate::sweep::set_path;
+use crate::sweep::scenario_json_with;
 use crate::trial::{CampaignError, Context};
 
 /// Tolerances of a check file (all ≥ 0).
@@ -189,18 +189,12 @@ pub struct Comparison {
 /// Runs one check's campaign (`check_dir` resolves the scenario path).
 pub fn run_check(spec: &CheckSpec, check_dir: &Path) -> Result<Figures, CampaignError> {
     let path = check_dir.join(&spec.scenario);
-    let text = std::fs::read_to_string(&path).map_err(|source| CampaignError::Io {
-        path: path.display().to_string(),
-        source,
-    })?;
-    let mut v: serde_json::Value = serde_json::from_str(&text)
-        .map_err(|e| CampaignError::Other(format!("{}: {e}", path.display())))?;
-    for (p, value) in &spec.overrides {
-        set_path(&mut v, p, value.clone()).map_err(|e| {
-            CampaignError::Other(format!("check `{}`: override `{p}`: {e}", spec.name))
-        })?;
-    }
-    set_path(&mut v, "trials", spec.trials.into()).map_err(CampaignError::Other)?;
+    let v = scenario_json_with(
+        &path,
+        &spec.overrides,
+        spec.trials,
+        &format!("check `{}`", spec.name),
+    )?;
     let label = format!("check {}", spec.name);
     let dir = path.parent().unwrap_or(Path::new("."));
     let loaded = Scenario::from_value(v, &label)?.load(dir, &label)?;

@@ -123,7 +123,29 @@ pub struct SweepResult {
     pub points: Vec<SweepPoint>,
 }
 
-pub(crate) fn set_path(
+/// The scenario file at `path` as JSON with `overrides` (dotted path → value) and the trial
+/// count set: the base of a sweep's points and of a check (`what` names which in errors).
+pub(crate) fn scenario_json_with(
+    path: &Path,
+    overrides: &serde_json::Map<String, serde_json::Value>,
+    trials: u64,
+    what: &str,
+) -> Result<serde_json::Value, CampaignError> {
+    let text = std::fs::read_to_string(path).map_err(|source| CampaignError::Io {
+        path: path.display().to_string(),
+        source,
+    })?;
+    let mut v: serde_json::Value = serde_json::from_str(&text)
+        .map_err(|e| CampaignError::Other(format!("{}: {e}", path.display())))?;
+    for (p, value) in overrides {
+        set_path(&mut v, p, value.clone())
+            .map_err(|e| CampaignError::Other(format!("{what} override `{p}`: {e}")))?;
+    }
+    set_path(&mut v, "trials", trials.into()).map_err(CampaignError::Other)?;
+    Ok(v)
+}
+
+fn set_path(
     root: &mut serde_json::Value,
     path: &str,
     value: serde_json::Value,
@@ -214,17 +236,7 @@ pub fn run_sweep(
     progress: &dyn Fn(usize, usize),
 ) -> Result<SweepResult, CampaignError> {
     let scenario_path = sweep_dir.join(&spec.scenario);
-    let text = std::fs::read_to_string(&scenario_path).map_err(|source| CampaignError::Io {
-        path: scenario_path.display().to_string(),
-        source,
-    })?;
-    let mut base: serde_json::Value = serde_json::from_str(&text)
-        .map_err(|e| CampaignError::Other(format!("{}: {e}", scenario_path.display())))?;
-    for (path, value) in &spec.overrides {
-        set_path(&mut base, path, value.clone())
-            .map_err(|e| CampaignError::Other(format!("sweep override `{path}`: {e}")))?;
-    }
-    set_path(&mut base, "trials", spec.trials.into()).map_err(CampaignError::Other)?;
+    let base = scenario_json_with(&scenario_path, &spec.overrides, spec.trials, "sweep")?;
     let scenario_dir = scenario_path.parent().unwrap_or(Path::new("."));
     let combos = spec.combinations();
     let mut points = Vec::with_capacity(combos.len());

@@ -187,7 +187,7 @@ fn padded_sin_cos(q_rad: &[f64], sc: &mut [[f64; 2]; MAX_JOINTS]) {
 }
 
 /// The lower triangle of a symmetric 6×6 matrix, column-major: `l[col][row]`, row ≥ col.
-type Lower6 = [[f64; 6]; 6];
+pub type Lower6 = [[f64; 6]; 6];
 
 /// nalgebra's `Cholesky::new` on the lower triangle of `l`, in place, by the same
 /// operations in the same order (left-looking columns: `a_ij − a_jk·a_ik` over k, the
@@ -195,7 +195,7 @@ type Lower6 = [[f64; 6]; 6];
 /// nalgebra returns `None`. Fixed size and unrolled, so several times cheaper.
 #[inline(always)]
 #[allow(clippy::needless_range_loop, clippy::neg_cmp_op_on_partial_ord)]
-fn cholesky6(l: &mut Lower6) -> bool {
+pub fn cholesky6(l: &mut Lower6) -> bool {
     for j in 0..6 {
         for k in 0..j {
             let f = l[k][j];

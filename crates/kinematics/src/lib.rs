@@ -16,7 +16,7 @@ pub mod simd;
 pub mod trig;
 
 pub use error::ModelError;
-pub use ik::{IkError, IkOptions, IkReport, IkTarget};
+pub use ik::{IkError, IkOptions, IkReport, IkTarget, Lower6, cholesky6};
 pub use model::{BaseSpec, JointSpec, MAX_JOINTS, RobotSpec};
 pub use params::{BETA_ALPHA_TOL_DEG, ParamInfo, ParamKind, ParamLayout, Unit};
-pub use robot::{Frame, MAX_PARAMS, POSE_LANES, PoseTrig, Robot, joint_sin_cos};
+pub use robot::{Frame, MAX_PARAMS, POSE_LANES, PoseTrig, Robot, gram_of_axes, joint_sin_cos};

@@ -567,29 +567,11 @@ impl Robot {
         let mut axes = [(Vector3::zeros(), Vector3::zeros()); MAX_JOINTS];
         let f = self.joint_axes(q_rad, &mut axes);
         let p = f.transform_point(point_in_flange_mm);
-        let mut m = Matrix6::zeros();
-        for (z, o) in &axes[..self.n_joints()] {
-            let lin = z.cross(&(p - o));
-            let c = Vector6::new(
-                lin.x,
-                lin.y,
-                lin.z,
-                z.x * orientation_scale_mm,
-                z.y * orientation_scale_mm,
-                z.z * orientation_scale_mm,
-            );
-            for b in 0..6 {
-                for a in 0..=b {
-                    m[(a, b)] += c[a] * c[b];
-                }
-            }
-        }
-        for b in 0..6 {
-            for a in 0..b {
-                m[(b, a)] = m[(a, b)];
-            }
-        }
-        m
+        gram_of_axes(
+            axes[..self.n_joints()].iter().copied(),
+            &p,
+            orientation_scale_mm,
+        )
     }
 
     /// Condition number σ_max/σ_min of [`Robot::geometric_jacobian`] for the flange origin
@@ -614,4 +596,37 @@ impl Robot {
         joint_sin_cos(q_rad, &mut sc);
         self.joint_axes_trig(&sc[..q_rad.len()], axes)
     }
+}
+
+/// `J Jᵀ` (6 × 6) of the geometric Jacobian whose column i is `(z_i × (p − o_i), s·z_i)` for
+/// the joint axes `(z_i, o_i)` in order and the point `p`, summed joint by joint (the one
+/// implementation behind [`Robot::geometric_gram`] and the pose samplers' condition tests).
+pub fn gram_of_axes(
+    axes: impl Iterator<Item = (Vector3<f64>, Vector3<f64>)>,
+    p: &Vector3<f64>,
+    orientation_scale_mm: f64,
+) -> Matrix6<f64> {
+    let mut m = Matrix6::zeros();
+    for (z, o) in axes {
+        let lin = z.cross(&(p - o));
+        let c = Vector6::new(
+            lin.x,
+            lin.y,
+            lin.z,
+            z.x * orientation_scale_mm,
+            z.y * orientation_scale_mm,
+            z.z * orientation_scale_mm,
+        );
+        for b in 0..6 {
+            for a in 0..=b {
+                m[(a, b)] += c[a] * c[b];
+            }
+        }
+    }
+    for b in 0..6 {
+        for a in 0..b {
+            m[(b, a)] = m[(a, b)];
+        }
+    }
+    m
 }

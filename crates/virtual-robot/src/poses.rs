@@ -30,7 +30,7 @@
 use std::fmt;
 
 use kinematics::{Frame, MAX_JOINTS, Robot};
-use nalgebra::{Cholesky, Matrix6, Vector3, Vector6};
+use nalgebra::{Cholesky, Matrix6, Vector3};
 use rand::RngExt;
 use rand::rngs::ChaCha8Rng;
 use serde::de::{self, SeqAccess, Visitor};
@@ -383,31 +383,13 @@ fn geometric_gram_trig(robot: &Robot, sc: &[[f64; 2]], scale_mm: f64) -> Matrix6
     let mut frames = [Frame::identity(); MAX_JOINTS + 1];
     robot.frames_trig(sc, &mut frames);
     let p = frames[n].transform_point(&Vector3::zeros());
-    let mut m = Matrix6::zeros();
-    for f in &frames[..n] {
-        let z = f.rot.column(2).into_owned();
-        let o = f.pos_mm;
-        let lin = z.cross(&(p - o));
-        let c = Vector6::new(
-            lin.x,
-            lin.y,
-            lin.z,
-            z.x * scale_mm,
-            z.y * scale_mm,
-            z.z * scale_mm,
-        );
-        for b in 0..6 {
-            for a in 0..=b {
-                m[(a, b)] += c[a] * c[b];
-            }
-        }
-    }
-    for b in 0..6 {
-        for a in 0..b {
-            m[(b, a)] = m[(a, b)];
-        }
-    }
-    m
+    kinematics::gram_of_axes(
+        frames[..n]
+            .iter()
+            .map(|f| (f.rot.column(2).into_owned(), f.pos_mm)),
+        &p,
+        scale_mm,
+    )
 }
 
 /// Whether nalgebra's `Cholesky::new(m − I·t)` succeeds, decided by the same operations in
@@ -426,32 +408,7 @@ fn shifted_cholesky_ok(m: &Matrix6<f64>, t: f64) -> bool {
             *v = m[(i, j)] - id * t;
         }
     }
-    chol6_in_place(&mut l)
-}
-
-/// nalgebra's Cholesky on the lower triangle of `l` (column-major `l[col][row]`), in place:
-/// false where it returns `None`.
-#[inline(always)]
-#[allow(clippy::needless_range_loop, clippy::neg_cmp_op_on_partial_ord)]
-fn chol6_in_place(l: &mut [[f64; 6]; 6]) -> bool {
-    for j in 0..6 {
-        for k in 0..j {
-            let f = l[k][j];
-            for i in j..6 {
-                l[j][i] += -f * l[k][i];
-            }
-        }
-        let d = l[j][j];
-        if !(d > 0.0) {
-            return false;
-        }
-        let r = d.sqrt();
-        l[j][j] = r;
-        for i in j + 1..6 {
-            l[j][i] /= r;
-        }
-    }
-    true
+    kinematics::cholesky6(&mut l)
 }
 
 /// `condition_at_most` at the joints whose `[sin q, cos q]` are `sc`.
@@ -579,7 +536,11 @@ mod tests {
             kinematics::joint_sin_cos(&q, &mut sc);
             let m = geometric_gram_trig(&robot, &sc[..6], 1000.0);
             let reference = robot.geometric_gram(&q, &Vector3::zeros(), 1000.0);
-            assert!(m.iter().zip(reference.iter()).all(|(a, b)| a.to_bits() == b.to_bits()));
+            assert!(
+                m.iter()
+                    .zip(reference.iter())
+                    .all(|(a, b)| a.to_bits() == b.to_bits())
+            );
             // Shifts around λ_min, where the factorisation's outcome is decided by rounding.
             let lmin = m.symmetric_eigenvalues().min();
             for t in [
