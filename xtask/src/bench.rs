@@ -56,16 +56,19 @@ fn workspace_root() -> PathBuf {
         .to_path_buf()
 }
 
+/// The CPU's model name from `/proc/cpuinfo` (`None` where there is none): recorded beside
+/// every wall-clock figure (`bench.json`, a campaign's `timing.json`).
+pub fn cpu_model_name() -> Option<String> {
+    std::fs::read_to_string("/proc/cpuinfo").ok().and_then(|s| {
+        s.lines()
+            .find(|l| l.starts_with("model name"))
+            .and_then(|l| l.split_once(':'))
+            .map(|(_, v)| v.trim().to_string())
+    })
+}
+
 fn cpu_model() -> String {
-    std::fs::read_to_string("/proc/cpuinfo")
-        .ok()
-        .and_then(|s| {
-            s.lines()
-                .find(|l| l.starts_with("model name"))
-                .and_then(|l| l.split_once(':'))
-                .map(|(_, v)| v.trim().to_string())
-        })
-        .unwrap_or_else(|| "unknown".into())
+    cpu_model_name().unwrap_or_else(|| "unknown".into())
 }
 
 /// SIMD features that matter here, as the running CPU reports them.

@@ -94,15 +94,7 @@ fn default_out(name: &str) -> PathBuf {
 }
 
 fn write_timing(dir: &Path, trials: u64, threads: usize, seconds: f64) -> Result<()> {
-    let cpu = std::fs::read_to_string("/proc/cpuinfo")
-        .ok()
-        .and_then(|s| {
-            s.lines()
-                .find(|l| l.starts_with("model name"))
-                .and_then(|l| l.split_once(':'))
-                .map(|(_, v)| v.trim().to_string())
-        })
-        .unwrap_or_default();
+    let cpu = crate::bench::cpu_model_name().unwrap_or_default();
     let timing = serde_json::json!({
         "trials": trials,
         "threads": threads,

@@ -525,8 +525,6 @@ fn iso_trial(
         if scenario.compensation.enabled && identified.solve_ik(&target, &mut qc, &ik).is_err() {
             failures += 1;
             qc.clone_from(q);
-        } else if !scenario.compensation.enabled {
-            qc.clone_from(q);
         }
         q_after.push(qc);
     }
