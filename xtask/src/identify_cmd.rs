@@ -15,8 +15,8 @@ use clap::{Args, ValueEnum};
 use evaluate::{AxisStats, ErrorStats, Table4, improvement_pct};
 use identify::{
     Damping, Fit, IdentifiabilityOptions, IdentifiabilityReport, IdentifyOptions, LmOptions,
-    OutlierScreen, ParamSet, Problem, RegistrationPolicy, RegistrationReport, analyze, identify,
-    mean_point_error, outliers, random_poses, register_base,
+    OutlierScreen, ParamSet, Problem, Redundant, RegistrationPolicy, RegistrationReport, analyze,
+    identify, mean_point_error, outliers, random_poses, register_base,
 };
 use kinematics::Robot;
 use measurements::{Measurement, MeasurementError};
@@ -44,6 +44,15 @@ impl Schedule {
             Schedule::Nielsen => Damping::nielsen(),
         }
     }
+}
+
+/// What the solver does with free parameters exactly redundant at the start.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum RedundantArg {
+    /// Hold them at their start values and solve on the identifiable rest.
+    Hold,
+    /// Keep them in the damped system (the paper's verbatim method).
+    Damp,
 }
 
 /// When to register the measurement frame onto the robot base before identifying.
@@ -84,6 +93,10 @@ pub struct IdentifyArgs {
     /// Damping schedule.
     #[arg(long, value_enum, default_value_t = Schedule::Levenberg)]
     schedule: Schedule,
+    /// Free parameters exactly redundant at the start (e.g. 10 of the UR10's 35): held at
+    /// their start values, or kept in the damped system as the paper does.
+    #[arg(long, value_enum, default_value_t = RedundantArg::Hold)]
+    redundant: RedundantArg,
     /// Registration of the measurement frame.
     #[arg(long, value_enum, default_value_t = Registration::Auto)]
     registration: Registration,
@@ -328,7 +341,13 @@ pub fn run(args: &IdentifyArgs) -> Result<()> {
         .resolve(&start, &poses, None, &id_opts)
         .with_context(|| format!("--params {}", args.params))?;
     let options = IdentifyOptions {
-        lm: LmOptions::with_damping(args.schedule.damping()),
+        lm: LmOptions {
+            redundant: match args.redundant {
+                RedundantArg::Hold => Redundant::Hold,
+                RedundantArg::Damp => Redundant::Damp,
+            },
+            ..LmOptions::with_damping(args.schedule.damping())
+        },
         registration: RegistrationPolicy::Never,
         ..IdentifyOptions::default()
     };
@@ -649,6 +668,13 @@ fn render_report(o: &Outcome) -> String {
         a.params,
         o.fit.free.join(", ")
     );
+    if !o.fit.held.is_empty() {
+        let _ = writeln!(
+            s,
+            "- held at their start values (exactly redundant there, `--redundant hold`): {}",
+            o.fit.held.join(", ")
+        );
+    }
     let _ = writeln!(
         s,
         "- solver: {} damping, column scaling {}; stopped after {} iterations ({} accepted): {}",
@@ -919,6 +945,13 @@ fn print_summary(o: &Outcome, elapsed_ms: f64) {
         o.fit.iterations,
         elapsed_ms
     );
+    if !o.fit.held.is_empty() {
+        println!(
+            "held at their start values (exactly redundant there; --redundant damp keeps them \
+             in the damped system): {}",
+            o.fit.held.join(", ")
+        );
+    }
     if !o.fit.stop.converged() {
         println!(
             "warning: the solver stopped without converging ({}): some free parameters are \

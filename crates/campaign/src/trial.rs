@@ -464,23 +464,36 @@ fn recovery(
     let free = &ctx.minimal_free;
     let lm = &ctx.id_options.lm;
     let truth_min = reexpress(nominal, truth, poses, free, lm)?;
-    // The estimate's re-expression, then its covariance with the trial's measurements at
-    // that solution (reusing the normal matrix the solver assembled there).
-    let est_points = fit.robot.points(poses);
-    let est_problem = Problem::new(nominal, poses, &est_points, free.to_vec())?;
-    let est = identify::solve(&est_problem, lm)?;
-    let est_min = &est.params;
-    let Some(cov) = identify::covariance_at_solution(
-        &est_problem,
-        &est,
-        measured,
-        &ctx.id_options.identifiability,
-        ctx.id_options.correlation_flag,
-    )?
-    else {
+    let layout = nominal.layout();
+    // A fit from the nominal model that solved exactly the minimal set (its other free
+    // parameters held, or none) is its own re-expression, with its own covariance.
+    let solved: Vec<usize> = fit
+        .free
+        .iter()
+        .filter(|n| !fit.held.contains(n))
+        .filter_map(|n| layout.index_of(n).ok())
+        .collect();
+    let registered = fit.registration.as_ref().is_some_and(|r| r.applied);
+    let (est_min, cov) = if !registered && solved == *free {
+        (fit.params.clone(), fit.covariance.clone())
+    } else {
+        // The estimate's re-expression, then its covariance with the trial's measurements
+        // at that solution (reusing the normal matrix the solver assembled there).
+        let est_points = fit.robot.points(poses);
+        let est_problem = Problem::new(nominal, poses, &est_points, free.to_vec())?;
+        let est = identify::solve(&est_problem, lm)?;
+        let cov = identify::covariance_at_solution(
+            &est_problem,
+            &est,
+            measured,
+            &ctx.id_options.identifiability,
+            ctx.id_options.correlation_flag,
+        )?;
+        (est.params, cov)
+    };
+    let Some(cov) = cov else {
         return Ok(Vec::new());
     };
-    let layout = nominal.layout();
     Ok(cov
         .indices
         .iter()

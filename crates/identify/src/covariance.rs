@@ -116,7 +116,8 @@ pub fn covariance(
 /// `points_mm` (one per pose) give the residual sum of squares; they may differ from the
 /// problem's, e.g. the measurements when the solve fitted a model's points. When the
 /// solution does not match the problem (other poses, weights or free set) or comes from the
-/// reference path, the matrix is assembled afresh.
+/// reference path, the matrix is assembled afresh. Free parameters the solver held
+/// ([`LmSolution::held`]) are left out: the covariance is that of the solved ones.
 pub fn covariance_at_solution(
     problem: &Problem,
     solution: &LmSolution,
@@ -124,7 +125,10 @@ pub fn covariance_at_solution(
     opts: &IdentifiabilityOptions,
     correlation_flag: f64,
 ) -> Result<Option<Covariance>, IdentifyError> {
-    let (poses, weights, free) = (problem.poses_rad(), problem.weights(), problem.free());
+    let (poses, weights) = (problem.poses_rad(), problem.weights());
+    // Parameters the solver held (exactly redundant at the start) are not estimated.
+    let solved = solution.solved(problem);
+    let free = &solved[..];
     let source = match &solution.system {
         Some(sys)
             if sys.free == free
@@ -138,7 +142,7 @@ pub fn covariance_at_solution(
         }
         _ => Source::Fast,
     };
-    covariance_on(
+    let mut cov = covariance_on(
         source,
         &solution.robot,
         poses,
@@ -147,7 +151,19 @@ pub fn covariance_at_solution(
         free,
         opts,
         correlation_flag,
-    )
+    )?;
+    // The held parameters are redundant too: named among the omitted ones, layout order.
+    if let Some(c) = cov.as_mut().filter(|_| !solution.held.is_empty()) {
+        let layout = solution.robot.layout();
+        let mut omitted: Vec<usize> = solution.held.clone();
+        omitted.extend(c.omitted.iter().filter_map(|n| layout.index_of(n).ok()));
+        omitted.sort_unstable();
+        c.omitted = omitted
+            .iter()
+            .map(|&k| layout.get(k).name.clone())
+            .collect();
+    }
+    Ok(cov)
 }
 
 /// Where [`covariance_on`] gets the Jacobian and normal matrix from.

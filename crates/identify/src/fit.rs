@@ -6,7 +6,7 @@ use serde::{Deserialize, Serialize, Serializer};
 use crate::covariance::{Covariance, covariance_at_solution};
 use crate::error::IdentifyError;
 use crate::identifiability::IdentifiabilityOptions;
-use crate::lm::{Damping, LmOptions, StopReason, TraceEntry, solve};
+use crate::lm::{Damping, LmOptions, StopReason, TraceEntry, solve_with};
 use crate::problem::{Problem, weighted_rss};
 use crate::registration::{
     RegistrationPolicy, RegistrationReport, mean_point_error, not_applied, register_base,
@@ -70,6 +70,10 @@ pub struct Fit {
     pub params: Vec<f64>,
     /// Free parameters, layout order.
     pub free: Vec<String>,
+    /// Free parameters held at their start values because they were exactly redundant there
+    /// ([`crate::lm::Redundant::Hold`]), layout order; their `change` is 0 and they have no
+    /// standard error.
+    pub held: Vec<String>,
     /// Per free parameter: start, value, change, standard error (display units).
     pub estimates: Vec<ParamEstimate>,
     /// The schedule used.
@@ -160,7 +164,7 @@ pub fn identify(problem: &Problem, options: &IdentifyOptions) -> Result<Fit, Ide
     };
     let start = registered.as_ref().unwrap_or(start);
     let problem = problem.with_robot(start);
-    let sol = solve(&problem, &options.lm)?;
+    let sol = solve_with(&problem, &options.lm, &options.identifiability)?;
 
     let m = problem.n_poses();
     let free = problem.free();
@@ -201,6 +205,11 @@ pub fn identify(problem: &Problem, options: &IdentifyOptions) -> Result<Fit, Ide
     Ok(Fit {
         params: sol.params,
         free: problem.free_names(),
+        held: sol
+            .held
+            .iter()
+            .map(|&k| layout.get(k).name.clone())
+            .collect(),
         estimates,
         damping: options.lm.damping,
         column_scaling: options.lm.column_scaling,

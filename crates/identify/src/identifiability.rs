@@ -373,31 +373,28 @@ pub(crate) struct Kept {
     pub inv: DMatrix<f64>,
 }
 
-/// The identifiable subset and `(J̃_KᵀJ̃_K)⁻¹` from the normal matrix `a = JᵀJ` (P × P) and
-/// the stacked Jacobian (3m × P, asked of `jac` only when a column is dropped), *when it can
-/// be certified* to be exactly what the SVD of [`analyze_matrix`] would choose; `None`
-/// otherwise (the caller then runs the SVD).
-///
-/// 1. The columns are visited in priority order with a Cholesky factorisation of the
-///    scaled J̃ᵀJ̃ that skips a column whose squared distance `s` from the span of the kept
-///    ones is below [`CHOL_DROP_S`] (`s` above [`CHOL_KEEP_S`] keeps it; in between: `None`).
-/// 2. Rank ≥ r: `σ_r(J̃) ≥ σ_min(J̃_K) ≥ 1/‖L⁻¹‖_F`, required ≥ [`CHOL_MIN_SIGMA`] (far above
-///    `rank_rtol·σ_1`, σ_1 ≤ √P).
-/// 3. Rank ≤ r: `σ_{r+1}(J̃) ≤ ‖J̃_D − J̃_K C‖_F` with `C = (J̃_KᵀJ̃_K)⁻¹J̃_KᵀJ̃_D`, computed in
-///    the 3m-dimensional space (accurate to ~1e-13, where the normal matrix would only give
-///    1e-7), required ≤ `rank_rtol/10` (σ_1 ≥ 1: the columns have unit norm).
-/// 4. The null space spanned by `[−C; I]` and the zero columns replaces the SVD's: the
-///    greedy selection ([`greedy_drop`]) must return the same dropped set with every decision
-///    at least [`CHOL_MIN_MARGIN`] from its threshold.
-///
-/// With a clear gap (exact redundancies at rounding level, the rest well conditioned, the
-/// usual case) this costs a few µs where the SVD costs a few hundred.
-pub(crate) fn kept_by_cholesky(
-    jac: &mut dyn FnMut() -> DMatrix<f64>,
-    a: &DMatrix<f64>,
-    priority: &[usize],
-    opts: &IdentifiabilityOptions,
-) -> Option<Kept> {
+/// Step 1 of [`kept_by_cholesky`]: the greedy Cholesky factorisation in priority order of
+/// the scaled normal matrix of `a` (see there).
+struct Greedy {
+    /// Column scaling 1/‖J_k‖ (1 for zero columns), by position.
+    scale: Vec<f64>,
+    /// Zero columns, by position.
+    zero: Vec<bool>,
+    /// The scaled normal matrix G̃ = S·A·S, dense column-major (P × P).
+    gm: Vec<f64>,
+    /// Kept positions in priority order.
+    kp: Vec<usize>,
+    /// The factor of the kept columns, row-major (row i at i·P).
+    l: Vec<f64>,
+    /// Reciprocals of its diagonal.
+    inv_d: Vec<f64>,
+    /// Dropped non-zero positions, in priority order.
+    drops: Vec<usize>,
+}
+
+/// [`Greedy`] of `a`; `None` when a column's zero test or a keep/drop decision falls in the
+/// band left to the SVD, or `a` is not finite.
+fn greedy_cholesky(a: &DMatrix<f64>, priority: &[usize]) -> Option<Greedy> {
     let p = a.ncols();
     if p == 0 || !a.iter().all(|v| v.is_finite()) {
         return None;
@@ -429,8 +426,8 @@ pub(crate) fn kept_by_cholesky(
         }
     }
 
-    // 1. Greedy Cholesky in priority order; `l` row-major (row i at i·p), `inv_d` the
-    //    reciprocals of its diagonal (multiplications in the dependent chains, not divisions).
+    // Greedy Cholesky in priority order; `l` row-major (row i at i·p), `inv_d` the
+    // reciprocals of its diagonal (multiplications in the dependent chains, not divisions).
     let mut kp: Vec<usize> = Vec::with_capacity(p);
     let mut l = vec![0.0; p * p];
     let mut inv_d = vec![0.0; p];
@@ -464,6 +461,47 @@ pub(crate) fn kept_by_cholesky(
             return None;
         }
     }
+    Some(Greedy {
+        scale,
+        zero,
+        gm,
+        kp,
+        l,
+        inv_d,
+        drops,
+    })
+}
+
+/// The identifiable subset and `(J̃_KᵀJ̃_K)⁻¹` from the normal matrix `a = JᵀJ` (P × P) and
+/// the stacked Jacobian (3m × P, asked of `jac` only when a column is dropped), *when it can
+/// be certified* to be exactly what the SVD of [`analyze_matrix`] would choose; `None`
+/// otherwise (the caller then runs the SVD).
+///
+/// 1. The columns are visited in priority order with a Cholesky factorisation of the
+///    scaled J̃ᵀJ̃ that skips a column whose squared distance `s` from the span of the kept
+///    ones is below [`CHOL_DROP_S`] (`s` above [`CHOL_KEEP_S`] keeps it; in between: `None`).
+/// 2. Rank ≥ r: `σ_r(J̃) ≥ σ_min(J̃_K) ≥ 1/‖L⁻¹‖_F`, required ≥ [`CHOL_MIN_SIGMA`] (far above
+///    `rank_rtol·σ_1`, σ_1 ≤ √P).
+/// 3. Rank ≤ r: `σ_{r+1}(J̃) ≤ ‖J̃_D − J̃_K C‖_F` with `C = (J̃_KᵀJ̃_K)⁻¹J̃_KᵀJ̃_D`, computed in
+///    the 3m-dimensional space (accurate to ~1e-13, where the normal matrix would only give
+///    1e-7), required ≤ `rank_rtol/10` (σ_1 ≥ 1: the columns have unit norm).
+/// 4. The null space spanned by `[−C; I]` and the zero columns replaces the SVD's: the
+///    greedy selection ([`greedy_drop`]) must return the same dropped set with every decision
+///    at least [`CHOL_MIN_MARGIN`] from its threshold.
+///
+/// With a clear gap (exact redundancies at rounding level, the rest well conditioned, the
+/// usual case) this costs a few µs where the SVD costs a few hundred.
+pub(crate) fn kept_by_cholesky(
+    jac: &mut dyn FnMut() -> DMatrix<f64>,
+    a: &DMatrix<f64>,
+    priority: &[usize],
+    opts: &IdentifiabilityOptions,
+) -> Option<Kept> {
+    let p = a.ncols();
+    // 1. Greedy Cholesky in priority order.
+    let gr = greedy_cholesky(a, priority)?;
+    let (scale, zero, gm, kp) = (gr.scale, gr.zero, gr.gm, gr.kp);
+    let (l, inv_d, drops) = (gr.l, gr.inv_d, gr.drops);
     let r = kp.len();
     if r == 0 {
         return None;
@@ -623,6 +661,42 @@ pub fn cholesky_certifies(
         .filter_map(|k| free.iter().position(|&f| f == k))
         .collect();
     kept_by_cholesky(&mut || jac.clone(), &a, &priority, opts).is_some()
+}
+
+/// Positions (into `free`, ascending) of the parameters that are exactly redundant (or do
+/// not move the points) at `robot` on these poses, dropped from the lowest priority up as
+/// the minimal set drops them ([`keep_priority`]): by the greedy Cholesky of
+/// [`kept_by_cholesky`]'s first step when every decision is clear, by the SVD of
+/// [`analyze`] otherwise. Empty when `free` is identifiable. What
+/// [`crate::lm::Redundant::Hold`] holds.
+pub(crate) fn redundant_positions(
+    robot: &Robot,
+    poses_rad: &[f64],
+    weights: Option<&[f64]>,
+    free: &[usize],
+    a: &DMatrix<f64>,
+    opts: &IdentifiabilityOptions,
+) -> Result<Vec<usize>, IdentifyError> {
+    opts.validate()?;
+    let m = poses_rad.len() / robot.n_joints();
+    let pf = free.len();
+    let priority: Vec<usize> = keep_priority(robot.layout())
+        .into_iter()
+        .filter_map(|k| free.iter().position(|&f| f == k))
+        .collect();
+    // A clear gap (the usual case) is decided by the greedy Cholesky alone: exactly
+    // redundant columns (relative squared distance from the span of the columns of higher
+    // priority < 1e-11) and zero ones are dropped. Anything closer to the thresholds goes to
+    // the SVD on the stacked Jacobian.
+    match greedy_cholesky(a, &priority) {
+        Some(gr) => Ok((0..pf).filter(|k| !gr.kp.contains(k)).collect()),
+        None => {
+            let trig = PoseTrig::new(robot.n_joints(), poses_rad);
+            let mut j = DMatrix::zeros(3 * m, pf);
+            NormalWork::stacked_jacobian(robot, &trig, weights, free, &mut j);
+            Ok(analyze_matrix(j, &priority, opts)?.dropped)
+        }
+    }
 }
 
 /// Analyses the identifiability of the parameters `free` (indices into the robot's parameter

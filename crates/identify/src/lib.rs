@@ -67,7 +67,7 @@ pub use identifiability::{
     ConfoundTerm, IdentifiabilityOptions, IdentifiabilityReport, Observability, ParamSet,
     Redundancy, analyze, keep_priority,
 };
-pub use lm::{Damping, LmOptions, LmSolution, StopReason, TraceEntry, solve};
+pub use lm::{Damping, LmOptions, LmSolution, Redundant, StopReason, TraceEntry, solve};
 pub use outliers::{Outlier, OutlierScreen};
 pub use problem::{Problem, SAME_POSE_TOL_RAD};
 pub use registration::{

@@ -17,7 +17,11 @@
 //!
 //! # Redundant parameters
 //!
-//! With the paper's 34 parameters `Ã` is singular (7 exact redundancies for the KR1000). The
+//! By default ([`Redundant::Hold`]) the free parameters that are exactly redundant at the
+//! start model are held there and the iteration below runs on the others (the minimal set's
+//! choice, decided from the start system; see [`Redundant`] for why). Under
+//! [`Redundant::Damp`], the paper's method, they stay in the system:
+//! with the paper's 34 parameters `Ã` is singular (7 exact redundancies for the KR1000). The
 //! damping keeps the system positive definite and, because `g̃` lies in the row space of J,
 //! steps carry no null-space component: predictions converge, the redundant parameters stay
 //! where they started up to second-order drift. To keep this true after many successful
@@ -36,6 +40,7 @@ use serde::{Deserialize, Serialize};
 use kinematics::{PoseTrig, Robot};
 
 use crate::error::IdentifyError;
+use crate::identifiability::{IdentifiabilityOptions, redundant_positions};
 use crate::linalg;
 use crate::problem::{NormalWork, Problem, assemble_normal, weighted_rss, weighted_rss_trig};
 
@@ -204,6 +209,28 @@ impl Damping {
     }
 }
 
+/// What [`solve`] does with free parameters that are exactly redundant at the start model
+/// (spec §3: with the paper's 34 parameters, 7 on the KR1000 and 10 on the UR10).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Redundant {
+    /// Hold them at their start values and solve on the identifiable rest [default]. Which
+    /// ones are held is the minimal set's rule ([`crate::identifiability`]: rank and null
+    /// space of the column-scaled Jacobian at the start, dropped from the lowest priority up),
+    /// so the solved parameters are exactly what [`crate::ParamSet::Minimal`] would keep
+    /// there. For redundancies that hold at every parameter value (d1 ↔ base_dz, θ6/d6/a6/α6
+    /// ↔ the ball offset, …) the fit is the same as [`Redundant::Damp`]'s: the held columns
+    /// stay combinations of the solved ones. For redundancies that hold only at the nominal
+    /// geometry (the UR10's parallel axes), damping lets the solver creep along a valley that
+    /// second-order effects tilt by a few parts per million of the cost, 100+ iterations for
+    /// nothing a tracker can resolve; holding them converges in a few.
+    #[default]
+    Hold,
+    /// Keep every free column in the damped system, as the paper does: the damping alone
+    /// keeps `Ã + μD` positive definite (see the module docs).
+    Damp,
+}
+
 /// Options of [`solve`]. Defaults in brackets, with the reason.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
@@ -248,6 +275,12 @@ pub struct LmOptions {
     /// diag, ×10 per retry) and the system refactorised; failing even at μ ≥ max diag is
     /// [`IdentifyError::Singular`].
     pub mu_min_rel: f64,
+    /// Free parameters exactly redundant at the start [[`Redundant::Hold`]: they are held at
+    /// their start values and the rest is solved; `"damp"` keeps them in the damped system,
+    /// the paper's verbatim method]. The rank decision uses
+    /// [`IdentifiabilityOptions::default`] under [`solve`], the caller's under
+    /// [`crate::identify`].
+    pub redundant: Redundant,
 }
 
 impl Default for LmOptions {
@@ -261,6 +294,7 @@ impl Default for LmOptions {
             gradient_tol: 1e-10,
             max_rejections: 10,
             mu_min_rel: 1e-15,
+            redundant: Redundant::Hold,
         }
     }
 }
@@ -393,8 +427,26 @@ pub struct LmSolution {
     pub column_scale: Vec<f64>,
     /// max_k |J_kᵀe| / (‖J_k‖‖e‖) at the solution (0 for a zero residual).
     pub gradient_cosine: f64,
+    /// Free parameters held at their start values because they were exactly redundant there
+    /// ([`Redundant::Hold`]), parameter indices ascending; empty when none was or under
+    /// [`Redundant::Damp`]. The trace, `column_scale` and `gradient_cosine` are those of the
+    /// other, solved, free parameters.
+    pub held: Vec<usize>,
     /// The normal matrix at the solution, for [`crate::covariance_at_solution`].
     pub(crate) system: Option<Arc<FinalSystem>>,
+}
+
+impl LmSolution {
+    /// The free parameters of `problem` that were solved (all but [`LmSolution::held`]),
+    /// parameter indices ascending.
+    pub fn solved(&self, problem: &Problem) -> Vec<usize> {
+        problem
+            .free()
+            .iter()
+            .copied()
+            .filter(|k| !self.held.contains(k))
+            .collect()
+    }
 }
 
 /// What the fast path leaves behind at the solution: the poses' sines and cosines and the
@@ -639,7 +691,21 @@ impl<'p> Assembler<'p> {
 /// Solves the problem by damped least squares from the start model. See the module docs for
 /// the iteration and [`LmOptions`] for every option.
 pub fn solve(problem: &Problem, options: &LmOptions) -> Result<LmSolution, IdentifyError> {
-    solve_on(Path::Fast, problem, options)
+    solve_on(
+        Path::Fast,
+        problem,
+        options,
+        &IdentifiabilityOptions::default(),
+    )
+}
+
+/// [`solve`] with the rank decision of [`Redundant::Hold`] taken under `ident`.
+pub(crate) fn solve_with(
+    problem: &Problem,
+    options: &LmOptions,
+    ident: &IdentifiabilityOptions,
+) -> Result<LmSolution, IdentifyError> {
+    solve_on(Path::Fast, problem, options, ident)
 }
 
 /// [`solve`] on the straightforward linear algebra (reference Jacobian, unvectorised
@@ -650,15 +716,69 @@ pub fn solve_reference(
     problem: &Problem,
     options: &LmOptions,
 ) -> Result<LmSolution, IdentifyError> {
-    solve_on(Path::Reference, problem, options)
+    solve_on(
+        Path::Reference,
+        problem,
+        options,
+        &IdentifiabilityOptions::default(),
+    )
 }
 
+/// Holds the exactly redundant free parameters (under [`Redundant::Hold`]) and solves the
+/// rest.
 fn solve_on(
     path: Path,
     problem: &Problem,
     options: &LmOptions,
+    ident: &IdentifiabilityOptions,
 ) -> Result<LmSolution, IdentifyError> {
     options.validate()?;
+    let free = problem.free();
+    let pf = free.len();
+    let mut asm = Assembler::new(path, problem, free);
+    let mut a = DMatrix::zeros(pf, pf);
+    let mut g = DVector::zeros(pf);
+    let cost = asm.assemble(problem.robot(), &mut a, &mut g);
+    if options.redundant == Redundant::Hold {
+        let dropped = redundant_positions(
+            problem.robot(),
+            problem.poses_rad(),
+            problem.weights(),
+            free,
+            &a,
+            ident,
+        )?;
+        // Every column zero (nothing moves the points) is left to the damped solve, which
+        // stops on its gradient test at once.
+        if !dropped.is_empty() && dropped.len() < pf {
+            let held: Vec<usize> = dropped.iter().map(|&d| free[d]).collect();
+            let kept: Vec<usize> = (0..pf).filter(|c| !dropped.contains(c)).collect();
+            let solved: Vec<usize> = kept.iter().map(|&c| free[c]).collect();
+            let reduced = problem.with_free(solved);
+            // The start system of the solved columns is a block of the one just assembled.
+            let start = (
+                a.select_rows(kept.iter()).select_columns(kept.iter()),
+                g.select_rows(kept.iter()),
+                cost,
+            );
+            let mut asm = Assembler::new(path, &reduced, reduced.free());
+            let mut sol = solve_free(path, &reduced, options, &mut asm, start)?;
+            sol.held = held;
+            return Ok(sol);
+        }
+    }
+    solve_free(path, problem, options, &mut asm, (a, g, cost))
+}
+
+/// The damped iteration on every free parameter of `problem`, from the system `start`
+/// (`JᵀJ`, `Jᵀe`, cost) that `asm` assembled at the start model.
+fn solve_free(
+    path: Path,
+    problem: &Problem,
+    options: &LmOptions,
+    asm: &mut Assembler,
+    start: (DMatrix<f64>, DVector<f64>, f64),
+) -> Result<LmSolution, IdentifyError> {
     let free = problem.free();
     let pf = free.len();
 
@@ -667,10 +787,7 @@ fn solve_on(
     let mut x = robot.params();
     let mut xt = x.clone();
 
-    let mut asm = Assembler::new(path, problem, free);
-    let mut a = DMatrix::zeros(pf, pf);
-    let mut g = DVector::zeros(pf);
-    let mut cost = asm.assemble(&robot, &mut a, &mut g);
+    let (mut a, mut g, mut cost) = start;
     let initial_cost = cost;
 
     let max_col_sq = a.diagonal().iter().fold(0.0, |m: f64, &d| m.max(d));
@@ -864,5 +981,6 @@ fn solve_on(
         cost,
         column_scale: scale,
         gradient_cosine,
+        held: Vec::new(),
     })
 }

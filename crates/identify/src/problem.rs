@@ -166,6 +166,18 @@ impl<'a> Problem<'a> {
         )
     }
 
+    /// The same data with a subset of the free parameters (validated indices, ascending).
+    pub(crate) fn with_free(&self, free: Vec<usize>) -> Problem<'a> {
+        debug_assert!(free.iter().all(|k| self.free.contains(k)));
+        Problem {
+            robot: self.robot,
+            poses_rad: self.poses_rad,
+            points_mm: self.points_mm,
+            weights: self.weights,
+            free,
+        }
+    }
+
     /// The same data with another start model (same layout, e.g. after registration).
     pub(crate) fn with_robot<'b>(&self, robot: &'b Robot) -> Problem<'b>
     where

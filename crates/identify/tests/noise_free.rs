@@ -5,8 +5,8 @@ mod common;
 
 use common::{TOOL, kr1000, max_point_diff, perturbed, poses};
 use identify::{
-    Damping, IdentifyOptions, LmOptions, ParamSet, Problem, RegistrationPolicy, StopReason,
-    identify, solve,
+    Damping, IdentifyOptions, LmOptions, ParamSet, Problem, Redundant, RegistrationPolicy,
+    StopReason, identify, solve,
 };
 use kinematics::Robot;
 
@@ -68,18 +68,37 @@ fn every_schedule_and_both_sets_recover_the_truth() {
     // Truth differing only in identifiable directions: the minimal-set values are comparable.
     let truth_min = perturbed(&nominal, &minimal, 12);
 
-    for (set_name, free) in [("paper", all.clone()), ("minimal", minimal.clone())] {
+    let redundant_names: Vec<String> = (0..34)
+        .filter(|k| !minimal.contains(k))
+        .map(|k| nominal.layout().get(k).name.clone())
+        .collect();
+    for (set_name, free, redundant) in [
+        ("paper", all.clone(), Redundant::Hold),
+        ("paper", all.clone(), Redundant::Damp),
+        ("minimal", minimal.clone(), Redundant::Hold),
+    ] {
         for damping in schedules() {
             let opts = IdentifyOptions {
-                lm: LmOptions::with_damping(damping),
+                lm: LmOptions {
+                    redundant,
+                    ..LmOptions::with_damping(damping)
+                },
                 ..Default::default()
             };
-            let label = format!("{set_name}/{}", damping.name());
+            let label = format!("{set_name}/{redundant:?}/{}", damping.name());
 
             let meas = truth_all.points(&poses_id);
             let problem = Problem::new(&nominal, &poses_id, &meas, free.clone()).unwrap();
             let fit = identify(&problem, &opts).unwrap();
             assert!(fit.stop.converged(), "{label}: stopped by {}", fit.stop);
+            // Holding, the paper set holds exactly what the minimal set drops.
+            if set_name == "paper" && redundant == Redundant::Hold {
+                assert_eq!(fit.held, redundant_names, "{label}");
+                let cov = fit.covariance.as_ref().unwrap();
+                assert_eq!(cov.omitted, redundant_names, "{label}");
+            } else {
+                assert!(fit.held.is_empty(), "{label}: held {:?}", fit.held);
+            }
             assert!(
                 fit.iterations <= 20,
                 "{label}: {} iterations",
@@ -125,6 +144,7 @@ fn paper_verbatim_unscaled_levenberg_also_converges() {
     let opts = IdentifyOptions {
         lm: LmOptions {
             column_scaling: false,
+            redundant: Redundant::Damp,
             ..LmOptions::default()
         },
         registration: RegistrationPolicy::Never,
@@ -201,6 +221,7 @@ fn indefinite_damped_matrix_is_rescued_by_raising_mu() {
         },
         column_scaling: false,
         mu_min_rel: 1e-300,
+        redundant: Redundant::Damp,
         ..LmOptions::default()
     };
     let sol = solve(&problem, &lm).unwrap();
