@@ -31,6 +31,9 @@ pub struct CampaignArgs {
     /// Do not print the summary table.
     #[arg(long)]
     pub quiet: bool,
+    /// Switch the scenario's ISO 9283 test off (e.g. to time the trials alone).
+    #[arg(long)]
+    pub no_iso: bool,
 }
 
 /// Arguments of `merge`.
@@ -117,6 +120,7 @@ pub fn campaign(args: CampaignArgs) -> Result<()> {
         args.out,
         args.shard.as_deref(),
         args.quiet,
+        args.no_iso,
     )
 }
 
@@ -132,9 +136,13 @@ fn run_campaign(
     out: Option<PathBuf>,
     shard: Option<&str>,
     quiet: bool,
+    no_iso: bool,
 ) -> Result<()> {
     let mut loaded = Scenario::from_file(scenario_path)
         .with_context(|| format!("loading scenario {}", scenario_path.display()))?;
+    if no_iso {
+        loaded.scenario.iso.enabled = false;
+    }
     if let Some(t) = trials {
         if t == 0 {
             bail!("--trials must be at least 1");
@@ -390,7 +398,15 @@ pub fn regenerate(args: RegenerateArgs) -> Result<()> {
             .with_context(|| format!("loading {}", path.display()))?
             .scenario
             .name;
-        run_campaign(&path, None, None, Some(target.join(&name)), None, true)?;
+        run_campaign(
+            &path,
+            None,
+            None,
+            Some(target.join(&name)),
+            None,
+            true,
+            false,
+        )?;
         names.push(name);
     }
     for path in list("scenarios/sweeps")? {
