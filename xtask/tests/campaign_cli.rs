@@ -34,7 +34,11 @@ fn no_iso_drops_the_iso_rows_of_the_summary() {
     assert!(with.contains("AP_p"), "{with}");
     assert!(!without.contains("AP_p"), "{without}");
     // Everything else is the same trials' figures.
-    let table4 = |s: &str| s.lines().find(|l| l.contains("mean 3-D before")).map(String::from);
+    let table4 = |s: &str| {
+        s.lines()
+            .find(|l| l.contains("mean 3-D before"))
+            .map(String::from)
+    };
     assert_eq!(table4(&with), table4(&without));
     assert!(table4(&with).is_some(), "{with}");
     let _ = std::fs::remove_dir_all(&dir);
