@@ -627,6 +627,26 @@ impl<'p> Assembler<'p> {
         }
     }
 
+    /// An assembler of the same data on the subset `free` of the free parameters, taking
+    /// over this one's sines and cosines.
+    fn on_subset<'q>(&mut self, free: &'q [usize], n_params: usize) -> Assembler<'q>
+    where
+        'p: 'q,
+    {
+        Assembler {
+            path: self.path,
+            poses: self.poses,
+            points: self.points,
+            weights: self.weights,
+            free,
+            trig: std::mem::take(&mut self.trig),
+            normal: self
+                .normal
+                .is_some()
+                .then(|| NormalWork::new(free.len(), n_params)),
+        }
+    }
+
     /// `a`, `g` at `robot`; returns the cost.
     fn assemble(&mut self, robot: &Robot, a: &mut DMatrix<f64>, g: &mut DVector<f64>) -> f64 {
         match &mut self.normal {
@@ -761,7 +781,7 @@ fn solve_on(
                 g.select_rows(kept.iter()),
                 cost,
             );
-            let mut asm = Assembler::new(path, &reduced, reduced.free());
+            let mut asm = asm.on_subset(reduced.free(), problem.robot().n_params());
             let mut sol = solve_free(path, &reduced, options, &mut asm, start)?;
             sol.held = held;
             return Ok(sol);
