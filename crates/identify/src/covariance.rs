@@ -24,7 +24,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::error::IdentifyError;
 use crate::identifiability::{
-    IdentifiabilityOptions, analyze_matrix, keep_priority, kept_by_cholesky,
+    IdentifiabilityOptions, analyze_matrix, free_priority, kept_by_cholesky,
 };
 use crate::lm::{FinalSystem, LmSolution};
 use crate::problem::{NormalWork, Problem, weighted_jacobian, weighted_rss, weighted_rss_trig};
@@ -244,10 +244,7 @@ fn covariance_on(
     let n = robot.n_joints();
     let m = poses_rad.len() / n;
     let pf = free.len();
-    let priority: Vec<usize> = keep_priority(layout)
-        .into_iter()
-        .filter_map(|k| free.iter().position(|&f| f == k))
-        .collect();
+    let priority = free_priority(layout, free);
     // The stacked Jacobian, computed at most once and only when needed.
     let mut jac: Option<DMatrix<f64>> = None;
     let (rss, certified) = match source {

@@ -219,6 +219,14 @@ pub fn keep_priority(layout: &ParamLayout) -> Vec<usize> {
     idx
 }
 
+/// [`keep_priority`] restricted to `free`: positions into `free`, most preferred first.
+pub(crate) fn free_priority(layout: &ParamLayout, free: &[usize]) -> Vec<usize> {
+    keep_priority(layout)
+        .into_iter()
+        .filter_map(|k| free.iter().position(|&f| f == k))
+        .collect()
+}
+
 /// The outcome of the matrix part of the analysis, in positions 0..P of the analysed set.
 pub(crate) struct Analysis {
     pub scale: Vec<f64>,
@@ -656,10 +664,7 @@ pub fn cholesky_certifies(
     let mut a = DMatrix::zeros(pf, pf);
     let mut g = DVector::zeros(pf);
     work.copy_to(&mut a, &mut g);
-    let priority: Vec<usize> = keep_priority(robot.layout())
-        .into_iter()
-        .filter_map(|k| free.iter().position(|&f| f == k))
-        .collect();
+    let priority = free_priority(robot.layout(), free);
     kept_by_cholesky(&mut || jac.clone(), &a, &priority, opts).is_some()
 }
 
@@ -680,10 +685,7 @@ pub(crate) fn redundant_positions(
     opts.validate()?;
     let m = poses_rad.len() / robot.n_joints();
     let pf = free.len();
-    let priority: Vec<usize> = keep_priority(robot.layout())
-        .into_iter()
-        .filter_map(|k| free.iter().position(|&f| f == k))
-        .collect();
+    let priority = free_priority(robot.layout(), free);
     // A clear gap (the usual case) is decided by the greedy Cholesky alone: exactly
     // redundant columns (relative squared distance from the span of the columns of higher
     // priority < 1e-11) and zero ones are dropped. Anything closer to the thresholds goes to
@@ -718,11 +720,7 @@ pub fn analyze(
     }
     let layout = robot.layout();
     let jac = weighted_jacobian(robot, poses_rad, weights, &free);
-    let pos_of = |k: usize| free.iter().position(|&f| f == k);
-    let priority: Vec<usize> = keep_priority(layout)
-        .into_iter()
-        .filter_map(pos_of)
-        .collect();
+    let priority = free_priority(layout, &free);
     let an = analyze_matrix(jac, &priority, opts)?;
     let name = |pos: usize| layout.get(free[pos]).name.clone();
     let p = free.len();
