@@ -1,4 +1,4 @@
-//! Streaming, exactly mergeable statistics over trials.
+//! Streaming, exactly mergeable statistics over trials, in memory bounded by a constant.
 //!
 //! A campaign's summary must be byte-identical whatever the thread count or the number of
 //! shards it was split into, and its memory must not grow with the trial count. Floating-point
@@ -7,20 +7,38 @@
 //!   `q = round(x · 2^FRAC_BITS)`, in `i128` — integer addition is associative, so any split
 //!   and order give the same sums (resolution 2^-32 ≈ 2.3·10⁻¹⁰ in the value's unit);
 //! - exact minimum and maximum;
-//! - a histogram whose bucket is the value's sign, exponent and top [`MANTISSA_BITS`]
-//!   mantissa bits (relative bucket width 2⁻⁷ ≈ 0.8 %), for percentiles; magnitudes below
-//!   [`TINY`] share one bucket per sign. The number of buckets is bounded by the range of
-//!   values (at most 2·2⁷ per binade between [`TINY`] and [`MAX_ABS`]), not by the number of
-//!   trials; in practice it saturates within the first 10⁴ trials (about 10⁵ buckets over
-//!   all of `paper-kr1000`'s statistics, a few MB), so a campaign's memory is flat in its
-//!   trial count.
+//! - for percentiles, a count of exact zeros and one [`Store`] of buckets per sign, each
+//!   bucket holding its count and the exact extremes of its values.
+//!
+//! ## The bucket stores: a fixed-size sketch that merges exactly
+//! A store with floor `F = 2^e` buckets a magnitude `m` as follows:
+//! - `m ≥ F`: by its binary exponent and top [`MANTISSA_BITS`] mantissa bits (relative
+//!   bucket width 2⁻⁷ ≈ 0.8 %);
+//! - `m < F`: linearly, width `w = max(F / 2^LINEAR_BITS, TINY)` (at most 2⁶ buckets).
+//!
+//! Raising the floor by one binade only merges whole buckets (a relative bucket in `[F, 2F)`
+//! is `F/2⁷` wide and aligned, so it lies inside one linear bucket of width `2F/2⁶`; linear
+//! buckets merge in pairs): the levels form a chain of ever coarser partitions. A store
+//! always sits at the **lowest floor at which its values occupy at most [`MAX_BUCKETS`]
+//! buckets**. That floor is a function of the set of values alone (the bucket count at a
+//! level can only grow with the set and only shrink up the chain), so pushing one value or
+//! merging two stores — raise both to the higher floor, add the buckets, raise while over
+//! the budget — gives the same store, bit for bit, for any split and order. Memory is at most
+//! `2·MAX_BUCKETS + 1` buckets per statistic whatever the trial count.
+//!
+//! The store starts at `F = TINY` (2⁻²⁴), where it is the plain relative histogram; with the
+//! campaigns' trial counts (10²–10³) the budget is never reached. When it is, the floor rises
+//! from below: the region near zero — where relative resolution is wasted on a signed
+//! quantity such as an estimation error or a z-score — turns into a linear histogram, while
+//! the body and the tails keep their relative resolution. For a normal sample of 10⁵ the
+//! floor settles near σ/2, so values below it resolve to σ/128 and the rest to 0.4 %.
 //!
 //! Mean and sample standard deviation come from the exact sums; percentiles (p5, p50, p95)
 //! interpolate linearly between order statistics (numpy's default) using the midpoint of
-//! each bucket's actual values, so they are accurate to ±0.4 % relative (±[`TINY`] absolute
-//! near zero; exact for repeated values) — well inside the sampling error of a percentile
-//! over 10⁴ trials (≈1–2 % at p5/p95). Non-finite values are counted
-//! separately and excluded.
+//! each bucket's actual values, so they are accurate to half a bucket: ±0.4 % relative above
+//! the floor, ±w/2 absolute below it (exact for repeated values, e.g. iteration counts) —
+//! inside the sampling error of a percentile over 10⁴ trials (≈1–2 % at p5/p95). Non-finite
+//! values are counted separately and excluded.
 
 use std::collections::BTreeMap;
 
@@ -28,15 +46,26 @@ use serde::{Deserialize, Serialize};
 
 /// Fixed-point fraction bits of the exact sums.
 pub const FRAC_BITS: u32 = 32;
-/// Mantissa bits kept in a histogram bucket key.
+/// Mantissa bits kept in a relative bucket's key.
 pub const MANTISSA_BITS: u32 = 7;
-/// Magnitudes below this (2⁻²⁴ ≈ 6·10⁻⁸ in the value's unit) share one bucket per sign:
-/// without the floor, the sparse binades near zero of signed quantities (errors, z-scores)
-/// keep adding buckets as the trial count grows.
+/// log2 of the linear buckets below a store's floor.
+pub const LINEAR_BITS: i32 = 6;
+/// log2 of [`TINY`].
+pub const TINY_LOG2: i32 = -24;
+/// The lowest floor and the narrowest linear bucket: magnitudes below 2⁻²⁴ ≈ 6·10⁻⁸ in the
+/// value's unit always share one bucket per sign.
 pub const TINY: f64 = 1.0 / (1u64 << 24) as f64;
+/// Most buckets one sign's [`Store`] keeps. With 512, a store holds four full binades at
+/// relative resolution next to its 64 linear buckets.
+pub const MAX_BUCKETS: usize = 512;
 /// Largest magnitude accepted into the exact sums (beyond it the value counts as out of
 /// range): keeps `Σq²` within i128 for 10⁸ trials.
 pub const MAX_ABS: f64 = 1.0e6;
+
+/// `2^e` for the exponents a store uses (exact).
+fn pow2(e: i32) -> f64 {
+    f64::from_bits(((1023 + e) as u64) << 52)
+}
 
 /// Accumulator of one scalar metric over trials.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
@@ -53,8 +82,97 @@ pub struct Stat {
     pub min: Option<f64>,
     /// Largest value.
     pub max: Option<f64>,
-    /// Bucket key → count and the exact extremes of the values in it (see the module docs).
-    pub hist: BTreeMap<i64, Bucket>,
+    /// Values equal to zero.
+    pub zeros: u64,
+    /// Magnitudes of the negative values.
+    pub negative: Store,
+    /// The positive values.
+    pub positive: Store,
+}
+
+/// Buckets of magnitudes of one sign, at the lowest floor that fits [`MAX_BUCKETS`] (see
+/// the module docs).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Store {
+    /// log2 of the floor `F`.
+    pub floor_log2: i32,
+    /// Bucket key (ordered like the magnitudes) → count and extremes of the magnitudes.
+    pub buckets: BTreeMap<u64, Bucket>,
+}
+
+impl Default for Store {
+    fn default() -> Self {
+        Self {
+            floor_log2: TINY_LOG2,
+            buckets: BTreeMap::new(),
+        }
+    }
+}
+
+/// Key of the relative bucket holding magnitude `m` (≥ TINY): exponent and top mantissa
+/// bits. Always above every linear key (< 2^LINEAR_BITS).
+fn relative_key(m: f64) -> u64 {
+    m.to_bits() >> (52 - MANTISSA_BITS)
+}
+
+impl Store {
+    /// Key of magnitude `m` (finite, > 0) at this store's floor.
+    fn key(&self, m: f64) -> u64 {
+        if m >= pow2(self.floor_log2) {
+            relative_key(m)
+        } else {
+            // w is a power of two, so m / w is exact and truncation is the floor.
+            (m / pow2((self.floor_log2 - LINEAR_BITS).max(TINY_LOG2))) as u64
+        }
+    }
+
+    fn insert(&mut self, b: Bucket) {
+        // Every value of `b` lands in the same bucket at this floor (the levels nest), so
+        // its smallest stands for all of them.
+        self.buckets
+            .entry(self.key(b.min))
+            .and_modify(|mine| mine.merge(&b))
+            .or_insert(b);
+    }
+
+    /// Re-buckets at floor `2^floor_log2` if that is higher than the current one.
+    fn raise_floor(&mut self, floor_log2: i32) {
+        if floor_log2 <= self.floor_log2 {
+            return;
+        }
+        self.floor_log2 = floor_log2;
+        // Buckets at or above the new floor keep their keys; those below turn linear.
+        let kept = self.buckets.split_off(&relative_key(pow2(floor_log2)));
+        let below = std::mem::replace(&mut self.buckets, kept);
+        for b in below.into_values() {
+            self.insert(b);
+        }
+    }
+
+    /// Raises the floor one binade at a time until the buckets fit the budget: the lowest
+    /// floor that fits. Terminates: above MAX_ABS every magnitude is linear (≤ 64 buckets).
+    fn fit(&mut self) {
+        while self.buckets.len() > MAX_BUCKETS {
+            self.raise_floor(self.floor_log2 + 1);
+        }
+    }
+
+    fn push(&mut self, m: f64) {
+        self.insert(Bucket {
+            count: 1,
+            min: m,
+            max: m,
+        });
+        self.fit();
+    }
+
+    fn merge(&mut self, other: &Store) {
+        self.raise_floor(other.floor_log2);
+        for b in other.buckets.values() {
+            self.insert(*b);
+        }
+        self.fit();
+    }
 }
 
 /// One histogram bucket: how many values fell in it and their exact range. Merging takes
@@ -104,18 +222,6 @@ pub struct Summary {
     pub max: f64,
 }
 
-fn bucket_key(x: f64) -> i64 {
-    if x == 0.0 {
-        return 0;
-    }
-    // The bits of |x| are monotone in |x|; dropping low mantissa bits groups neighbours.
-    // Everything below TINY is key ±1; the others count up from ±2.
-    let shift = 52 - MANTISSA_BITS;
-    let floor = (TINY.to_bits() >> shift) as i64;
-    let k = ((x.abs().to_bits() >> shift) as i64 - floor).max(-1) + 2;
-    if x < 0.0 { -k } else { k }
-}
-
 impl Stat {
     /// An empty accumulator.
     pub fn new() -> Self {
@@ -134,20 +240,13 @@ impl Stat {
         self.sum_q2 += q * q;
         self.min = Some(self.min.map_or(x, |m| m.min(x)));
         self.max = Some(self.max.map_or(x, |m| m.max(x)));
-        self.hist
-            .entry(bucket_key(x))
-            .and_modify(|b| {
-                b.merge(&Bucket {
-                    count: 1,
-                    min: x,
-                    max: x,
-                })
-            })
-            .or_insert(Bucket {
-                count: 1,
-                min: x,
-                max: x,
-            });
+        if x > 0.0 {
+            self.positive.push(x);
+        } else if x < 0.0 {
+            self.negative.push(-x);
+        } else {
+            self.zeros += 1;
+        }
     }
 
     /// Adds everything `other` has seen (exact: the result does not depend on the split).
@@ -164,21 +263,37 @@ impl Stat {
             (Some(a), Some(b)) => Some(a.max(b)),
             (a, b) => a.or(b),
         };
-        for (k, b) in &other.hist {
-            self.hist
-                .entry(*k)
-                .and_modify(|mine| mine.merge(b))
-                .or_insert(*b);
-        }
+        self.zeros += other.zeros;
+        self.negative.merge(&other.negative);
+        self.positive.merge(&other.positive);
+    }
+
+    /// The buckets in ascending order of value: each bucket's representative value and
+    /// count (the histogram the percentiles and the plots are drawn from).
+    pub fn buckets(&self) -> impl Iterator<Item = (f64, u64)> + '_ {
+        let negative = self
+            .negative
+            .buckets
+            .values()
+            .rev()
+            .map(|b| (-b.value(), b.count));
+        let zeros = (self.zeros > 0).then_some((0.0, self.zeros));
+        let positive = self.positive.buckets.values().map(|b| (b.value(), b.count));
+        negative.chain(zeros).chain(positive)
+    }
+
+    /// Number of buckets held (at most `2·MAX_BUCKETS + 1`).
+    pub fn bucket_count(&self) -> usize {
+        self.negative.buckets.len() + self.positive.buckets.len() + usize::from(self.zeros > 0)
     }
 
     /// The value of the `rank`-th smallest (0-based), as its bucket's representative.
     fn order_stat(&self, rank: u64) -> f64 {
         let mut seen = 0;
-        for b in self.hist.values() {
-            seen += b.count;
+        for (value, count) in self.buckets() {
+            seen += count;
             if rank < seen {
-                return b.value();
+                return value;
             }
         }
         self.max.unwrap_or(f64::NAN)
@@ -317,30 +432,118 @@ mod tests {
         assert!((s.percentile(100.0) - 3.0).abs() < 1e-12);
     }
 
+    /// A deterministic normal-like sample (Box–Muller on two Weyl sequences), scaled by `sd`.
+    fn normal(n: usize, sd: f64) -> Vec<f64> {
+        (0..n)
+            .map(|i| {
+                let u1 = ((i as f64 + 0.5) * 0.618_033_988_749_895).fract();
+                let u2 = (i as f64 * 0.754_877_666_246_693).fract();
+                sd * (-2.0 * (1.0 - u1).ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
+            })
+            .collect()
+    }
+
+    /// Exact percentile by numpy's linear rule.
+    fn exact_percentile(sorted: &[f64], p: f64) -> f64 {
+        let pos = p / 100.0 * (sorted.len() - 1) as f64;
+        let lo = pos.floor() as usize;
+        let hi = (lo + 1).min(sorted.len() - 1);
+        sorted[lo] + (sorted[hi] - sorted[lo]) * (pos - lo as f64)
+    }
+
     #[test]
-    fn bucket_count_is_bounded_whatever_the_trial_count() {
-        // A symmetric, heavy-near-zero sample spread over many binades (like z-scores and
-        // recovery errors): without the floor every new trial could open a new bucket.
+    fn memory_is_bounded_and_percentiles_stay_within_half_a_bucket() {
+        // Signed and spread over many binades near zero, like recovery errors and z-scores:
+        // without the budget every decade of trials would open new buckets.
+        let v = normal(200_000, 0.01);
         let mut s = Stat::new();
         let mut count_at = Vec::new();
-        for i in 0..1_000_000u64 {
-            let t = (i as f64 * 0.618_033_988_749_895).fract();
-            let x = (t - 0.5) * 10f64.powf(-12.0 * (i as f64 * 0.754_877_666).fract());
-            s.push(x);
-            if [99_999, 999_999].contains(&i) {
-                count_at.push(s.hist.len());
+        for (i, x) in v.iter().enumerate() {
+            s.push(*x);
+            if [9_999, 199_999].contains(&i) {
+                count_at.push(s.bucket_count());
             }
         }
-        // Per sign: one bucket below TINY, 2^MANTISSA_BITS per binade from TINY to 1.
-        let bound = 2 * (1 + (1 << MANTISSA_BITS) * 24) + 1;
-        assert!(count_at[1] <= bound, "{count_at:?} > {bound}");
-        assert!(count_at[1] < count_at[0] + count_at[0] / 10, "{count_at:?}");
-        // Magnitudes below TINY share one bucket per sign, ordered around zero.
-        assert_eq!(bucket_key(TINY * 0.5), bucket_key(TINY * 1e-9));
-        assert_eq!(bucket_key(-TINY * 0.5), -bucket_key(TINY * 0.25));
-        assert!(bucket_key(TINY) > bucket_key(TINY * 0.999));
-        assert!(bucket_key(-TINY) < bucket_key(-TINY * 0.999));
-        assert!(bucket_key(TINY * 0.999) > bucket_key(0.0));
+        let bound = 2 * MAX_BUCKETS + 1;
+        assert!(
+            count_at.iter().all(|&c| c <= bound),
+            "{count_at:?} > {bound}"
+        );
+        // The budget was reached, so the floor left TINY and rose towards the body (σ/2
+        // for a normal sample).
+        for store in [&s.negative, &s.positive] {
+            assert!(store.buckets.len() > MAX_BUCKETS / 2);
+            let floor = pow2(store.floor_log2);
+            assert!((0.001..=0.01).contains(&floor), "floor {floor}");
+        }
+        let mut sorted = v.clone();
+        sorted.sort_by(f64::total_cmp);
+        let floor = pow2(s.negative.floor_log2.max(s.positive.floor_log2));
+        let half_linear = 0.5 * (floor / pow2(LINEAR_BITS)).max(TINY);
+        for p in [1.0, 5.0, 25.0, 50.0, 75.0, 95.0, 99.0] {
+            let (got, exact) = (s.percentile(p), exact_percentile(&sorted, p));
+            // Half a relative bucket above the floor, half a linear bucket below it.
+            let tol = exact.abs() * 0.5f64.powi(MANTISSA_BITS as i32 + 1) + half_linear;
+            assert!(
+                (got - exact).abs() <= tol,
+                "p{p}: {got} vs {exact} (±{tol})"
+            );
+        }
+    }
+
+    #[test]
+    fn levels_nest_so_raising_the_floor_only_merges_buckets() {
+        // Map every magnitude's key at floor e to its key at e + 1: a function (each bucket
+        // lies inside one coarser bucket) that keeps the order.
+        for e in TINY_LOG2..=22 {
+            let (mut fine, mut coarse) = (Store::default(), Store::default());
+            fine.floor_log2 = e;
+            coarse.floor_log2 = e + 1;
+            let mut map = BTreeMap::new();
+            for i in 1..20_000 {
+                // Magnitudes from 2^(e-8) to 2^(e+3), denser than the buckets.
+                let m = pow2(e - 8) * (2f64).powf(11.0 * i as f64 / 20_000.0);
+                let (kf, kc) = (fine.key(m), coarse.key(m));
+                assert_eq!(*map.entry(kf).or_insert(kc), kc, "e = {e}, m = {m}");
+            }
+            let mut coarse_keys: Vec<u64> = map.values().copied().collect();
+            assert!(coarse_keys.is_sorted(), "e = {e}");
+            coarse_keys.dedup();
+            assert!(coarse_keys.len() < map.len(), "e = {e}: nothing merged");
+        }
+        // Below TINY one bucket per sign; zero apart; order kept around zero.
+        let mut s = Stat::new();
+        for x in [TINY * 0.5, TINY * 1e-9, -TINY * 0.25, 0.0, TINY, -TINY] {
+            s.push(x);
+        }
+        let got: Vec<u64> = s.buckets().map(|(_, c)| c).collect();
+        assert_eq!(got, [1, 1, 1, 2, 1]);
+    }
+
+    #[test]
+    fn merge_is_exact_across_raised_floors() {
+        // Wide-range values: each part reaches the budget at its own floor.
+        let v: Vec<f64> = (0..30_000)
+            .map(|i| {
+                let t = (i as f64 * 0.618_033_988_749_895).fract();
+                let sign = if i % 3 == 0 { -1.0 } else { 1.0 };
+                sign * 10f64.powf(-9.0 + 14.0 * t)
+            })
+            .collect();
+        let mut whole = Stat::new();
+        v.iter().for_each(|x| whole.push(*x));
+        for cuts in [[100, 200], [5_000, 29_000], [15_000, 15_001]] {
+            let mut parts = [Stat::new(), Stat::new(), Stat::new()];
+            v[..cuts[0]].iter().rev().for_each(|x| parts[0].push(*x));
+            v[cuts[0]..cuts[1]].iter().for_each(|x| parts[1].push(*x));
+            v[cuts[1]..].iter().for_each(|x| parts[2].push(*x));
+            let [a, b, c] = parts;
+            let mut merged = c.clone();
+            merged.merge(&a);
+            merged.merge(&b);
+            assert_eq!(merged, whole, "cuts {cuts:?}");
+        }
+        assert!(whole.positive.floor_log2 > TINY_LOG2);
     }
 
     proptest! {

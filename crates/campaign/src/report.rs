@@ -387,7 +387,7 @@ pub fn render_outputs(
     if let Some(stat) = agg.metrics.get("improvement_pct")
         && stat.n > 0
     {
-        let values: Vec<(f64, u64)> = stat.hist.values().map(|b| (b.value(), b.count)).collect();
+        let values: Vec<(f64, u64)> = stat.buckets().collect();
         let svg = plots::histogram_svg(
             &format!("{name}: improvement of the mean error over trials"),
             "improvement of mean 3-D error (%)",

@@ -229,9 +229,14 @@ pub fn run_range(ctx: &Context, range: Range<u64>, progress: &(dyn Fn(u64) + Syn
         drop(agg);
         progress(1);
     });
-    let mut total = Aggregate::default();
+    // Merge into the first slot rather than a fresh aggregate: one aggregate fewer at the
+    // peak.
+    let mut slots = slots
+        .into_iter()
+        .map(|s| s.into_inner().unwrap_or_else(|e| e.into_inner()));
+    let mut total = slots.next().unwrap_or_default();
     for slot in slots {
-        total.merge(&slot.into_inner().unwrap_or_else(|e| e.into_inner()));
+        total.merge(&slot);
     }
     total
 }
