@@ -58,6 +58,9 @@ pub const TINY: f64 = 1.0 / (1u64 << 24) as f64;
 /// Most buckets one sign's [`Store`] keeps. With 512, a store holds four full binades at
 /// relative resolution next to its 64 linear buckets.
 pub const MAX_BUCKETS: usize = 512;
+/// Highest floor a store can reach: at 2²¹ > [`MAX_ABS`] every magnitude is in one of at
+/// most 31 linear buckets, far below the budget.
+pub const MAX_FLOOR_LOG2: i32 = 21;
 /// Largest magnitude accepted into the exact sums (beyond it the value counts as out of
 /// range): keeps `Σq²` within i128 for 10⁸ trials.
 pub const MAX_ABS: f64 = 1.0e6;
@@ -166,6 +169,37 @@ impl Store {
         self.fit();
     }
 
+    /// Checks a store read from a file: floor in range, budget kept, buckets well-formed
+    /// and keyed as this floor would key them.
+    fn check(&self) -> Result<(), String> {
+        if !(TINY_LOG2..=MAX_FLOOR_LOG2).contains(&self.floor_log2) {
+            return Err(format!(
+                "floor_log2 {} outside {TINY_LOG2}..={MAX_FLOOR_LOG2}",
+                self.floor_log2
+            ));
+        }
+        if self.buckets.len() > MAX_BUCKETS {
+            return Err(format!(
+                "{} buckets, more than {MAX_BUCKETS}",
+                self.buckets.len()
+            ));
+        }
+        for (k, b) in &self.buckets {
+            let ok = b.count > 0
+                && b.min.is_finite()
+                && b.max.is_finite()
+                && 0.0 < b.min
+                && b.min <= b.max
+                && b.max <= MAX_ABS
+                && self.key(b.min) == *k
+                && self.key(b.max) == *k;
+            if !ok {
+                return Err(format!("malformed bucket {k}: {b:?}"));
+            }
+        }
+        Ok(())
+    }
+
     fn merge(&mut self, other: &Store) {
         self.raise_floor(other.floor_log2);
         for b in other.buckets.values() {
@@ -266,6 +300,30 @@ impl Stat {
         self.zeros += other.zeros;
         self.negative.merge(&other.negative);
         self.positive.merge(&other.positive);
+    }
+
+    /// Checks an accumulator read from a file (a shard): well-formed stores whose counts add
+    /// up to `n`, extremes consistent. The message names the part that is wrong.
+    pub fn check(&self) -> Result<(), String> {
+        for (sign, store) in [("negative", &self.negative), ("positive", &self.positive)] {
+            store.check().map_err(|e| format!("{sign} store: {e}"))?;
+        }
+        let counted: u64 = self.buckets().map(|(_, c)| c).sum();
+        if counted != self.n {
+            return Err(format!("buckets hold {counted} values, n = {}", self.n));
+        }
+        let consistent = match (self.min, self.max) {
+            (None, None) => self.n == 0,
+            (Some(lo), Some(hi)) => self.n > 0 && lo <= hi,
+            _ => false,
+        };
+        if !consistent {
+            return Err(format!(
+                "min {:?} / max {:?} do not fit n = {}",
+                self.min, self.max, self.n
+            ));
+        }
+        Ok(())
     }
 
     /// The buckets in ascending order of value: each bucket's representative value and

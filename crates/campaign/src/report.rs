@@ -503,6 +503,9 @@ pub fn merge_shards(files: &[ShardFile]) -> Result<(Scenario, Aggregate), Campai
                 m.shard
             )));
         }
+        f.aggregate
+            .check()
+            .map_err(|e| CampaignError::Other(format!("shard {} of {}: {e}", m.shard, m.shards)))?;
         agg.merge(&f.aggregate);
     }
     if let Some(k) = seen.iter().position(|s| !s) {

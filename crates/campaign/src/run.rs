@@ -171,6 +171,26 @@ impl Aggregate {
         self.failures.add(message);
     }
 
+    /// Checks an aggregate read from a file (a shard): every statistic well-formed (see
+    /// [`Stat::check`]). The message names the statistic.
+    pub fn check(&self) -> Result<(), String> {
+        for (name, stat) in &self.metrics {
+            stat.check().map_err(|e| format!("metric {name}: {e}"))?;
+        }
+        for (name, r) in &self.recovery {
+            for (part, stat) in [
+                ("error", &r.error),
+                ("abs_error", &r.abs_error),
+                ("z", &r.z),
+                ("std_error", &r.std_error),
+            ] {
+                stat.check()
+                    .map_err(|e| format!("recovery {name} {part}: {e}"))?;
+            }
+        }
+        Ok(())
+    }
+
     /// Adds another aggregate (another shard) exactly.
     pub fn merge(&mut self, other: &Aggregate) {
         self.trials += other.trials;

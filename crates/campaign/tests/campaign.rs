@@ -91,6 +91,19 @@ fn summary_is_byte_identical_for_1_2_3_threads_and_4_merged_shards() {
     let mut dup = shards.clone();
     dup[0] = shards[1].clone();
     assert!(merge_shards(&dup).is_err());
+    // A tampered shard is refused, naming the shard and the statistic.
+    let mut bad = shards.clone();
+    let stat = bad[2].aggregate.metrics.get_mut("after_mean_mm").unwrap();
+    stat.positive.floor_log2 = 999;
+    let msg = merge_shards(&bad).unwrap_err().to_string();
+    assert!(
+        msg.contains("shard 1 of 4") && msg.contains("after_mean_mm") && msg.contains("floor"),
+        "{msg}"
+    );
+    let mut bad = shards.clone();
+    bad[0].aggregate.metrics.get_mut("fit_rms_mm").unwrap().n += 1;
+    let msg = merge_shards(&bad).unwrap_err().to_string();
+    assert!(msg.contains("fit_rms_mm") && msg.contains("n = "), "{msg}");
 
     // A different seed gives a different summary.
     let mut other = loaded.clone();
