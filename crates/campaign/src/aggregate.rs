@@ -6,9 +6,9 @@
 //! - the count and the sums `Σq`, `Σq²` of the values quantised to fixed point,
 //!   `q = round(x · 2^FRAC_BITS)`, in `i128` — integer addition is associative, so any split
 //!   and order give the same sums (resolution 2^-32 ≈ 2.3·10⁻¹⁰ in the value's unit);
-//! - exact minimum and maximum;
 //! - for percentiles, a count of exact zeros and one [`Store`] of buckets per sign, each
-//!   bucket holding its count and the exact extremes of its values.
+//!   bucket holding its count and the exact extremes of its values (so the outermost
+//!   buckets give the exact minimum and maximum).
 //!
 //! ## The bucket stores: a fixed-size sketch that merges exactly
 //! A store with floor `F = 2^e` buckets a magnitude `m` as follows:
@@ -89,10 +89,6 @@ pub struct Stat {
     pub sum_q: i128,
     /// Σ round(x·2^FRAC_BITS)².
     pub sum_q2: i128,
-    /// Smallest value (None before the first).
-    pub min: Option<f64>,
-    /// Largest value.
-    pub max: Option<f64>,
     /// Values equal to zero.
     pub zeros: u64,
     /// Magnitudes of the negative values.
@@ -289,15 +285,10 @@ impl Stat {
             self.rejected += 1;
             return;
         }
-        // −0 becomes +0: `f64::min`/`max` may return either zero, which would make the
-        // extremes depend on the order of the values.
-        let x = x + 0.0;
         let q = (x * (1u64 << FRAC_BITS) as f64).round() as i128;
         self.n += 1;
         self.sum_q += q;
         self.sum_q2 += q * q;
-        self.min = Some(self.min.map_or(x, |m| m.min(x)));
-        self.max = Some(self.max.map_or(x, |m| m.max(x)));
         if x > 0.0 {
             self.positive.push(x);
         } else if x < 0.0 {
@@ -313,21 +304,13 @@ impl Stat {
         self.rejected += other.rejected;
         self.sum_q += other.sum_q;
         self.sum_q2 += other.sum_q2;
-        self.min = match (self.min, other.min) {
-            (Some(a), Some(b)) => Some(a.min(b)),
-            (a, b) => a.or(b),
-        };
-        self.max = match (self.max, other.max) {
-            (Some(a), Some(b)) => Some(a.max(b)),
-            (a, b) => a.or(b),
-        };
         self.zeros += other.zeros;
         self.negative.merge(&other.negative);
         self.positive.merge(&other.positive);
     }
 
     /// Checks an accumulator read from a file (a shard): well-formed stores whose counts add
-    /// up to `n`, extremes consistent. The message names the part that is wrong.
+    /// up to `n`. The message names the part that is wrong.
     pub fn check(&self) -> Result<(), String> {
         for (sign, store) in [("negative", &self.negative), ("positive", &self.positive)] {
             store.check().map_err(|e| format!("{sign} store: {e}"))?;
@@ -335,24 +318,6 @@ impl Stat {
         let counted: u64 = self.buckets().map(|(_, c)| c).sum();
         if counted != self.n {
             return Err(format!("buckets hold {counted} values, n = {}", self.n));
-        }
-        // The extremes are those of the outermost buckets.
-        let lowest = match (self.negative.buckets.last_key_value(), self.zeros) {
-            (Some((_, b)), _) => Some(-b.max),
-            (None, z) if z > 0 => Some(0.0),
-            _ => self.positive.buckets.first_key_value().map(|(_, b)| b.min),
-        };
-        let highest = match (self.positive.buckets.last_key_value(), self.zeros) {
-            (Some((_, b)), _) => Some(b.max),
-            (None, z) if z > 0 => Some(0.0),
-            _ => self.negative.buckets.first_key_value().map(|(_, b)| -b.min),
-        };
-        let consistent = self.min == lowest && self.max == highest;
-        if !consistent {
-            return Err(format!(
-                "min {:?} / max {:?} do not fit n = {}",
-                self.min, self.max, self.n
-            ));
         }
         Ok(())
     }
@@ -371,9 +336,23 @@ impl Stat {
         negative.chain(zeros).chain(positive)
     }
 
-    /// Number of buckets held (at most `2·MAX_BUCKETS + 1`).
-    pub fn bucket_count(&self) -> usize {
-        self.negative.buckets.len() + self.positive.buckets.len() + usize::from(self.zeros > 0)
+    /// The smallest value (exact: the outer extreme of the lowest bucket); `None` before
+    /// the first.
+    pub fn min(&self) -> Option<f64> {
+        match self.negative.buckets.last_key_value() {
+            Some((_, b)) => Some(-b.max),
+            None if self.zeros > 0 => Some(0.0),
+            None => self.positive.buckets.first_key_value().map(|(_, b)| b.min),
+        }
+    }
+
+    /// The largest value (exact, like [`Stat::min`]).
+    pub fn max(&self) -> Option<f64> {
+        match self.positive.buckets.last_key_value() {
+            Some((_, b)) => Some(b.max),
+            None if self.zeros > 0 => Some(0.0),
+            None => self.negative.buckets.first_key_value().map(|(_, b)| -b.min),
+        }
     }
 
     /// The value of the `rank`-th smallest (0-based), as its bucket's representative.
@@ -385,7 +364,7 @@ impl Stat {
                 return value;
             }
         }
-        self.max.unwrap_or(f64::NAN)
+        self.max().unwrap_or(f64::NAN)
     }
 
     /// Percentile `p` ∈ [0, 100] with linear interpolation between order statistics.
@@ -425,8 +404,8 @@ impl Stat {
             p5: self.percentile(5.0),
             p50: self.percentile(50.0),
             p95: self.percentile(95.0),
-            min: self.min.unwrap_or(f64::NAN),
-            max: self.max.unwrap_or(f64::NAN),
+            min: self.min().unwrap_or(f64::NAN),
+            max: self.max().unwrap_or(f64::NAN),
         })
     }
 }
@@ -695,6 +674,15 @@ mod tests {
                 );
             }
             s.check().unwrap();
+            // The extremes are exact.
+            let kept: Vec<f64> = v[..n]
+                .iter()
+                .copied()
+                .filter(|x| x.abs() <= MAX_ABS)
+                .collect();
+            let lowest = kept.iter().copied().fold(f64::INFINITY, f64::min);
+            let highest = kept.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+            assert_eq!((s.min(), s.max()), (Some(lowest), Some(highest)), "n = {n}");
         }
     }
 
@@ -745,7 +733,6 @@ mod tests {
             "bucket max moved into the next bucket",
         );
         refused(&|t| t.positive.floor_log2 -= 1, "floor lowered");
-        refused(&|t| t.min = Some(-1e9), "min beyond the buckets");
         refused(&|t| t.zeros += 1, "counts do not add up");
         let mut small = Stat::new();
         small.push(1.0);
