@@ -254,7 +254,7 @@ fn covariance_on(
         }
         Source::Fast => {
             let trig = PoseTrig::new(n, poses_rad);
-            let mut work = NormalWork::new(pf, robot.n_params());
+            let mut work = NormalWork::new(pf);
             let mut j = DMatrix::zeros(3 * m, pf);
             let cost = work.assemble_stacked(robot, &trig, points_mm, weights, free, &mut j);
             let mut a = DMatrix::zeros(pf, pf);

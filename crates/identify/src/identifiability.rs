@@ -404,7 +404,7 @@ struct Greedy {
 /// band left to the SVD, or `a` is not finite.
 fn greedy_cholesky(a: &DMatrix<f64>, priority: &[usize]) -> Option<Greedy> {
     let p = a.ncols();
-    if p == 0 || !a.iter().all(|v| v.is_finite()) {
+    if p == 0 || !a.as_slice().iter().all(|v| v.is_finite()) {
         return None;
     }
     // Column norms and the zero test of analyze_matrix, with a factor-2 margin.
@@ -434,39 +434,50 @@ fn greedy_cholesky(a: &DMatrix<f64>, priority: &[usize]) -> Option<Greedy> {
         }
     }
 
-    // Greedy Cholesky in priority order; `l` row-major (row i at i·p), `inv_d` the
-    // reciprocals of its diagonal (multiplications in the dependent chains, not divisions).
+    // Greedy Cholesky in priority order, right-looking: `m` holds the scaled matrix of the
+    // non-zero columns in priority order (column-major, lower triangle; entry (a, b), a ≥ b,
+    // is G̃'s entry in the column of the later one, as a left-looking factorisation reads
+    // it). A kept pivot's column becomes its column of L (multiplied by the reciprocal of
+    // the diagonal, not divided), and its outer product is subtracted from the trailing
+    // columns; a dropped one is skipped. Every entry thus receives the same operations in
+    // the same order as in the left-looking (row by row) form, bit for bit, while the
+    // trailing updates run over contiguous columns.
+    let order: Vec<usize> = priority.iter().copied().filter(|&k| !zero[k]).collect();
+    let n = order.len();
+    let mut m = vec![0.0; n * n];
+    for (b, &kb) in order.iter().enumerate() {
+        for (a, &ka) in order.iter().enumerate().skip(b) {
+            m[b * n + a] = gm[ka * p + kb];
+        }
+    }
     let mut kp: Vec<usize> = Vec::with_capacity(p);
-    let mut l = vec![0.0; p * p];
+    let mut pivots: Vec<usize> = Vec::with_capacity(p);
     let mut inv_d = vec![0.0; p];
-    let mut y = vec![0.0; p];
     let mut drops: Vec<usize> = Vec::new();
-    for &k in priority {
-        if zero[k] {
-            continue;
-        }
-        let r = kp.len();
-        let gk = &gm[k * p..(k + 1) * p];
-        let mut s = gk[k];
-        for i in 0..r {
-            let row = &l[i * p..i * p + i];
-            let mut v = gk[kp[i]];
-            for (lij, yj) in row.iter().zip(&y[..i]) {
-                v -= lij * yj;
-            }
-            y[i] = v * inv_d[i];
-            s -= y[i] * y[i];
-        }
+    for (b, &k) in order.iter().enumerate() {
+        let s = m[b * n + b];
         if s > CHOL_KEEP_S {
-            l[r * p..r * p + r].copy_from_slice(&y[..r]);
             let d = s.sqrt();
-            l[r * p + r] = d;
-            inv_d[r] = 1.0 / d;
+            let inv = 1.0 / d;
+            m[b * n + b] = d;
+            for v in &mut m[b * n + b + 1..(b + 1) * n] {
+                *v *= inv;
+            }
+            inv_d[kp.len()] = inv;
             kp.push(k);
+            pivots.push(b);
+            crate::linalg::rank1_downdate(&mut m, n, b);
         } else if s < CHOL_DROP_S {
             drops.push(k);
         } else {
             return None;
+        }
+    }
+    // `l` row-major (row i at i·p): row i holds L's entries of the i-th kept column.
+    let mut l = vec![0.0; p * p];
+    for (i, &a) in pivots.iter().enumerate() {
+        for (j, &b) in pivots.iter().enumerate().take(i + 1) {
+            l[i * p + j] = m[b * n + a];
         }
     }
     Some(Greedy {
@@ -657,7 +668,7 @@ pub fn cholesky_certifies(
     let m = poses_rad.len() / robot.n_joints();
     let pf = free.len();
     let trig = PoseTrig::new(robot.n_joints(), poses_rad);
-    let mut work = NormalWork::new(pf, robot.n_params());
+    let mut work = NormalWork::new(pf);
     let mut jac = DMatrix::zeros(3 * m, pf);
     let zeros = vec![nalgebra::Vector3::zeros(); m];
     work.assemble_stacked(robot, &trig, &zeros, weights, free, &mut jac);

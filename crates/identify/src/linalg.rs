@@ -242,6 +242,48 @@ pub(crate) fn cholesky_solve(l: &[f64], n: usize, b: &mut [f64]) {
     }
 }
 
+/// The trailing update of a right-looking Cholesky step at pivot `b` of the n × n
+/// column-major matrix `m` (lower triangle): `m_aj −= l_ab·l_jb` for b < j ≤ a < n, where
+/// column b already holds L's column. Vectorised at the run-time SIMD level; each entry
+/// gets one multiplication and one subtraction, so the bits do not depend on the width.
+pub(crate) fn rank1_downdate(m: &mut [f64], n: usize, b: usize) {
+    use kinematics::simd::{SimdLevel, simd_level};
+    match simd_level() {
+        #[cfg(target_arch = "x86_64")]
+        // SAFETY: simd_level() never returns a level the CPU does not support.
+        SimdLevel::Avx512 => unsafe { rank1_avx512(m, n, b) },
+        #[cfg(target_arch = "x86_64")]
+        // SAFETY: as above.
+        SimdLevel::Avx2 => unsafe { rank1_avx2(m, n, b) },
+        _ => rank1_impl(m, n, b),
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+fn rank1_avx512(m: &mut [f64], n: usize, b: usize) {
+    rank1_impl(m, n, b)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn rank1_avx2(m: &mut [f64], n: usize, b: usize) {
+    rank1_impl(m, n, b)
+}
+
+#[inline(always)]
+fn rank1_impl(m: &mut [f64], n: usize, b: usize) {
+    let (head, tail) = m.split_at_mut((b + 1) * n);
+    let col_b = &head[b * n..];
+    for (jj, col_j) in tail.chunks_exact_mut(n).enumerate() {
+        let j = b + 1 + jj;
+        let ljb = col_b[j];
+        for (v, lab) in col_j[j..].iter_mut().zip(&col_b[j..]) {
+            *v -= lab * ljb;
+        }
+    }
+}
+
 /// `y = A x` for a full (both triangles stored) n × n matrix, column by column.
 pub(crate) fn mat_vec(a: &[f64], n: usize, x: &[f64], y: &mut [f64]) {
     y[..n].fill(0.0);

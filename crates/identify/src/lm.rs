@@ -624,13 +624,13 @@ impl<'p> Assembler<'p> {
             } else {
                 PoseTrig::default()
             },
-            normal: fast.then(|| NormalWork::new(free.len(), problem.robot().n_params())),
+            normal: fast.then(|| NormalWork::new(free.len())),
         }
     }
 
     /// An assembler of the same data on the subset `free` of the free parameters, taking
     /// over this one's sines and cosines.
-    fn on_subset<'q>(&mut self, free: &'q [usize], n_params: usize) -> Assembler<'q>
+    fn on_subset<'q>(&mut self, free: &'q [usize]) -> Assembler<'q>
     where
         'p: 'q,
     {
@@ -641,10 +641,7 @@ impl<'p> Assembler<'p> {
             weights: self.weights,
             free,
             trig: std::mem::take(&mut self.trig),
-            normal: self
-                .normal
-                .is_some()
-                .then(|| NormalWork::new(free.len(), n_params)),
+            normal: self.normal.is_some().then(|| NormalWork::new(free.len())),
         }
     }
 
@@ -782,7 +779,7 @@ fn solve_on(
                 g.select_rows(kept.iter()),
                 cost,
             );
-            let mut asm = asm.on_subset(reduced.free(), problem.robot().n_params());
+            let mut asm = asm.on_subset(reduced.free());
             let mut sol = solve_free(path, &reduced, options, &mut asm, start)?;
             sol.held = held;
             return Ok(sol);

@@ -138,7 +138,7 @@ impl<'a> Problem<'a> {
             *g = DVector::zeros(pf);
         }
         let trig = PoseTrig::new(self.robot.n_joints(), self.poses_rad);
-        let mut work = NormalWork::new(pf, self.robot.n_params());
+        let mut work = NormalWork::new(pf);
         let cost = work.assemble(self.robot, &trig, self.points_mm, self.weights, &self.free);
         work.copy_to(a, g);
         cost
@@ -416,54 +416,68 @@ fn rss_impl(
     sum
 }
 
-/// Width the rows of the fast assembly are padded to: the widest vector (8 doubles).
-pub(crate) const LANES: usize = 8;
+/// Poses whose blocks are computed together ([`Robot::point_jacobian_lanes`]), one per lane.
+const L: usize = POSE_LANES;
 
-/// Poses whose blocks are computed together ([`Robot::point_jacobian_lanes`]) and added to
-/// `A` in one pass over it (each entry still receives the poses' contributions one after the
-/// other, in pose order: the same sums as pose by pose, with an eighth of the loads and
-/// stores of `A`).
-const GROUP: usize = POSE_LANES;
+/// `((v₀ + v₁) + (v₂ + v₃)) + ((v₄ + v₅) + (v₆ + v₇))`: the one fixed order in which the
+/// lanes' partial sums are added (the same bits at any vector width).
+#[inline(always)]
+fn lane_sum(v: &[f64; L]) -> f64 {
+    const { assert!(L == 8) };
+    ((v[0] + v[1]) + (v[2] + v[3])) + ((v[4] + v[5]) + (v[6] + v[7]))
+}
 
-/// Values of one block of [`LANES`] columns for the whole group: `3·GROUP·LANES`.
-const PANEL: usize = 3 * GROUP * LANES;
-
-/// Buffers of [`NormalWork::assemble`]: the upper triangle of `A = JᵀJ` in padded
-/// column-major storage (leading dimension `ld`, a multiple of [`LANES`]), `g = Jᵀe`, and the
-/// 3 × P blocks of up to [`GROUP`] poses.
+/// Buffers of [`NormalWork::assemble`]: the weighted Jacobian blocks and residuals of every
+/// group of [`POSE_LANES`] poses, and the assembled system.
+///
+/// The blocks stay in the layout the kinematics kernel writes them in (pose t of a group in
+/// lane t), so nothing is transposed. Every entry of `A = JᵀJ` and `g = Jᵀe` is summed lane
+/// by lane over the groups (lane t adds the poses t, t + 8, t + 16, … in pose order, each
+/// term `(x·x' + y·y') + z·z'`), then the eight lanes are added by [`lane_sum`]: element-wise
+/// operations in one fixed order (no FMA), hence the same bits at every vector width.
 pub(crate) struct NormalWork {
     pf: usize,
-    ld: usize,
-    /// `ld × pf`, column-major; entry (k, l), k ≤ l, at `l·ld + k`. Entries below the
-    /// diagonal inside a column's last block of [`LANES`] are scratch.
+    /// `pf + 1` rounded up to a multiple of [`TILE`]: columns per group in `b`.
+    pp: usize,
+    /// Entry (k, l), k ≤ l, of `A` at `l(l+1)/2 + k` (packed upper triangle, column by
+    /// column).
     a: Vec<f64>,
     g: Vec<f64>,
-    jac: Vec<[[f64; POSE_LANES]; 3]>,
-    /// The weighted blocks of the group's poses, block-major: entry (pose p, row c ∈ x, y,
-    /// z, column k) at `(k / LANES)·PANEL + (3p + c)·LANES + k % LANES` (columns past `pf`
-    /// zero; the rows of unused poses of a last, partial group are never read).
-    b: Vec<f64>,
-    e: [Vector3<f64>; GROUP],
+    /// Weighted blocks: `b[grp·pp + c][r][t]` = row r (x, y, z) of free column c at pose
+    /// `8·grp + t`, and in column `pf` the weighted residuals; zero in the lanes past the
+    /// last pose (zero weight: their terms are exact zeros, which leave every sum unchanged)
+    /// and in the padding columns. `g` is thus column `pf` of the same product. Grows to the
+    /// number of poses on first use.
+    b: Vec<[[f64; L]; 3]>,
+}
+
+/// Columns (and rows) of the tiles of `A` computed together by [`tile`]: each load of a
+/// block serves four entries, and the 4 × 4 accumulators plus the 8 blocks fit AVX-512's 32
+/// registers.
+const TILE: usize = 4;
+
+/// Index of entry (k, l), k ≤ l, in the packed upper triangle.
+#[inline(always)]
+fn tri(k: usize, l: usize) -> usize {
+    debug_assert!(k <= l);
+    l * (l + 1) / 2 + k
 }
 
 impl NormalWork {
     /// Buffers for `pf` free parameters of a robot with `np` parameters.
-    pub(crate) fn new(pf: usize, np: usize) -> Self {
-        let ld = pf.div_ceil(LANES) * LANES;
+    pub(crate) fn new(pf: usize) -> Self {
         NormalWork {
             pf,
-            ld,
-            a: vec![0.0; ld * pf],
-            g: vec![0.0; ld],
-            jac: vec![[[0.0; POSE_LANES]; 3]; np],
-            b: vec![0.0; ld / LANES * PANEL],
-            e: [Vector3::zeros(); GROUP],
+            pp: (pf + 1).div_ceil(TILE) * TILE,
+            a: vec![0.0; pf * (pf + 1) / 2],
+            g: vec![0.0; pf],
+            b: Vec::new(),
         }
     }
 
-    /// [`assemble_normal`] from precomputed sines and cosines of the poses, the rank-3
-    /// updates vectorised at the run-time [`simd_level`] (all levels give identical bits).
-    /// Returns the cost; the system stays in `self` ([`NormalWork::copy_to`]).
+    /// [`assemble_normal`] from precomputed sines and cosines of the poses, vectorised at
+    /// the run-time [`simd_level`] (all levels give identical bits). Returns the cost; the
+    /// system stays in `self` ([`NormalWork::copy_to`]).
     pub(crate) fn assemble(
         &mut self,
         robot: &Robot,
@@ -511,6 +525,10 @@ impl NormalWork {
         stack: Option<&mut [f64]>,
     ) -> f64 {
         debug_assert_eq!(free.len(), self.pf);
+        let groups = trig.n_blocks();
+        if self.b.len() < groups * self.pp {
+            self.b.resize(groups * self.pp, [[0.0; L]; 3]);
+        }
         match simd_level() {
             #[cfg(target_arch = "x86_64")]
             SimdLevel::Avx512 => {
@@ -566,89 +584,81 @@ impl NormalWork {
         mut stack: Option<&mut [f64]>,
         wide: bool,
     ) -> f64 {
-        // (`wide`: the register-hungry four-column kernel; a constant after inlining.)
-        let (pf, ld) = (self.pf, self.ld);
+        // (`wide`: the register-hungry 4 × 4 tiles; a constant after inlining.)
+        let (pf, pp) = (self.pf, self.pp);
         let mut cost = 0.0;
         let m = points_mm.len();
         let np = robot.n_params();
-        if trig.n_blocks() == 0 {
-            self.a.fill(0.0);
-            self.g.fill(0.0);
+        let groups = trig.n_blocks();
+        // Where the kinematics kernel puts each parameter's column: its position among the
+        // free ones, or nowhere.
+        let mut slot = [usize::MAX; MAX_PARAMS];
+        for (c, &k) in free.iter().enumerate() {
+            slot[k] = c;
         }
-        for block in 0..trig.n_blocks() {
-            let first = block * GROUP;
-            let count = GROUP.min(m - first);
-            let (sin_q, cos_q) = trig.lanes(block);
-            let p = robot.point_jacobian_lanes(sin_q, cos_q, &mut self.jac[..np]);
-            // w[r][t]: weight of row r (x, y, z) of pose t.
-            let mut w = [[1.0; GROUP]; 3];
+        for grp in 0..groups {
+            let first = grp * L;
+            let count = L.min(m - first);
+            let (sin_q, cos_q) = trig.lanes(grp);
+            let blocks = &mut self.b[grp * pp..(grp + 1) * pp];
+            let p = robot.point_jacobian_lanes_to(sin_q, cos_q, &slot[..np], &mut blocks[..pf]);
+            // w[r][t]: weight of row r (x, y, z) of pose t, zero past the last pose; the
+            // residuals go into the block after the last free column.
+            let mut w = [[0.0; L]; 3];
+            let mut e = [[0.0; L]; 3];
             for (t, meas) in points_mm[first..first + count].iter().enumerate() {
                 let wt = pose_weights(weights, first + t);
                 let pt = Vector3::new(p[0][t], p[1][t], p[2][t]);
-                let e = (meas - pt).component_mul(&wt);
-                cost += e.norm_squared();
-                self.e[t] = e;
-                for (wr, v) in w.iter_mut().zip(wt.iter()) {
-                    wr[t] = *v;
+                let et = (meas - pt).component_mul(&wt);
+                cost += et.norm_squared();
+                for r in 0..3 {
+                    w[r][t] = wt[r];
+                    e[r][t] = et[r];
                 }
             }
-            self.pack(free, weights.is_some().then_some(&w));
-            if let Some(st) = stack.as_deref_mut() {
-                let rows = 3 * m;
-                for c in 0..pf {
-                    let base = c / LANES * PANEL + c % LANES;
-                    for t in 0..count {
-                        let at = base + 3 * t * LANES;
-                        let j = first + t;
-                        st[c * rows + 3 * j] = self.b[at];
-                        st[c * rows + 3 * j + 1] = self.b[at + LANES];
-                        st[c * rows + 3 * j + 2] = self.b[at + 2 * LANES];
+            blocks[pf] = e;
+            if weights.is_some() {
+                for bc in &mut blocks[..pf] {
+                    let v = *bc;
+                    *bc = std::array::from_fn(|r| std::array::from_fn(|t| v[r][t] * w[r][t]));
+                }
+            } else if count < L {
+                // Unweighted, the factors would be 1 (exact, so skipped) and 0 past the last
+                // pose.
+                for bc in &mut blocks[..pf] {
+                    for row in bc.iter_mut() {
+                        row[count..].fill(0.0);
                     }
                 }
             }
-            let fresh = block == 0;
-            let (a, g, b, e) = (&mut self.a, &mut self.g, &self.b, &self.e[..count]);
-            if wide {
-                group_update::<COLS_WIDE, { COLS_WIDE / 2 }>(a, g, pf, ld, b, e, fresh);
-            } else {
-                group_update::<COLS_NARROW, COLS_NARROW>(a, g, pf, ld, b, e, fresh);
+            if let Some(st) = stack.as_deref_mut() {
+                let rows = 3 * m;
+                for (c, bc) in blocks[..pf].iter().enumerate() {
+                    for t in 0..count {
+                        for r in 0..3 {
+                            st[c * rows + 3 * (first + t) + r] = bc[r][t];
+                        }
+                    }
+                }
+            }
+        }
+        let b = &self.b[..groups * pp];
+        let (a, g) = (&mut self.a, &mut self.g);
+        for l0 in (0..=pf).step_by(TILE) {
+            for k0 in (0..=l0).step_by(TILE) {
+                if wide {
+                    store_tile(a, g, pf, k0, l0, &tile::<TILE, TILE>(b, pp, k0, l0));
+                } else {
+                    for i in 0..TILE {
+                        for j in 0..TILE {
+                            let v = tile::<1, 1>(b, pp, k0 + i, l0 + j);
+                            store_tile(a, g, pf, k0 + i, l0 + j, &v);
+                        }
+                    }
+                }
             }
         }
         cost
-    }
-
-    /// Packs the group's blocks into `b` (layout of [`NormalWork::b`]) from the Jacobian
-    /// lanes in `jac`: a transpose (parameters × poses → poses × parameters), each value
-    /// multiplied by its row's weight when weighted (`w[r][t]`; unweighted the factor would
-    /// be 1: exact, so it is skipped). Columns past `pf` stay zero (never written); rows of
-    /// the padding poses of a last, partial group hold the repeated last pose's values and
-    /// are never read. Element by element: every vectorised transpose tried (gathers,
-    /// shuffles) was slower.
-    #[inline(always)]
-    fn pack(&mut self, free: &[usize], w: Option<&[[f64; GROUP]; 3]>) {
-        for (c, &k) in free.iter().enumerate() {
-            let jk = &self.jac[k];
-            let dst: &mut [f64; PANEL - LANES + 1] = (&mut self.b[c / LANES * PANEL + c % LANES..]
-                [..PANEL - LANES + 1])
-                .try_into()
-                .expect("panel");
-            match w {
-                None => {
-                    for t in 0..GROUP {
-                        for r in 0..3 {
-                            dst[(3 * t + r) * LANES] = jk[r][t];
-                        }
-                    }
-                }
-                Some(w) => {
-                    for t in 0..GROUP {
-                        for r in 0..3 {
-                            dst[(3 * t + r) * LANES] = jk[r][t] * w[r][t];
-                        }
-                    }
-                }
-            }
-        }
     }
 
     /// The stacked weighted Jacobian `diag(w)·∂p/∂x_free` (3m × P) alone, into `jac`, from
@@ -689,17 +699,17 @@ impl NormalWork {
     /// result may differ from symmetric in the last bit, exactly as the two-step way):
     /// `sa` column-major P × P, `sg_l = s_l·g_l`.
     pub(crate) fn scaled_to(&self, s: &[f64], sa: &mut [f64], sg: &mut [f64]) {
-        let (pf, ld) = (self.pf, self.ld);
+        let pf = self.pf;
         debug_assert!(s.len() == pf && sa.len() == pf * pf && sg.len() == pf);
         for (l, col) in sa.chunks_exact_mut(pf).enumerate() {
             let sl = s[l];
             let (upper, lower) = col.split_at_mut(l + 1);
-            for ((d, v), sk) in upper.iter_mut().zip(&self.a[l * ld..]).zip(s) {
+            for ((d, v), sk) in upper.iter_mut().zip(&self.a[tri(0, l)..]).zip(s) {
                 *d = sk * v * sl;
             }
             for (i, d) in lower.iter_mut().enumerate() {
                 let k = l + 1 + i;
-                *d = s[k] * self.a[k * ld + l] * sl;
+                *d = s[k] * self.a[tri(l, k)] * sl;
             }
             sg[l] = sl * self.g[l];
         }
@@ -707,11 +717,11 @@ impl NormalWork {
 
     /// The assembled system as a full symmetric `a` (P × P) and `g`.
     pub(crate) fn copy_to(&self, a: &mut DMatrix<f64>, g: &mut DVector<f64>) {
-        let (pf, ld) = (self.pf, self.ld);
+        let pf = self.pf;
         debug_assert_eq!(a.shape(), (pf, pf));
         for l in 0..pf {
             for k in 0..=l {
-                let v = self.a[l * ld + k];
+                let v = self.a[tri(k, l)];
                 a[(k, l)] = v;
                 a[(l, k)] = v;
             }
@@ -720,141 +730,53 @@ impl NormalWork {
     }
 }
 
-/// Columns of `A` updated together by [`group_update`] at each vector width (they share
-/// every load of the panel; more columns than registers would spill): four with AVX-512's
-/// 32 registers, one with SSE2's and AVX2's 16.
-const COLS_WIDE: usize = 4;
-const COLS_NARROW: usize = 1;
-
-/// `g += Σ_p B_pᵀ e_p` and the upper triangle of `A += Σ_p B_pᵀ B_p` for the blocks `B_p`
-/// of the group's live poses (`e.len()` of them) in `b` (layout of [`NormalWork`], padded
-/// with zero columns to `ld`, a multiple of [`LANES`]); with `fresh`, `A` and `g` start from
-/// zero instead of their contents (the first group: no separate zeroing pass). Every entry
-/// adds the poses' terms `(x·x_l + y·y_l) + z·z_l` one after the other, exactly as a
-/// pose-by-pose accumulation would (no FMA, so the same bits at any vector width and for any
-/// `COLS`; the padding poses a fixed-size group would add are exact zeros, which leave a sum
-/// that started at +0 unchanged, so they are skipped). The loops run over whole blocks of
-/// [`LANES`] rows and `COLS` columns at a time (a small GEMM micro-kernel: each load of the
-/// panel serves `COLS` columns, `COLS` independent accumulation chains; the columns' own
-/// values are broadcast straight from the panel), which is what lets them vectorise at any
-/// width and keep the arithmetic units busy.
+/// The lane sums of the entries (k0 + i, l0 + j), i < K, j < C, of `A` (column `pf`: of
+/// `g`): over the groups of `b` (`pp` blocks each), lane by lane,
+/// `(x_k·x_l + y_k·y_l) + z_k·z_l` added in group order to a sum starting at zero. A K × C
+/// micro-kernel: each block loaded serves C or K entries, and the K·C sums are independent
+/// accumulation chains.
 #[inline(always)]
-fn group_update<const COLS: usize, const HALF: usize>(
-    a: &mut [f64],
-    g: &mut [f64],
-    pf: usize,
-    ld: usize,
-    b: &[f64],
-    e: &[Vector3<f64>],
-    fresh: bool,
-) {
-    debug_assert!(e.len() <= GROUP && LANES.is_multiple_of(COLS));
-    let panel = |blk: usize| -> &[f64; PANEL] {
-        b[blk * PANEL..(blk + 1) * PANEL].try_into().expect("panel")
-    };
-    let lane = |pn: &[f64; PANEL], p: usize, c: usize| -> [f64; LANES] {
-        pn[(3 * p + c) * LANES..(3 * p + c + 1) * LANES]
-            .try_into()
-            .expect("lanes")
-    };
-    for (blk, gk) in g[..ld].chunks_exact_mut(LANES).enumerate() {
-        let pn = panel(blk);
-        let mut acc: [f64; LANES] = if fresh {
-            [0.0; LANES]
-        } else {
-            (&*gk).try_into().expect("block")
-        };
-        for (p, ep) in e.iter().enumerate() {
-            let (x, y, z) = (lane(pn, p, 0), lane(pn, p, 1), lane(pn, p, 2));
-            for t in 0..LANES {
-                acc[t] += x[t] * ep.x + y[t] * ep.y + z[t] * ep.z;
-            }
-        }
-        gk.copy_from_slice(&acc);
-    }
-    for l0 in (0..pf).step_by(COLS) {
-        let ncols = COLS.min(pf - l0);
-        // The columns l0..l0 + COLS lie in one block of the panel (COLS divides LANES).
-        let own = panel(l0 / LANES);
-        let off = l0 % LANES;
-        let diag = l0 / LANES;
-        let cols = ColTile {
-            own,
-            off,
-            l0,
-            ncols,
-        };
-        for blk in 0..diag {
-            cols.update::<LANES, COLS>(a, ld, panel(blk), blk, e.len(), fresh);
-        }
-        // The diagonal block: rows past the last column are scratch, so only its first half
-        // is computed when that holds every row needed.
-        if off + ncols <= LANES / 2 {
-            if ncols <= HALF {
-                cols.update::<{ LANES / 2 }, HALF>(a, ld, panel(diag), diag, e.len(), fresh);
-            } else {
-                cols.update::<{ LANES / 2 }, COLS>(a, ld, panel(diag), diag, e.len(), fresh);
-            }
-        } else if ncols <= HALF {
-            cols.update::<LANES, HALF>(a, ld, panel(diag), diag, e.len(), fresh);
-        } else {
-            cols.update::<LANES, COLS>(a, ld, panel(diag), diag, e.len(), fresh);
-        }
-    }
-}
-
-/// Up to `COLS` consecutive columns `l0..l0 + ncols` of `A` whose values (the group's
-/// blocks) sit at offset `off` of the panel block `own`.
-struct ColTile<'b> {
-    own: &'b [f64; PANEL],
-    off: usize,
+fn tile<const K: usize, const C: usize>(
+    b: &[[[f64; L]; 3]],
+    pp: usize,
+    k0: usize,
     l0: usize,
-    ncols: usize,
-}
-
-impl ColTile<'_> {
-    /// Rows `blk·LANES..blk·LANES + R` of the columns (`C ≥ ncols` of them computed, the
-    /// extra ones from the panel's zero padding or the next columns, and not stored): each
-    /// entry adds the `poses` poses' terms in pose order (or starts from zero when `fresh`).
-    #[inline(always)]
-    fn update<const R: usize, const C: usize>(
-        &self,
-        a: &mut [f64],
-        ld: usize,
-        pn: &[f64; PANEL],
-        blk: usize,
-        poses: usize,
-        fresh: bool,
-    ) {
-        let (own, off, l0, ncols) = (self.own, self.off, self.l0, self.ncols);
-        debug_assert!(ncols <= C && off + C <= LANES);
-        let mut acc = [[0.0; R]; C];
-        if !fresh {
-            for (c, ac) in acc.iter_mut().enumerate().take(ncols) {
-                let at = (l0 + c) * ld + blk * LANES;
-                *ac = a[at..at + R].try_into().expect("block");
-            }
-        }
-        for p in 0..poses {
-            let row = |r: usize| -> &[f64; R] {
-                pn[(3 * p + r) * LANES..][..R].try_into().expect("rows")
-            };
-            let col = |r: usize| -> &[f64; C] {
-                own[(3 * p + r) * LANES + off..][..C]
-                    .try_into()
-                    .expect("cols")
-            };
-            let (x, y, z) = (row(0), row(1), row(2));
-            let (xl, yl, zl) = (col(0), col(1), col(2));
-            for c in 0..C {
-                for t in 0..R {
-                    acc[c][t] += x[t] * xl[c] + y[t] * yl[c] + z[t] * zl[c];
+) -> [[[f64; L]; C]; K] {
+    let mut acc = [[[0.0; L]; C]; K];
+    for blocks in b.chunks_exact(pp) {
+        let bk: &[[[f64; L]; 3]; K] = blocks[k0..k0 + K].try_into().expect("rows");
+        let bl: &[[[f64; L]; 3]; C] = blocks[l0..l0 + C].try_into().expect("columns");
+        for (ai, bki) in acc.iter_mut().zip(bk) {
+            for (aij, blj) in ai.iter_mut().zip(bl) {
+                for t in 0..L {
+                    aij[t] += bki[0][t] * blj[0][t] + bki[1][t] * blj[1][t] + bki[2][t] * blj[2][t];
                 }
             }
         }
-        for (c, ac) in acc.iter().enumerate().take(ncols) {
-            let at = (l0 + c) * ld + blk * LANES;
-            a[at..at + R].copy_from_slice(ac);
+    }
+    acc
+}
+
+/// Stores the [`lane_sum`]s of a [`tile`] at (k0, l0) of a `pf`-column system: the entries
+/// on or above the diagonal into the packed triangle `a`, those of column `pf` (the
+/// residuals' column) into `g`.
+#[inline(always)]
+fn store_tile<const K: usize, const C: usize>(
+    a: &mut [f64],
+    g: &mut [f64],
+    pf: usize,
+    k0: usize,
+    l0: usize,
+    acc: &[[[f64; L]; C]; K],
+) {
+    for (i, ai) in acc.iter().enumerate() {
+        for (j, aij) in ai.iter().enumerate() {
+            let (k, l) = (k0 + i, l0 + j);
+            if k <= l && l < pf {
+                a[tri(k, l)] = lane_sum(aij);
+            } else if l == pf && k < pf {
+                g[k] = lane_sum(aij);
+            }
         }
     }
 }

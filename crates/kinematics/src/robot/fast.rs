@@ -345,10 +345,19 @@ impl Robot {
     ) -> V3<L> {
         let np = self.layout.len();
         assert!(jac.len() >= np, "Jacobian buffer length");
+        self.point_jacobian_each(s, cq, |k, v| jac[k] = [v.x, v.y, v.z])
+    }
+
+    /// Point and Jacobian per lane, each column handed to `set(k, ∂p/∂param_k)` as it is
+    /// computed (in no particular order of k).
+    #[inline(always)]
+    fn point_jacobian_each<const L: usize>(
+        &self,
+        s: &[Lanes<L>],
+        cq: &[Lanes<L>],
+        mut set: impl FnMut(usize, &V3<L>),
+    ) -> V3<L> {
         let p = self.point_generic(s, cq);
-        let mut set = |k: usize, v: &V3<L>| {
-            jac[k] = [v.x, v.y, v.z];
-        };
         let bc = columns(&self.base_frame);
         let mut c = [V3::splat(&bc[0]), V3::splat(&bc[1]), V3::splat(&bc[2])];
         let mut o = V3::splat(&self.base_frame.pos_mm);
@@ -414,6 +423,31 @@ impl Robot {
             "joint vector length"
         );
         let p = self.point_jacobian_generic(sin_q, cos_q, jac);
+        [p.x, p.y, p.z]
+    }
+
+    /// [`Robot::point_jacobian_lanes`] for the columns `slot` selects: the lanes of
+    /// `∂p/∂param_k` go to `out[slot[k]]`, or nowhere when `slot[k]` is out of range (e.g.
+    /// `usize::MAX`; `slot` holds `n_params()` entries). Each column's
+    /// values are bit for bit those of [`Robot::point_jacobian_lanes`].
+    #[inline(always)]
+    pub fn point_jacobian_lanes_to(
+        &self,
+        sin_q: &[[f64; POSE_LANES]],
+        cos_q: &[[f64; POSE_LANES]],
+        slot: &[usize],
+        out: &mut [[[f64; POSE_LANES]; 3]],
+    ) -> [[f64; POSE_LANES]; 3] {
+        assert!(
+            sin_q.len() == self.links.len() && cos_q.len() == self.links.len(),
+            "joint vector length"
+        );
+        assert_eq!(slot.len(), self.layout.len(), "one slot per parameter");
+        let p = self.point_jacobian_each(sin_q, cos_q, |k, v| {
+            if let Some(dst) = out.get_mut(slot[k]) {
+                *dst = [v.x, v.y, v.z];
+            }
+        });
         [p.x, p.y, p.z]
     }
 
