@@ -607,6 +607,12 @@ struct Assembler<'p> {
     free: &'p [usize],
     trig: PoseTrig,
     normal: Option<NormalWork>,
+    /// The system at the last trial point, assembled with its cost
+    /// ([`Assembler::trial_cost`]) and taken over if the step is accepted
+    /// ([`Assembler::accept_scaled`]).
+    spare: Option<NormalWork>,
+    /// Whether `spare` holds the system at the last trial point.
+    spare_valid: bool,
 }
 
 impl<'p> Assembler<'p> {
@@ -625,6 +631,8 @@ impl<'p> Assembler<'p> {
                 PoseTrig::default()
             },
             normal: fast.then(|| NormalWork::new(free.len())),
+            spare: fast.then(|| NormalWork::new(free.len())),
+            spare_valid: false,
         }
     }
 
@@ -642,6 +650,8 @@ impl<'p> Assembler<'p> {
             free,
             trig: std::mem::take(&mut self.trig),
             normal: self.normal.is_some().then(|| NormalWork::new(free.len())),
+            spare: self.spare.is_some().then(|| NormalWork::new(free.len())),
+            spare_valid: false,
         }
     }
 
@@ -697,11 +707,45 @@ impl<'p> Assembler<'p> {
         }
     }
 
-    /// The cost at `robot` (bit for bit the cost [`Assembler::assemble`] returns).
-    fn cost(&self, robot: &Robot) -> f64 {
-        match self.path {
-            Path::Fast => weighted_rss_trig(robot, &self.trig, self.points, self.weights),
-            Path::Reference => weighted_rss(robot, self.poses, self.points, self.weights),
+    /// The cost at the trial point `robot` (bit for bit the cost [`Assembler::assemble`]
+    /// returns). With `speculate` (fast path), the whole system there is assembled on the
+    /// way, so that an accepted step needs no second pass over the poses
+    /// ([`Assembler::accept_scaled`]); a rejected one then wasted an assembly, so the caller
+    /// speculates only after an accepted step.
+    fn trial_cost(&mut self, robot: &Robot, speculate: bool) -> f64 {
+        self.spare_valid = false;
+        match (&mut self.spare, speculate) {
+            (Some(spare), true) => {
+                self.spare_valid = true;
+                spare.assemble(robot, &self.trig, self.points, self.weights, self.free)
+            }
+            _ => match self.path {
+                Path::Fast => weighted_rss_trig(robot, &self.trig, self.points, self.weights),
+                Path::Reference => weighted_rss(robot, self.poses, self.points, self.weights),
+            },
+        }
+    }
+
+    /// [`Assembler::assemble_scaled`] at the trial point `robot` of an accepted step,
+    /// taking over the system [`Assembler::trial_cost`] assembled there if it did (the same
+    /// bits); returns the cost.
+    fn accept_scaled(
+        &mut self,
+        robot: &Robot,
+        a: &mut DMatrix<f64>,
+        g: &mut DVector<f64>,
+        scale: &[f64],
+        sys: &mut Scaled,
+        cost_trial: f64,
+    ) -> f64 {
+        match (&mut self.normal, &mut self.spare) {
+            (Some(normal), Some(spare)) if self.spare_valid => {
+                std::mem::swap(normal, spare);
+                self.spare_valid = false;
+                normal.scaled_to(scale, sys.a.as_mut_slice(), sys.g.as_mut_slice());
+                cost_trial
+            }
+            _ => self.assemble_scaled(robot, a, g, scale, sys),
         }
     }
 }
@@ -885,7 +929,7 @@ fn solve_free(
                 xt[k] = x[k] + scale[c] * step[c];
             }
             trial.set_params(&xt)?;
-            let cost_trial = asm.cost(&trial);
+            let cost_trial = asm.trial_cost(&trial, rejections == 0);
             if !cost_trial.is_finite() {
                 return Err(IdentifyError::NonFiniteStep {
                     iteration: iterations,
@@ -923,7 +967,7 @@ fn solve_free(
                 std::mem::swap(&mut x, &mut xt);
                 std::mem::swap(&mut robot, &mut trial);
                 let cost_old = cost;
-                cost = asm.assemble_scaled(&robot, &mut a, &mut g, &scale, &mut sys);
+                cost = asm.accept_scaled(&robot, &mut a, &mut g, &scale, &mut sys, cost_trial);
                 if !cost.is_finite() || !sys.finite() {
                     return Err(IdentifyError::NonFiniteStep {
                         iteration: iterations,
