@@ -569,7 +569,7 @@ impl NormalWork {
                 // SAFETY: as above.
                 unsafe { self.assemble_avx2(robot, trig, points_mm, weights, free, stack) }
             }
-            _ => self.assemble_impl(robot, trig, points_mm, weights, free, stack, false),
+            _ => self.assemble_impl(robot, trig, points_mm, weights, free, stack, 2),
         }
     }
 
@@ -584,7 +584,7 @@ impl NormalWork {
         free: &[usize],
         stack: Option<&mut [f64]>,
     ) -> f64 {
-        self.assemble_impl(robot, trig, points_mm, weights, free, stack, true)
+        self.assemble_impl(robot, trig, points_mm, weights, free, stack, 8)
     }
 
     #[cfg(target_arch = "x86_64")]
@@ -598,7 +598,7 @@ impl NormalWork {
         free: &[usize],
         stack: Option<&mut [f64]>,
     ) -> f64 {
-        self.assemble_impl(robot, trig, points_mm, weights, free, stack, false)
+        self.assemble_impl(robot, trig, points_mm, weights, free, stack, 4)
     }
 
     #[inline(always)]
@@ -611,9 +611,10 @@ impl NormalWork {
         weights: Option<&[f64]>,
         free: &[usize],
         mut stack: Option<&mut [f64]>,
-        wide: bool,
+        width: usize,
     ) -> f64 {
-        // (`wide`: the register-hungry 4 × 4 tiles; a constant after inlining.)
+        // (`width`: doubles per vector register, which sets the shape of the tiles' register
+        // blocks; a constant after inlining.)
         let (pf, pp) = (self.pf, self.pp);
         let mut cost = 0.0;
         let m = points_mm.len();
@@ -646,7 +647,9 @@ impl NormalWork {
                 }
             }
             blocks[pf] = e;
-            blocks[pf + 1..].fill([[0.0; L]; 3]);
+            if pf + 1 < pp {
+                blocks[pf + 1..].fill([[0.0; L]; 3]);
+            }
             if weights.is_some() {
                 for bc in &mut blocks[..pf] {
                     let v = *bc;
@@ -676,16 +679,15 @@ impl NormalWork {
         let (a, g) = (&mut self.a, &mut self.g);
         for l0 in (0..=pf).step_by(TILE) {
             for k0 in (0..=l0).step_by(TILE) {
-                if wide {
-                    store_tile(a, g, pf, k0, l0, &tile::<TILE, TILE>(b, pp, k0, l0));
-                } else {
-                    for i in 0..TILE {
-                        for j in 0..TILE {
-                            let v = tile::<1, 1>(b, pp, k0 + i, l0 + j);
-                            store_tile(a, g, pf, k0 + i, l0 + j, &v);
-                        }
-                    }
-                }
+                // Register blocks: 4 × 4 entries of 8 lanes with AVX-512's 32 registers,
+                // 2 × 2 of 4 lanes with AVX2's 16, 2 × 2 of 2 lanes with SSE2's 16 (the
+                // fastest of the shapes tried at each width; LM solve 46 / 68 / 92 µs).
+                let sums = match width {
+                    8 => tile::<TILE, TILE, 8>(b, pp, k0, l0),
+                    4 => tile::<2, 2, 4>(b, pp, k0, l0),
+                    _ => tile::<2, 2, 2>(b, pp, k0, l0),
+                };
+                store_tile(a, g, pf, k0, l0, &sums);
             }
         }
         cost
@@ -760,31 +762,49 @@ impl NormalWork {
     }
 }
 
-/// The lane sums of the entries (k0 + i, l0 + j), i < K, j < C, of `A` (column `pf`: of
-/// `g`): over the groups of `b` (`pp` blocks each), lane by lane,
-/// `(x_k·x_l + y_k·y_l) + z_k·z_l` added in group order to a sum starting at zero. A K × C
-/// micro-kernel: each block loaded serves C or K entries, and the K·C sums are independent
-/// accumulation chains.
+/// The lane sums of the [`TILE`] × [`TILE`] entries (k0 + i, l0 + j) of `A` (column `pf`:
+/// of `g`): over the groups of `b` (`pp` blocks each), lane by lane,
+/// `(x_k·x_l + y_k·y_l) + z_k·z_l` added in group order to a sum starting at zero. Computed
+/// in register blocks of K × C entries and W lanes (each block loaded serves C or K entries,
+/// and the K·C·W sums are independent accumulation chains); the lanes are independent, so
+/// the shape changes no bit.
 #[inline(always)]
-fn tile<const K: usize, const C: usize>(
+fn tile<const K: usize, const C: usize, const W: usize>(
     b: &[[[f64; L]; 3]],
     pp: usize,
     k0: usize,
     l0: usize,
-) -> [[[f64; L]; C]; K] {
-    let mut acc = [[[0.0; L]; C]; K];
-    for blocks in b.chunks_exact(pp) {
-        let bk: &[[[f64; L]; 3]; K] = blocks[k0..k0 + K].try_into().expect("rows");
-        let bl: &[[[f64; L]; 3]; C] = blocks[l0..l0 + C].try_into().expect("columns");
-        for (ai, bki) in acc.iter_mut().zip(bk) {
-            for (aij, blj) in ai.iter_mut().zip(bl) {
-                for t in 0..L {
-                    aij[t] += bki[0][t] * blj[0][t] + bki[1][t] * blj[1][t] + bki[2][t] * blj[2][t];
+) -> [[[f64; L]; TILE]; TILE] {
+    let mut out = [[[0.0; L]; TILE]; TILE];
+    for kk in (0..TILE).step_by(K) {
+        for jj in (0..TILE).step_by(C) {
+            for lane0 in (0..L).step_by(W) {
+                let mut acc = [[[0.0; W]; C]; K];
+                for blocks in b.chunks_exact(pp) {
+                    let bk: &[[[f64; L]; 3]; K] =
+                        blocks[k0 + kk..k0 + kk + K].try_into().expect("rows");
+                    let bl: &[[[f64; L]; 3]; C] =
+                        blocks[l0 + jj..l0 + jj + C].try_into().expect("columns");
+                    for (ai, bki) in acc.iter_mut().zip(bk) {
+                        for (aij, blj) in ai.iter_mut().zip(bl) {
+                            for (t, v) in aij.iter_mut().enumerate() {
+                                let u = lane0 + t;
+                                *v += bki[0][u] * blj[0][u]
+                                    + bki[1][u] * blj[1][u]
+                                    + bki[2][u] * blj[2][u];
+                            }
+                        }
+                    }
+                }
+                for (i, ai) in acc.iter().enumerate() {
+                    for (j, aij) in ai.iter().enumerate() {
+                        out[kk + i][jj + j][lane0..lane0 + W].copy_from_slice(aij);
+                    }
                 }
             }
         }
     }
-    acc
+    out
 }
 
 /// Stores the [`lane_sum`]s of a [`tile`] at (k0, l0) of a `pf`-column system: the entries
