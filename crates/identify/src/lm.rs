@@ -794,10 +794,25 @@ fn solve_on(
     options: &LmOptions,
     ident: &IdentifiabilityOptions,
 ) -> Result<LmSolution, IdentifyError> {
+    solve_speculating(path, problem, options, ident, true)
+}
+
+/// [`solve_on`], with or without the trial-point assembly of [`Assembler::trial_cost`]
+/// (which changes no bit of the result; the tests compare both).
+fn solve_speculating(
+    path: Path,
+    problem: &Problem,
+    options: &LmOptions,
+    ident: &IdentifiabilityOptions,
+    speculate: bool,
+) -> Result<LmSolution, IdentifyError> {
     options.validate()?;
     let free = problem.free();
     let pf = free.len();
     let mut asm = Assembler::new(path, problem, free);
+    if !speculate {
+        asm.spare = None;
+    }
     let mut a = DMatrix::zeros(pf, pf);
     let mut g = DVector::zeros(pf);
     let cost = asm.assemble(problem.robot(), &mut a, &mut g);
@@ -1045,4 +1060,70 @@ fn solve_free(
         gradient_cosine,
         held: Vec::new(),
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use kinematics::{RobotSpec, Unit};
+    use nalgebra::Vector3;
+
+    /// The trial-point assembly changes no bit of the iteration or of the final system, on
+    /// runs where steps are rejected in mid-run (the next accepted step must not take over
+    /// the system of a rejected trial point) and at the end; and the final system is the
+    /// one assembled afresh at the solution.
+    #[test]
+    fn speculative_assembly_changes_no_bit() {
+        let text = include_str!("../../../scenarios/robots/kr1000-titan.json");
+        let nominal = Robot::from_spec(&RobotSpec::from_json_str(text, "kr1000").unwrap()).unwrap();
+        // Far from the truth (45° on every angle, 300 mm on every length): the undamped
+        // steps overshoot and are rejected again and again.
+        let mut x = nominal.params();
+        for (k, v) in x.iter_mut().enumerate() {
+            let sign = if k % 2 == 0 { 1.0 } else { -1.0 };
+            *v += sign
+                * match nominal.layout().get(k).unit {
+                    Unit::Deg => 45f64.to_radians(),
+                    _ => 300.0,
+                };
+        }
+        let truth = nominal.with_params(&x).unwrap();
+        let poses = crate::random_poses(&nominal, 50, 501).unwrap();
+        let points: Vec<Vector3<f64>> = truth
+            .points(&poses)
+            .iter()
+            .enumerate()
+            .map(|(j, p)| p + Vector3::new(0.01, -0.02, 0.015) * ((j as f64) * 0.7).sin())
+            .collect();
+        let all: Vec<usize> = (0..nominal.n_params()).collect();
+        let problem = Problem::new(&nominal, &poses, &points, all).unwrap();
+        let ident = IdentifiabilityOptions::default();
+        let mut mid_run = 0;
+        for damping in [
+            Damping::levenberg(),
+            Damping::nielsen(),
+            Damping::marquardt(),
+        ] {
+            let opts = LmOptions::with_damping(damping);
+            let with = solve_speculating(Path::Fast, &problem, &opts, &ident, true).unwrap();
+            let without = solve_speculating(Path::Fast, &problem, &opts, &ident, false).unwrap();
+            let marks: String = with
+                .trace
+                .iter()
+                .map(|t| if t.accepted { 'A' } else { 'r' })
+                .collect();
+            mid_run += usize::from(marks.contains("rA"));
+            assert_eq!(with.trace, without.trace, "{damping:?}: {marks}");
+            assert_eq!(with.params, without.params, "{damping:?}");
+            assert_eq!(with.cost.to_bits(), without.cost.to_bits(), "{damping:?}");
+            let (sw, so) = (with.system.unwrap(), without.system.unwrap());
+            assert_eq!(sw.a, so.a, "{damping:?}: final system");
+            // ... which is the system at the solution.
+            let solved = Problem::new(&with.robot, &poses, &points, sw.free.clone()).unwrap();
+            let (mut a, mut g) = (DMatrix::zeros(0, 0), DVector::zeros(0));
+            solved.normal_equations(&mut a, &mut g);
+            assert_eq!(sw.a, a, "{damping:?}: system at the solution");
+        }
+        assert!(mid_run >= 2, "{mid_run} runs with a rejection in mid-run");
+    }
 }

@@ -451,9 +451,8 @@ pub(crate) struct NormalWork {
     b: Vec<[[f64; L]; 3]>,
 }
 
-/// Columns (and rows) of the tiles of `A` computed together by [`tile`]: each load of a
-/// block serves four entries, and the 4 × 4 accumulators plus the 8 blocks fit AVX-512's 32
-/// registers.
+/// Columns (and rows) of the tiles of `A` computed together by [`tile`] (in register blocks
+/// whose shape depends on the vector width); `b` is padded to whole tiles.
 const TILE: usize = 4;
 
 thread_local! {

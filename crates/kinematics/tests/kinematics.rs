@@ -220,6 +220,21 @@ fn lane_kernels_match_the_one_pose_kernels_bit_for_bit() {
             let p = r.point_lanes(s, c);
             let pj = r.point_jacobian_lanes(s, c, &mut jac);
             assert_eq!(p, pj);
+            // The selected columns in the slots asked for, the others nowhere (a
+            // sentinel stays in the spare slot).
+            let chosen: Vec<usize> = (0..np).filter(|k| (k + case) % 3 != 0).collect();
+            let mut slot = vec![usize::MAX; np];
+            for (c, &k) in chosen.iter().enumerate() {
+                slot[k] = chosen.len() - 1 - c;
+            }
+            let sentinel = [[f64::NAN; POSE_LANES]; 3];
+            let mut out = vec![sentinel; chosen.len() + 1];
+            let pm = r.point_jacobian_lanes_to(s, c, &slot, &mut out);
+            assert_eq!(p, pm);
+            for (c, &k) in chosen.iter().enumerate() {
+                assert_eq!(out[chosen.len() - 1 - c], jac[k], "column {k}");
+            }
+            assert!(out[chosen.len()].iter().flatten().all(|v| v.is_nan()));
             for t in 0..POSE_LANES {
                 let j = (b * POSE_LANES + t).min(m - 1);
                 let (mut jx, mut jy, mut jz) = (vec![0.0; np], vec![0.0; np], vec![0.0; np]);
