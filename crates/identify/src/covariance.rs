@@ -27,7 +27,10 @@ use crate::identifiability::{
     IdentifiabilityOptions, analyze_matrix, free_priority, kept_by_cholesky,
 };
 use crate::lm::{FinalSystem, LmSolution};
-use crate::problem::{NormalWork, Problem, weighted_jacobian, weighted_rss, weighted_rss_trig};
+use crate::problem::{
+    NormalWork, Problem, check_free, check_poses, check_weights, weighted_jacobian, weighted_rss,
+    weighted_rss_trig,
+};
 
 /// A pair of parameters with a large correlation.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -88,6 +91,10 @@ impl Covariance {
 /// between exact redundancies and the identifiable directions, the usual case; see
 /// [`crate::identifiability`]); otherwise from the SVD as described above. The two agree to
 /// ~1e-9 relative.
+///
+/// Errors on inputs that do not fit: poses not a whole number of joint vectors or not
+/// finite, a point count other than the pose count, weights other than 3 per pose, free
+/// indices out of range or repeated.
 #[allow(clippy::too_many_arguments)]
 pub fn covariance(
     robot: &Robot,
@@ -98,6 +105,18 @@ pub fn covariance(
     opts: &IdentifiabilityOptions,
     correlation_flag: f64,
 ) -> Result<Option<Covariance>, IdentifyError> {
+    let m = check_poses(robot, poses_rad)?;
+    if points_mm.len() != m {
+        return Err(IdentifyError::PointCount {
+            poses: m,
+            points: points_mm.len(),
+        });
+    }
+    if let Some(w) = weights {
+        check_weights(w, 3 * m)?;
+    }
+    // (Checked on a copy: the caller's order is the order of the result.)
+    check_free(robot, free.to_vec())?;
     covariance_on(
         Source::Fast,
         robot,

@@ -1037,7 +1037,12 @@ fn solve_free(
 
     let gradient_cosine = sys.gradient_cosine(cost);
     let system = (path == Path::Fast).then(|| {
-        asm.unscaled(&mut a, &mut g);
+        // Without an accepted step `a` is still the start system (on a subset of the free
+        // parameters, a block of the one assembled on all of them: the same bits, each entry
+        // being its own sum), and this assembler has assembled nothing.
+        if accepted_steps > 0 {
+            asm.unscaled(&mut a, &mut g);
+        }
         Arc::new(FinalSystem {
             trig: std::mem::take(&mut asm.trig),
             a,
@@ -1125,5 +1130,18 @@ mod tests {
             assert_eq!(sw.a, a, "{damping:?}: system at the solution");
         }
         assert!(mid_run >= 2, "{mid_run} runs with a rejection in mid-run");
+
+        // No step at all (the start is the solution; 7 parameters held): the final system
+        // is still the one at the solution.
+        let exact = nominal.points(&poses);
+        let all: Vec<usize> = (0..nominal.n_params()).collect();
+        let problem = Problem::new(&nominal, &poses, &exact, all).unwrap();
+        let sol = solve(&problem, &LmOptions::default()).unwrap();
+        assert_eq!((sol.iterations, sol.held.len()), (0, 7));
+        let sys = sol.system.unwrap();
+        let solved = Problem::new(&nominal, &poses, &exact, sys.free.clone()).unwrap();
+        let (mut a, mut g) = (DMatrix::zeros(0, 0), DVector::zeros(0));
+        solved.normal_equations(&mut a, &mut g);
+        assert_eq!(sys.a, a, "system without a step");
     }
 }

@@ -445,9 +445,11 @@ pub(crate) struct NormalWork {
     g: Vec<f64>,
     /// Weighted blocks: `b[grp·pp + c][r][t]` = row r (x, y, z) of free column c at pose
     /// `8·grp + t`, and in column `pf` the weighted residuals; zero in the lanes past the
-    /// last pose (zero weight: their terms are exact zeros, which leave every sum unchanged)
-    /// and in the padding columns. `g` is thus column `pf` of the same product. Grows to the
-    /// number of poses on first use; every block is written before it is read.
+    /// last pose (zero weight: their terms are exact zeros, which leave every sum
+    /// unchanged). `g` is thus column `pf` of the same product. Grows to the number of poses
+    /// on first use. Columns 0..=pf are written by every assembly before they are read; the
+    /// padding columns past `pf` hold whatever the buffer held (it is reused unzeroed), which
+    /// reaches only tile entries that are never stored (each lane and entry is its own sum).
     b: Vec<[[f64; L]; 3]>,
 }
 
@@ -458,13 +460,14 @@ const TILE: usize = 4;
 thread_local! {
     /// Block buffers of dropped [`NormalWork`]s, reused by the next ones on the thread: a
     /// solve makes several, and a campaign thread runs thousands of solves, so this saves
-    /// an allocation and the zeroing of some 40 KB per buffer. Their contents are never read
-    /// before being written ([`NormalWork::assemble`] writes every block it reads).
+    /// an allocation and the zeroing of some 40 KB per buffer. What they held never reaches
+    /// a result (see the `b` field of [`NormalWork`]).
     static BLOCK_POOL: std::cell::RefCell<Vec<Vec<[[f64; L]; 3]>>> =
         const { std::cell::RefCell::new(Vec::new()) };
 }
 
-/// Buffers kept in [`BLOCK_POOL`] per thread (a solve holds at most three at once).
+/// Buffers kept in [`BLOCK_POOL`] per thread (a solve holds at most four at once: a normal
+/// and a spare system on all free columns, and on the solved ones when some are held).
 const POOL_SIZE: usize = 4;
 
 impl Drop for NormalWork {
@@ -623,6 +626,11 @@ impl NormalWork {
         // free ones, or nowhere.
         let mut slot = [usize::MAX; MAX_PARAMS];
         for (c, &k) in free.iter().enumerate() {
+            // Every free column must be written (the buffers are reused unzeroed).
+            assert!(
+                k < np && slot[k] == usize::MAX,
+                "free parameter indices must be distinct and below n_params"
+            );
             slot[k] = c;
         }
         for grp in 0..groups {
@@ -646,9 +654,6 @@ impl NormalWork {
                 }
             }
             blocks[pf] = e;
-            if pf + 1 < pp {
-                blocks[pf + 1..].fill([[0.0; L]; 3]);
-            }
             if weights.is_some() {
                 for bc in &mut blocks[..pf] {
                     let v = *bc;

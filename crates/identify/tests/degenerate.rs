@@ -167,3 +167,50 @@ fn uniform_weights_are_invariant() {
         assert!((sa - sb).abs() < 1e-6 * sa, "{}: {sa} vs {sb}", a.name);
     }
 }
+
+/// `covariance` refuses what `Problem::new` refuses: repeated or out-of-range free indices,
+/// a point per pose missing, poses that are not whole joint vectors, wrong weight counts.
+#[test]
+fn covariance_checks_its_inputs() {
+    let robot = kr1000(TOOL);
+    let p = poses(&robot, 20, 3);
+    let meas = noisy(&robot.points(&p), 0.02, 4);
+    let opts = identify::IdentifiabilityOptions::default();
+    let cov = |poses: &[f64], points: &[Vector3<f64>], w: Option<&[f64]>, free: &[usize]| {
+        identify::covariance(&robot, poses, points, w, free, &opts, 0.9)
+    };
+    assert!(cov(&p, &meas, None, &[0, 5, 9]).unwrap().is_some());
+    let err = cov(&p, &meas, None, &[0, 5, 5, 9]).unwrap_err();
+    assert!(
+        matches!(&err, IdentifyError::DuplicateFree { name } if name == "d2"),
+        "{err}"
+    );
+    let err = cov(&p, &meas, None, &[0, 34]).unwrap_err();
+    assert!(
+        matches!(
+            err,
+            IdentifyError::FreeIndex {
+                index: 34,
+                n_params: 34
+            }
+        ),
+        "{err}"
+    );
+    let err = cov(&p, &meas[..19], None, &[0]).unwrap_err();
+    assert!(
+        matches!(
+            err,
+            IdentifyError::PointCount {
+                poses: 20,
+                points: 19
+            }
+        ),
+        "{err}"
+    );
+    assert!(matches!(
+        cov(&p[..119], &meas, None, &[0]).unwrap_err(),
+        IdentifyError::PoseLength { .. }
+    ));
+    let w = vec![1.0; 59];
+    assert!(cov(&p, &meas, Some(&w), &[0]).is_err());
+}
