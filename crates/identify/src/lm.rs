@@ -675,31 +675,6 @@ impl<'p> Assembler<'p> {
         }
     }
 
-    /// [`Assembler::assemble`] straight into the column-scaled system `sys` (the fast path
-    /// skips the full unscaled matrix: same bits as assembling into `a`, `g` and
-    /// [`Scaled::set`]); `a`, `g` are then stale until [`Assembler::unscaled`].
-    fn assemble_scaled(
-        &mut self,
-        robot: &Robot,
-        a: &mut DMatrix<f64>,
-        g: &mut DVector<f64>,
-        scale: &[f64],
-        sys: &mut Scaled,
-    ) -> f64 {
-        match &mut self.normal {
-            Some(normal) => {
-                let cost = normal.assemble(robot, &self.trig, self.points, self.weights, self.free);
-                normal.scaled_to(scale, sys.a.as_mut_slice(), sys.g.as_mut_slice());
-                cost
-            }
-            None => {
-                let cost = self.assemble(robot, a, g);
-                sys.set(a, g, scale);
-                cost
-            }
-        }
-    }
-
     /// Brings `a`, `g` up to date with the last assembly.
     fn unscaled(&self, a: &mut DMatrix<f64>, g: &mut DVector<f64>) {
         if let Some(normal) = &self.normal {
@@ -726,9 +701,12 @@ impl<'p> Assembler<'p> {
         }
     }
 
-    /// [`Assembler::assemble_scaled`] at the trial point `robot` of an accepted step,
-    /// taking over the system [`Assembler::trial_cost`] assembled there if it did (the same
-    /// bits); returns the cost.
+    /// The system at `robot`, the new point of an accepted step, straight into the
+    /// column-scaled `sys`; returns the cost (`cost_trial`, computed there by
+    /// [`Assembler::trial_cost`]). The fast path takes over the system `trial_cost` assembled
+    /// there if it did (the same bits), and skips the full unscaled matrix (the same bits as
+    /// assembling into `a`, `g` and [`Scaled::set`]): `a`, `g` are then stale until
+    /// [`Assembler::unscaled`].
     fn accept_scaled(
         &mut self,
         robot: &Robot,
@@ -738,14 +716,24 @@ impl<'p> Assembler<'p> {
         sys: &mut Scaled,
         cost_trial: f64,
     ) -> f64 {
-        match (&mut self.normal, &mut self.spare) {
-            (Some(normal), Some(spare)) if self.spare_valid => {
-                std::mem::swap(normal, spare);
-                self.spare_valid = false;
+        let speculated = std::mem::take(&mut self.spare_valid);
+        match self.normal.as_mut() {
+            Some(normal) => {
+                let cost = match self.spare.as_mut() {
+                    Some(spare) if speculated => {
+                        std::mem::swap(normal, spare);
+                        cost_trial
+                    }
+                    _ => normal.assemble(robot, &self.trig, self.points, self.weights, self.free),
+                };
                 normal.scaled_to(scale, sys.a.as_mut_slice(), sys.g.as_mut_slice());
-                cost_trial
+                cost
             }
-            _ => self.assemble_scaled(robot, a, g, scale, sys),
+            None => {
+                let cost = self.assemble(robot, a, g);
+                sys.set(a, g, scale);
+                cost
+            }
         }
     }
 }

@@ -620,63 +620,27 @@ impl NormalWork {
         let (pf, pp) = (self.pf, self.pp);
         let mut cost = 0.0;
         let m = points_mm.len();
-        let np = robot.n_params();
         let groups = trig.n_blocks();
-        // Where the kinematics kernel puts each parameter's column: its position among the
-        // free ones, or nowhere.
-        let mut slot = [usize::MAX; MAX_PARAMS];
-        for (c, &k) in free.iter().enumerate() {
-            // Every free column must be written (the buffers are reused unzeroed).
-            assert!(
-                k < np && slot[k] == usize::MAX,
-                "free parameter indices must be distinct and below n_params"
-            );
-            slot[k] = c;
-        }
+        let slot = free_slots(robot, free);
         for grp in 0..groups {
             let first = grp * L;
             let count = L.min(m - first);
-            let (sin_q, cos_q) = trig.lanes(grp);
             let blocks = &mut self.b[grp * pp..(grp + 1) * pp];
-            let p = robot.point_jacobian_lanes_to(sin_q, cos_q, &slot[..np], &mut blocks[..pf]);
-            // w[r][t]: weight of row r (x, y, z) of pose t, zero past the last pose; the
-            // residuals go into the block after the last free column.
-            let mut w = [[0.0; L]; 3];
+            let (p, w) = weighted_blocks(robot, trig, grp, &slot, weights, &mut blocks[..pf]);
+            // The weighted residuals go into the block after the last free column.
             let mut e = [[0.0; L]; 3];
             for (t, meas) in points_mm[first..first + count].iter().enumerate() {
-                let wt = pose_weights(weights, first + t);
+                let wt = Vector3::new(w[0][t], w[1][t], w[2][t]);
                 let pt = Vector3::new(p[0][t], p[1][t], p[2][t]);
                 let et = (meas - pt).component_mul(&wt);
                 cost += et.norm_squared();
                 for r in 0..3 {
-                    w[r][t] = wt[r];
                     e[r][t] = et[r];
                 }
             }
             blocks[pf] = e;
-            if weights.is_some() {
-                for bc in &mut blocks[..pf] {
-                    let v = *bc;
-                    *bc = std::array::from_fn(|r| std::array::from_fn(|t| v[r][t] * w[r][t]));
-                }
-            } else if count < L {
-                // Unweighted, the factors would be 1 (exact, so skipped) and 0 past the last
-                // pose.
-                for bc in &mut blocks[..pf] {
-                    for row in bc.iter_mut() {
-                        row[count..].fill(0.0);
-                    }
-                }
-            }
             if let Some(st) = stack.as_deref_mut() {
-                let rows = 3 * m;
-                for (c, bc) in blocks[..pf].iter().enumerate() {
-                    for t in 0..count {
-                        for r in 0..3 {
-                            st[c * rows + 3 * (first + t) + r] = bc[r][t];
-                        }
-                    }
-                }
+                scatter_stacked(&blocks[..pf], first, count, 3 * m, st);
             }
         }
         let b = &self.b[..groups * pp];
@@ -708,25 +672,12 @@ impl NormalWork {
     ) {
         let m = trig.n_poses();
         assert_eq!(jac.shape(), (3 * m, free.len()), "Jacobian shape");
-        let np = robot.n_params();
-        let rows = 3 * m;
-        let st = jac.as_mut_slice();
-        let mut lanes = vec![[[0.0; POSE_LANES]; 3]; np];
-        for block in 0..trig.n_blocks() {
-            let first = block * POSE_LANES;
-            let count = POSE_LANES.min(m - first);
-            let (sin_q, cos_q) = trig.lanes(block);
-            robot.point_jacobian_lanes(sin_q, cos_q, &mut lanes);
-            for t in 0..count {
-                let j = first + t;
-                let w = pose_weights(weights, j);
-                for (c, &k) in free.iter().enumerate() {
-                    let jk = &lanes[k];
-                    st[c * rows + 3 * j] = jk[0][t] * w.x;
-                    st[c * rows + 3 * j + 1] = jk[1][t] * w.y;
-                    st[c * rows + 3 * j + 2] = jk[2][t] * w.z;
-                }
-            }
+        let slot = free_slots(robot, free);
+        let mut blocks = vec![[[0.0; L]; 3]; free.len()];
+        for grp in 0..trig.n_blocks() {
+            let first = grp * L;
+            weighted_blocks(robot, trig, grp, &slot, weights, &mut blocks);
+            scatter_stacked(&blocks, first, L.min(m - first), 3 * m, jac.as_mut_slice());
         }
     }
 
@@ -762,6 +713,82 @@ impl NormalWork {
                 a[(l, k)] = v;
             }
             g[l] = self.g[l];
+        }
+    }
+}
+
+/// Where [`weighted_blocks`] puts each parameter's column: its position among the free
+/// ones, or nowhere (`usize::MAX`).
+///
+/// Panics unless the free indices are distinct and below `n_params()`: every free column
+/// must be written, since the block buffers are reused unzeroed.
+fn free_slots(robot: &Robot, free: &[usize]) -> [usize; MAX_PARAMS] {
+    let np = robot.n_params();
+    let mut slot = [usize::MAX; MAX_PARAMS];
+    for (c, &k) in free.iter().enumerate() {
+        assert!(
+            k < np && slot[k] == usize::MAX,
+            "free parameter indices must be distinct and below n_params"
+        );
+        slot[k] = c;
+    }
+    slot
+}
+
+/// The weighted blocks of the free columns of pose group `grp` into `blocks` (one per free
+/// column, `slot` from [`free_slots`]): `blocks[c][r][t] = w[r][t]·∂p_r/∂x_c` of pose
+/// `8·grp + t`, zero in the lanes past the last pose. Returns the points' lanes and the
+/// weights `w[r][t]` (zero past the last pose). Unweighted, the factors would be 1 (exact),
+/// so only the lanes past the last pose are cleared.
+#[inline(always)]
+fn weighted_blocks(
+    robot: &Robot,
+    trig: &PoseTrig,
+    grp: usize,
+    slot: &[usize; MAX_PARAMS],
+    weights: Option<&[f64]>,
+    blocks: &mut [[[f64; L]; 3]],
+) -> ([[f64; L]; 3], [[f64; L]; 3]) {
+    let first = grp * L;
+    let count = L.min(trig.n_poses() - first);
+    let (sin_q, cos_q) = trig.lanes(grp);
+    let p = robot.point_jacobian_lanes_to(sin_q, cos_q, &slot[..robot.n_params()], blocks);
+    let mut w = [[0.0; L]; 3];
+    for (r, wr) in w.iter_mut().enumerate() {
+        for (t, v) in wr[..count].iter_mut().enumerate() {
+            *v = pose_weights(weights, first + t)[r];
+        }
+    }
+    if weights.is_some() {
+        for bc in blocks.iter_mut() {
+            let v = *bc;
+            *bc = std::array::from_fn(|r| std::array::from_fn(|t| v[r][t] * w[r][t]));
+        }
+    } else if count < L {
+        for bc in blocks.iter_mut() {
+            for row in bc.iter_mut() {
+                row[count..].fill(0.0);
+            }
+        }
+    }
+    (p, w)
+}
+
+/// The `count` live poses of a group's blocks (first pose `first`) into the stacked
+/// column-major Jacobian `st` (`rows` = 3m rows, one column per block).
+#[inline(always)]
+fn scatter_stacked(
+    blocks: &[[[f64; L]; 3]],
+    first: usize,
+    count: usize,
+    rows: usize,
+    st: &mut [f64],
+) {
+    for (col, bc) in st.chunks_exact_mut(rows).zip(blocks) {
+        for t in 0..count {
+            for r in 0..3 {
+                col[3 * (first + t) + r] = bc[r][t];
+            }
         }
     }
 }
@@ -815,13 +842,13 @@ fn tile<const K: usize, const C: usize, const W: usize>(
 /// on or above the diagonal into the packed triangle `a`, those of column `pf` (the
 /// residuals' column) into `g`.
 #[inline(always)]
-fn store_tile<const K: usize, const C: usize>(
+fn store_tile(
     a: &mut [f64],
     g: &mut [f64],
     pf: usize,
     k0: usize,
     l0: usize,
-    acc: &[[[f64; L]; C]; K],
+    acc: &[[[f64; L]; TILE]; TILE],
 ) {
     for (i, ai) in acc.iter().enumerate() {
         for (j, aij) in ai.iter().enumerate() {
