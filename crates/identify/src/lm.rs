@@ -887,7 +887,8 @@ fn solve_free(
         _ => 0.0,
     };
 
-    let mut work = DMatrix::zeros(pf, pf);
+    // (`work`: the reference path's damped matrix, sized on first use.)
+    let mut work = DMatrix::zeros(0, 0);
     let mut pad = Vec::new();
     let mut step = DVector::zeros(pf);
     let mut a_step = DVector::zeros(pf);
