@@ -219,7 +219,8 @@ pub enum Redundant {
     /// greedy Cholesky of the column-scaled start system drops, from the lowest priority up,
     /// columns within rounding of the span of those kept, and the SVD decides when a column
     /// is not clearly in or out. With the clear gap of exact redundancies (the usual case)
-    /// the solved parameters are what [`crate::ParamSet::Minimal`] keeps there. For redundancies that hold at every parameter value (d1 ↔ base_dz, θ6/d6/a6/α6
+    /// the solved parameters are what [`crate::ParamSet::Minimal`] keeps there. For
+    /// redundancies that hold at every parameter value (d1 ↔ base_dz, θ6/d6/a6/α6
     /// ↔ the ball offset, …) the fit is the same as [`Redundant::Damp`]'s: the held columns
     /// stay combinations of the solved ones. For redundancies that hold only at the nominal
     /// geometry (the UR10's parallel axes), damping lets the solver creep along a valley that

@@ -571,7 +571,7 @@ impl NormalWork {
                 // SAFETY: as above.
                 unsafe { self.assemble_avx2(robot, trig, points_mm, weights, free, stack) }
             }
-            _ => self.assemble_impl(robot, trig, points_mm, weights, free, stack, 2),
+            _ => self.assemble_impl(robot, trig, points_mm, weights, free, stack),
         }
     }
 
@@ -586,7 +586,7 @@ impl NormalWork {
         free: &[usize],
         stack: Option<&mut [f64]>,
     ) -> f64 {
-        self.assemble_impl(robot, trig, points_mm, weights, free, stack, 8)
+        self.assemble_impl(robot, trig, points_mm, weights, free, stack)
     }
 
     #[cfg(target_arch = "x86_64")]
@@ -600,7 +600,7 @@ impl NormalWork {
         free: &[usize],
         stack: Option<&mut [f64]>,
     ) -> f64 {
-        self.assemble_impl(robot, trig, points_mm, weights, free, stack, 4)
+        self.assemble_impl(robot, trig, points_mm, weights, free, stack)
     }
 
     #[inline(always)]
@@ -613,10 +613,7 @@ impl NormalWork {
         weights: Option<&[f64]>,
         free: &[usize],
         mut stack: Option<&mut [f64]>,
-        width: usize,
     ) -> f64 {
-        // (`width`: doubles per vector register, which sets the shape of the tiles' register
-        // blocks; a constant after inlining.)
         let (pf, pp) = (self.pf, self.pp);
         let mut cost = 0.0;
         let m = points_mm.len();
@@ -643,19 +640,7 @@ impl NormalWork {
                 scatter_stacked(&blocks[..pf], first, count, 3 * m, st);
             }
         }
-        let b = &self.b[..groups * pp];
-        let (a, g) = (&mut self.a, &mut self.g);
-        // The products in functions of their own (their code does not depend on how the
-        // kinematics above was inlined and vectorised).
-        match width {
-            #[cfg(target_arch = "x86_64")]
-            // SAFETY: `width` 8 is passed only under AVX-512 (see `dispatch`).
-            8 => unsafe { products_avx512(b, pp, pf, a, g) },
-            #[cfg(target_arch = "x86_64")]
-            // SAFETY: `width` 4 is passed only under AVX2 (see `dispatch`).
-            4 => unsafe { products_avx2(b, pp, pf, a, g) },
-            _ => products_portable(b, pp, pf, a, g),
-        }
+        products(&self.b[..groups * pp], pp, pf, &mut self.a, &mut self.g);
         cost
     }
 
@@ -793,11 +778,28 @@ fn scatter_stacked(
 }
 
 /// Every entry of `A` (packed upper triangle) and `g` from the blocks `b` (`pp` per group),
-/// with AVX-512: the [`tile`]s computed in one register block of 4 × 4 entries of 8 lanes
-/// (16 of the 32 registers), the lane sums of each tile's 16 entries added as vectors
-/// ([`lane_sums8_avx512`]). The same operations in the same order as [`tile`] and
-/// [`lane_sum`], written with intrinsics: left to the compiler, a `-C target-cpu=native`
-/// build on Zen 5 turned the loop into gathers and ran the LM solve 2.3× slower.
+/// at the run-time SIMD level (all levels give identical bits). Each level's function is
+/// kept out of line, apart from the kinematics of [`NormalWork::assemble`], so that its code
+/// does not depend on how that was inlined and vectorised.
+#[inline(always)]
+fn products(b: &[[[f64; L]; 3]], pp: usize, pf: usize, a: &mut [f64], g: &mut [f64]) {
+    match simd_level() {
+        #[cfg(target_arch = "x86_64")]
+        // SAFETY: simd_level() never returns a level the CPU does not support.
+        SimdLevel::Avx512 => unsafe { products_avx512(b, pp, pf, a, g) },
+        #[cfg(target_arch = "x86_64")]
+        // SAFETY: as above.
+        SimdLevel::Avx2 => unsafe { products_avx2(b, pp, pf, a, g) },
+        _ => products_portable(b, pp, pf, a, g),
+    }
+}
+
+/// [`products`] with AVX-512: the [`tile`]s computed in one register block of 4 × 4
+/// entries of 8 lanes (16 of the 32 registers), the lane sums of each tile's 16 entries
+/// added as vectors ([`lane_sums8_avx512`]). The same operations in the same order as
+/// [`tile`] and [`lane_sum`], written with intrinsics: left to the compiler, a
+/// `-C target-cpu=native` build on Zen 5 turned the loop into gathers and ran the LM solve
+/// 2.3× slower.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f")]
 #[inline(never)]
@@ -880,25 +882,26 @@ fn pair_sums_avx512(
     )
 }
 
-/// [`products_avx512`] in register blocks of 2 × 2 entries of 4 lanes (AVX2's 16 registers).
+/// [`products`] with AVX2: register blocks of 2 × 2 entries of 4 lanes (16 registers).
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
 #[inline(never)]
 fn products_avx2(b: &[[[f64; L]; 3]], pp: usize, pf: usize, a: &mut [f64], g: &mut [f64]) {
-    products::<2, 2, 4>(b, pp, pf, a, g)
+    products_tiled::<2, 2, 4>(b, pp, pf, a, g)
 }
 
-/// [`products_avx512`] in register blocks of 2 × 2 entries of 2 lanes (SSE2's 16 registers).
+/// [`products`] on the baseline build: register blocks of 2 × 2 entries of 2 lanes (SSE2's
+/// 16 registers).
 #[inline(never)]
 fn products_portable(b: &[[[f64; L]; 3]], pp: usize, pf: usize, a: &mut [f64], g: &mut [f64]) {
-    products::<2, 2, 2>(b, pp, pf, a, g)
+    products_tiled::<2, 2, 2>(b, pp, pf, a, g)
 }
 
 /// The tiles of `A` and `g` on or above the diagonal, by [`tile`] in register blocks
 /// K × C × W (the fastest shapes tried at each width; the shape changes no bit) and
 /// [`lane_sum`] per entry.
 #[inline(always)]
-fn products<const K: usize, const C: usize, const W: usize>(
+fn products_tiled<const K: usize, const C: usize, const W: usize>(
     b: &[[[f64; L]; 3]],
     pp: usize,
     pf: usize,

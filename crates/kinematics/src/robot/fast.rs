@@ -428,8 +428,8 @@ impl Robot {
 
     /// [`Robot::point_jacobian_lanes`] for the columns `slot` selects: the lanes of
     /// `∂p/∂param_k` go to `out[slot[k]]`, or nowhere when `slot[k]` is out of range (e.g.
-    /// `usize::MAX`; `slot` holds `n_params()` entries). Each column's
-    /// values are bit for bit those of [`Robot::point_jacobian_lanes`].
+    /// `usize::MAX`; `slot` holds `n_params()` entries). Each column's values are bit for
+    /// bit those of [`Robot::point_jacobian_lanes`].
     #[inline(always)]
     pub fn point_jacobian_lanes_to(
         &self,
