@@ -70,7 +70,7 @@ fn default_trials() -> u64 {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct IdentificationConfig {
-    /// `"paper"` (all parameters, the paper's 34) [default], `"minimal"`, or
+    /// `"paper"` (all parameters, the paper's 34) \[default\], `"minimal"`, or
     /// `{"names": [..]}`.
     pub params: ParamSet,
     /// Solver options: damping schedule and its settings, column scaling, stopping tests.
@@ -111,7 +111,7 @@ pub struct CompensationConfig {
     /// Compensate and re-measure [true]. Off: the "after" figures are the identified model's
     /// prediction errors on the validation measurements instead.
     pub enabled: bool,
-    /// IK iteration cap [100].
+    /// IK iteration cap \[100\].
     pub max_iterations: usize,
     /// IK position tolerance, mm [1e-6].
     pub tol_pos_mm: f64,
@@ -149,11 +149,11 @@ pub struct IsoConfig {
     /// Joint configuration (deg) whose flange orientation every test pose holds, and from
     /// which the cube search solves IK [(0, 20, −20, 0, 60, 0): arm forward, wrist bent].
     pub reference_q_deg: Vec<f64>,
-    /// Largest cube edge searched, mm [1500].
+    /// Largest cube edge searched, mm \[1500\].
     pub max_edge_mm: f64,
-    /// Smallest acceptable cube edge, mm [100].
+    /// Smallest acceptable cube edge, mm \[100\].
     pub min_edge_mm: f64,
-    /// Grid step of candidate cube centres around the reference point, mm [250].
+    /// Grid step of candidate cube centres around the reference point, mm \[250\].
     pub centre_step_mm: f64,
     /// Candidate centres per axis on each side of the reference point [2 → 5×5×5 grid].
     pub centre_half_count: usize,
@@ -203,7 +203,7 @@ pub struct Scenario {
     pub tool_mm: Option<[f64; 3]>,
     /// Seed of every random stream.
     pub seed: u64,
-    /// Monte Carlo trials [200].
+    /// Monte Carlo trials \[200\].
     #[serde(default = "default_trials")]
     pub trials: u64,
     /// Injected geometric errors.

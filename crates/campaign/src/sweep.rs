@@ -55,7 +55,7 @@ pub struct PlotSpec {
     /// Path of the x axis (must be one of the axes, with numeric values) [the first axis].
     #[serde(default)]
     pub x: Option<String>,
-    /// Metric on y (a `summary.json` metric; its mean over trials) [after_mean_mm].
+    /// Metric on y (a `summary.json` metric; its mean over trials) \[after_mean_mm\].
     #[serde(default = "default_y")]
     pub y: String,
     /// Logarithmic y axis [false].

@@ -270,7 +270,7 @@ pub struct TrialResult {
     pub predicted_error_mm: f64,
     /// Recovery per minimal-set parameter (when enabled and computable).
     pub recovery: Vec<ParameterRecovery>,
-    /// Observability indices O1–O5 of the identification poses ([`observability`]).
+    /// Observability indices O1–O5 of the identification poses (spec §3; see [`Observability`]).
     pub observability: Option<Observability>,
     /// ISO 9283 results (when enabled).
     pub iso: Option<IsoReport>,

@@ -123,7 +123,7 @@ impl Fit {
 }
 
 /// Identifies the free parameters of `problem`: registers the base if the policy says so,
-/// runs [`solve`], and forms the covariance of the identifiable free parameters.
+/// runs [`solve`](crate::solve), and forms the covariance of the identifiable free parameters.
 ///
 /// Registration only re-expresses the base parameters of the start model (whether or not
 /// they are free); the free set is kept as given. A `minimal` set resolved on the

@@ -214,7 +214,7 @@ impl Damping {
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Redundant {
-    /// Hold them at their start values and solve on the identifiable rest [default]. Which
+    /// Hold them at their start values and solve on the identifiable rest \[default\]. Which
     /// ones are held follows the minimal set's priority ([`crate::identifiability`]): a
     /// greedy Cholesky of the column-scaled start system drops, from the lowest priority up,
     /// columns within rounding of the span of those kept, and the SVD decides when a column

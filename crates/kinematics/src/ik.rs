@@ -53,7 +53,7 @@ impl IkTarget {
 /// Options of [`Robot::solve_ik`]. Defaults in brackets.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct IkOptions {
-    /// Iteration cap, counting rejected steps [100].
+    /// Iteration cap, counting rejected steps \[100\].
     pub max_iterations: usize,
     /// Position error accepted as converged, mm [1e-6].
     pub tol_pos_mm: f64,
@@ -68,7 +68,7 @@ pub struct IkOptions {
     /// down to respect it, so that an ill-conditioned Jacobian near a singularity cannot
     /// throw the solve into another branch or against a limit.
     pub max_step_rad: f64,
-    /// Stages of the path fallback when the direct solve fails [8; < 2 disables it].
+    /// Stages of the path fallback when the direct solve fails \[8; < 2 disables it\].
     pub path_stages: usize,
 }
 
