@@ -315,20 +315,21 @@ impl Robot {
         let mut v = V3::splat(&t);
         for ((l, sq), cq) in self.links.iter().zip(s).zip(c).rev() {
             let (st, ct) = angle(l, sq, cq);
-            for k in 0..L {
-                let (mut x, mut y, mut z) = (v.x[k], v.y[k], v.z[k]);
-                if l.sin_beta != 0.0 {
-                    let xb = l.cos_beta * x + l.sin_beta * z;
-                    z = l.cos_beta * z - l.sin_beta * x;
-                    x = xb;
+            // Per lane: Ry(β), Rx(α), the offset a, Rz(θ+q) and the offset d, each a loop of
+            // its own (the β test outside), so that every one is vectorised.
+            if l.sin_beta != 0.0 {
+                for k in 0..L {
+                    let (x, z) = (v.x[k], v.z[k]);
+                    v.x[k] = l.cos_beta * x + l.sin_beta * z;
+                    v.z[k] = l.cos_beta * z - l.sin_beta * x;
                 }
+            }
+            for k in 0..L {
+                let (x, y, z) = (v.x[k] + l.a_mm, v.y[k], v.z[k]);
                 let ya = l.cos_alpha * y - l.sin_alpha * z;
-                z = l.sin_alpha * y + l.cos_alpha * z;
-                y = ya;
-                x += l.a_mm;
-                v.x[k] = ct[k] * x - st[k] * y;
-                v.y[k] = st[k] * x + ct[k] * y;
-                v.z[k] = z + l.d_mm;
+                v.z[k] = l.sin_alpha * y + l.cos_alpha * z + l.d_mm;
+                v.x[k] = ct[k] * x - st[k] * ya;
+                v.y[k] = st[k] * x + ct[k] * ya;
             }
         }
         let b = columns(&self.base_frame);
