@@ -435,19 +435,22 @@ fn greedy_cholesky(a: &DMatrix<f64>, priority: &[usize]) -> Option<Greedy> {
     }
 
     // Greedy Cholesky in priority order, right-looking: `m` holds the scaled matrix of the
-    // non-zero columns in priority order (column-major, lower triangle; entry (a, b), a ≥ b,
-    // is G̃'s entry in the column of the later one, as a left-looking factorisation reads
-    // it). A kept pivot's column becomes its column of L (multiplied by the reciprocal of
-    // the diagonal, not divided), and its outer product is subtracted from the trailing
-    // columns; a dropped one is skipped. Every entry thus receives the same operations in
-    // the same order as in the left-looking (row by row) form, bit for bit, while the
-    // trailing updates run over contiguous columns.
+    // non-zero columns in priority order (column-major with leading dimension `ld`, lower
+    // triangle; entry (a, b), a ≥ b, is G̃'s entry in the column of the later one, as a
+    // left-looking factorisation reads it). A kept pivot's column becomes its column of L
+    // (multiplied by the reciprocal of the diagonal, not divided), and its outer product is
+    // subtracted from the trailing columns; a dropped one is skipped. Every entry thus
+    // receives the same operations in the same order as in the left-looking (row by row)
+    // form, bit for bit, while the trailing updates run over contiguous columns, in whole
+    // blocks of rows (the strict upper triangle and the padding rows then hold values that
+    // are never read).
     let order: Vec<usize> = priority.iter().copied().filter(|&k| !zero[k]).collect();
     let n = order.len();
-    let mut m = vec![0.0; n * n];
+    let ld = crate::linalg::padded_ld(n);
+    let mut m = vec![0.0; ld * n];
     for (b, &kb) in order.iter().enumerate() {
         for (a, &ka) in order.iter().enumerate().skip(b) {
-            m[b * n + a] = gm[ka * p + kb];
+            m[b * ld + a] = gm[ka * p + kb];
         }
     }
     let mut kp: Vec<usize> = Vec::with_capacity(p);
@@ -455,18 +458,18 @@ fn greedy_cholesky(a: &DMatrix<f64>, priority: &[usize]) -> Option<Greedy> {
     let mut inv_d = vec![0.0; p];
     let mut drops: Vec<usize> = Vec::new();
     for (b, &k) in order.iter().enumerate() {
-        let s = m[b * n + b];
+        let s = m[b * ld + b];
         if s > CHOL_KEEP_S {
             let d = s.sqrt();
             let inv = 1.0 / d;
-            m[b * n + b] = d;
-            for v in &mut m[b * n + b + 1..(b + 1) * n] {
+            m[b * ld + b] = d;
+            for v in &mut m[b * ld + b + 1..b * ld + n] {
                 *v *= inv;
             }
             inv_d[kp.len()] = inv;
             kp.push(k);
             pivots.push(b);
-            crate::linalg::rank1_downdate(&mut m, n, b);
+            crate::linalg::rank1_downdate(&mut m, n, ld, b);
         } else if s < CHOL_DROP_S {
             drops.push(k);
         } else {
@@ -477,7 +480,7 @@ fn greedy_cholesky(a: &DMatrix<f64>, priority: &[usize]) -> Option<Greedy> {
     let mut l = vec![0.0; p * p];
     for (i, &a) in pivots.iter().enumerate() {
         for (j, &b) in pivots.iter().enumerate().take(i + 1) {
-            l[i * p + j] = m[b * n + a];
+            l[i * p + j] = m[b * ld + a];
         }
     }
     Some(Greedy {

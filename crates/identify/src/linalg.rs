@@ -243,44 +243,45 @@ pub(crate) fn cholesky_solve(l: &[f64], n: usize, b: &mut [f64]) {
 }
 
 /// The trailing update of a right-looking Cholesky step at pivot `b` of the n × n
-/// column-major matrix `m` (lower triangle): `m_aj −= l_ab·l_jb` for b < j ≤ a < n, where
-/// column b already holds L's column. Vectorised at the run-time SIMD level; each entry
-/// gets one multiplication and one subtraction, so the bits do not depend on the width.
-pub(crate) fn rank1_downdate(m: &mut [f64], n: usize, b: usize) {
+/// column-major matrix `m` with leading dimension `ld` = [`padded_ld`]`(n)` (lower
+/// triangle): `m_aj −= l_ab·l_jb` for b < j ≤ a < n, where column b already holds L's
+/// column. Vectorised at the run-time SIMD level over whole blocks of 8 rows, from the block
+/// that holds row j (as in [`cholesky_padded`]: the rows above the diagonal inside it, and
+/// the padding rows, receive values that are never read); each lower entry gets one
+/// multiplication and one subtraction, so the bits do not depend on the width.
+pub(crate) fn rank1_downdate(m: &mut [f64], n: usize, ld: usize, b: usize) {
     use kinematics::simd::{SimdLevel, simd_level};
+    debug_assert!(ld == padded_ld(n) && m.len() >= ld * n);
     match simd_level() {
         #[cfg(target_arch = "x86_64")]
         // SAFETY: simd_level() never returns a level the CPU does not support.
-        SimdLevel::Avx512 => unsafe { rank1_avx512(m, n, b) },
+        SimdLevel::Avx512 => unsafe { rank1_avx512(m, n, ld, b) },
         #[cfg(target_arch = "x86_64")]
         // SAFETY: as above.
-        SimdLevel::Avx2 => unsafe { rank1_avx2(m, n, b) },
-        _ => rank1_impl(m, n, b),
+        SimdLevel::Avx2 => unsafe { rank1_avx2(m, n, ld, b) },
+        _ => rank1_impl(m, n, ld, b),
     }
 }
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f")]
-fn rank1_avx512(m: &mut [f64], n: usize, b: usize) {
-    rank1_impl(m, n, b)
+fn rank1_avx512(m: &mut [f64], n: usize, ld: usize, b: usize) {
+    rank1_impl(m, n, ld, b)
 }
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-fn rank1_avx2(m: &mut [f64], n: usize, b: usize) {
-    rank1_impl(m, n, b)
+fn rank1_avx2(m: &mut [f64], n: usize, ld: usize, b: usize) {
+    rank1_impl(m, n, ld, b)
 }
 
 #[inline(always)]
-fn rank1_impl(m: &mut [f64], n: usize, b: usize) {
-    let (head, tail) = m.split_at_mut((b + 1) * n);
-    let col_b = &head[b * n..];
-    for (jj, col_j) in tail.chunks_exact_mut(n).enumerate() {
+fn rank1_impl(m: &mut [f64], n: usize, ld: usize, b: usize) {
+    let (head, tail) = m.split_at_mut((b + 1) * ld);
+    let col_b = &head[b * ld..];
+    for (jj, col_j) in tail.chunks_exact_mut(ld).take(n - b - 1).enumerate() {
         let j = b + 1 + jj;
-        let ljb = col_b[j];
-        for (v, lab) in col_j[j..].iter_mut().zip(&col_b[j..]) {
-            *v -= lab * ljb;
-        }
+        update_column(col_j, &[col_b], &[col_b[j]], j / BLOCK * BLOCK, ld);
     }
 }
 
