@@ -113,6 +113,7 @@ fn emit(out: Option<&Path>, text: &str) -> Result<()> {
 }
 
 /// Arguments of `predict`.
+#[allow(rustdoc::broken_intra_doc_links, rustdoc::invalid_html_tags)] // clap help text
 #[derive(Args, Debug)]
 pub struct PredictArgs {
     /// Robot model file (JSON), e.g. an `identified.json` written by `identify`.
@@ -187,6 +188,7 @@ pub fn predict(args: &PredictArgs) -> Result<()> {
 const SAME_FRAME_MM: f64 = 10.0;
 
 /// Arguments of `compensate`.
+#[allow(rustdoc::broken_intra_doc_links, rustdoc::invalid_html_tags)] // clap help text
 #[derive(Args, Debug)]
 pub struct CompensateArgs {
     /// The calibrated robot (e.g. `identified.json` from `identify`).

@@ -12,6 +12,7 @@ use campaign::{
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 
 /// Arguments of `campaign`.
+#[allow(rustdoc::broken_intra_doc_links, rustdoc::invalid_html_tags)] // clap help text
 #[derive(clap::Args)]
 pub struct CampaignArgs {
     /// Scenario file (JSON), e.g. scenarios/paper-kr1000.json.
@@ -37,6 +38,7 @@ pub struct CampaignArgs {
 }
 
 /// Arguments of `merge`.
+#[allow(rustdoc::broken_intra_doc_links, rustdoc::invalid_html_tags)] // clap help text
 #[derive(clap::Args)]
 pub struct MergeArgs {
     /// Shard files written by `campaign --shard`.
@@ -48,6 +50,7 @@ pub struct MergeArgs {
 }
 
 /// Arguments of `simulate`.
+#[allow(rustdoc::broken_intra_doc_links, rustdoc::invalid_html_tags)] // clap help text
 #[derive(clap::Args)]
 pub struct SimulateArgs {
     /// Scenario file (JSON).
@@ -273,6 +276,7 @@ pub fn simulate(args: SimulateArgs) -> Result<()> {
 }
 
 /// Arguments of `sweep`.
+#[allow(rustdoc::broken_intra_doc_links, rustdoc::invalid_html_tags)] // clap help text
 #[derive(clap::Args)]
 pub struct SweepArgs {
     /// Sweep file (JSON), e.g. scenarios/sweeps/pose-count.json.

@@ -1,8 +1,8 @@
 //! `cargo xtask …`: the kincal command line. Parses arguments, calls the library crates,
 //! prints. No calibration logic lives here.
-// The argument docs are clap's `--help` text, which prints them verbatim: defaults are
-// written `[stdout]` and placeholders `<scenario>` there, not as rustdoc links or HTML.
-#![allow(rustdoc::broken_intra_doc_links, rustdoc::invalid_html_tags)]
+// The argument docs of the clap types are `--help` text, printed verbatim: defaults are
+// written `[stdout]` and placeholders `<scenario>` there, not rustdoc links or HTML, so those
+// types allow the two rustdoc lints.
 
 mod bench;
 mod calibrate;
@@ -24,6 +24,7 @@ struct Cli {
     cmd: Cmd,
 }
 
+#[allow(rustdoc::broken_intra_doc_links, rustdoc::invalid_html_tags)] // clap help text
 #[derive(Subcommand)]
 enum Cmd {
     /// Print the forward kinematics of a robot model at a few reference poses.

@@ -308,6 +308,44 @@ mod tests {
         }
     }
 
+    /// The padded, block-wise rank-1 downdate gives every lower entry the bits of the plain
+    /// column-by-column one, reading nothing above the diagonal or in the padding rows (NaN
+    /// there would spread into the lower triangle).
+    #[test]
+    fn rank1_downdate_matches_the_plain_update() {
+        for n in 1..=35 {
+            let ld = padded_ld(n);
+            let value = |r: usize, c: usize| ((r * 31 + c * 17) as f64 * 0.7).sin() * 3.0;
+            let mut plain = vec![0.0; n * n];
+            let mut padded = vec![f64::NAN; ld * n];
+            for c in 0..n {
+                for r in c..n {
+                    plain[c * n + r] = value(r, c);
+                    padded[c * ld + r] = value(r, c);
+                }
+            }
+            for b in 0..n {
+                for j in b + 1..n {
+                    let ljb = plain[b * n + j];
+                    for a in j..n {
+                        let lab = plain[b * n + a];
+                        plain[j * n + a] -= lab * ljb;
+                    }
+                }
+                rank1_downdate(&mut padded, n, ld, b);
+            }
+            for c in 0..n {
+                for r in c..n {
+                    assert_eq!(
+                        padded[c * ld + r].to_bits(),
+                        plain[c * n + r].to_bits(),
+                        "n {n} ({r}, {c})"
+                    );
+                }
+            }
+        }
+    }
+
     fn check(n: usize) {
         let b = DMatrix::from_fn(3 * n, n, |i, j| {
             ((i * 7 + j * 3) as f64 * 0.37).sin() + (i == j) as u8 as f64

@@ -1173,17 +1173,23 @@ mod tests {
     /// over the groups, `(x·x' + y·y') + z·z'`, then [`lane_sum`].
     #[test]
     fn products_are_the_documented_sums_at_every_width() {
-        for pf in [1usize, 3, 4, 7, 27, 34] {
+        // (pf = 8 and 12: off-diagonal tiles ending right at the residuals' column.)
+        for pf in [1usize, 3, 4, 7, 8, 12, 27, 34] {
             let pp = (pf + 1).div_ceil(TILE) * TILE;
             let groups = 3;
             // Values of mixed magnitude and sign, so that any other order of the additions
-            // changes some bits.
+            // changes some bits; NaN in the padding columns past `pf`, which hold whatever
+            // the reused buffer held and must reach no stored entry.
             let b: Vec<[[f64; L]; 3]> = (0..groups * pp)
                 .map(|c| {
                     std::array::from_fn(|r| {
                         std::array::from_fn(|t| {
                             let x = ((c * 24 + r * 8 + t) as f64 * 0.618).sin();
-                            x * 10f64.powi(((c + 2 * t) % 7) as i32 - 3)
+                            if c % pp > pf {
+                                f64::NAN
+                            } else {
+                                x * 10f64.powi(((c + 2 * t) % 7) as i32 - 3)
+                            }
                         })
                     })
                 })

@@ -315,8 +315,8 @@ impl Robot {
         let mut v = V3::splat(&t);
         for ((l, sq), cq) in self.links.iter().zip(s).zip(c).rev() {
             let (st, ct) = angle(l, sq, cq);
-            // Per lane: Ry(β), Rx(α), the offset a, Rz(θ+q) and the offset d, each a loop of
-            // its own (the β test outside), so that every one is vectorised.
+            // Per lane: Ry(β) in a loop of its own (the β test outside it), then Rx(α), the
+            // offset a, Rz(θ+q) and the offset d: two branch-free loops, both vectorised.
             if l.sin_beta != 0.0 {
                 for k in 0..L {
                     let (x, z) = (v.x[k], v.z[k]);
