@@ -988,7 +988,8 @@ fn products_portable(b: &[[[f64; L]; 3]], pp: usize, pf: usize, a: &mut [f64], g
 
 /// The tiles of `A` and `g` on or above the diagonal, by [`tile`] in register blocks
 /// K × C × W (the fastest shapes tried at each width; the shape changes no bit) and
-/// [`lane_sum`] per entry.
+/// [`lane_sum`] per entry. (Storing the tiles inside the triangle as runs of the packed
+/// columns, as [`products_avx512`] does, made the AVX2 build slower.)
 #[inline(always)]
 fn products_tiled<const K: usize, const C: usize, const W: usize>(
     b: &[[[f64; L]; 3]],
@@ -1011,7 +1012,8 @@ fn products_tiled<const K: usize, const C: usize, const W: usize>(
 /// `(x_k·x_l + y_k·y_l) + z_k·z_l` added in group order to a sum starting at zero. Computed
 /// in register blocks of K × C entries and W lanes (each block loaded serves C or K entries,
 /// and the K·C·W sums are independent accumulation chains); the lanes are independent, so
-/// the shape changes no bit.
+/// the shape changes no bit. On a diagonal tile (k0 = l0) the register blocks wholly below
+/// the diagonal are skipped (their entries stay zero).
 #[inline(always)]
 fn tile<const K: usize, const C: usize, const W: usize>(
     b: &[[[f64; L]; 3]],
@@ -1022,6 +1024,10 @@ fn tile<const K: usize, const C: usize, const W: usize>(
     let mut out = [[[0.0; L]; TILE]; TILE];
     for kk in (0..TILE).step_by(K) {
         for jj in (0..TILE).step_by(C) {
+            if k0 == l0 && kk >= jj + C {
+                // Wholly below the diagonal of a diagonal tile: never stored.
+                continue;
+            }
             for lane0 in (0..L).step_by(W) {
                 let mut acc = [[[0.0; W]; C]; K];
                 for blocks in b.chunks_exact(pp) {
