@@ -28,8 +28,8 @@ use crate::identifiability::{
 };
 use crate::lm::{FinalSystem, LmSolution};
 use crate::problem::{
-    NormalWork, Problem, check_free, check_poses, check_weights, weighted_jacobian, weighted_rss,
-    weighted_rss_trig,
+    NormalWork, Problem, check_free, check_poses_and_points, check_weights, weighted_jacobian,
+    weighted_rss, weighted_rss_trig,
 };
 
 /// A pair of parameters with a large correlation.
@@ -105,13 +105,7 @@ pub fn covariance(
     opts: &IdentifiabilityOptions,
     correlation_flag: f64,
 ) -> Result<Option<Covariance>, IdentifyError> {
-    let m = check_poses(robot, poses_rad)?;
-    if points_mm.len() != m {
-        return Err(IdentifyError::PointCount {
-            poses: m,
-            points: points_mm.len(),
-        });
-    }
+    let m = check_poses_and_points(robot, poses_rad, points_mm)?;
     if let Some(w) = weights {
         check_weights(w, 3 * m)?;
     }

@@ -22,7 +22,7 @@ use nalgebra::Vector3;
 use serde::{Deserialize, Serialize};
 
 use crate::error::IdentifyError;
-use crate::problem::check_poses;
+use crate::problem::check_poses_and_points;
 
 /// Smallest threshold, mm [1e-6: a nanometre, far below any measurement's resolution; an
 /// exact fit (σ̂ = 0, e.g. synthetic data) leaves rounding-level residuals, which are never
@@ -89,13 +89,7 @@ pub fn screen(
             reason: "must be finite and ≥ 0",
         });
     }
-    let m = check_poses(robot, poses_rad)?;
-    if points_mm.len() != m {
-        return Err(IdentifyError::PointCount {
-            poses: m,
-            points: points_mm.len(),
-        });
-    }
+    check_poses_and_points(robot, poses_rad, points_mm)?;
     let sigma_3d_mm = 3f64.sqrt() * sigma_axis_mm;
     let threshold_mm = (k * sigma_3d_mm).max(MIN_THRESHOLD_MM);
     let n = robot.n_joints();

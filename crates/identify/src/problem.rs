@@ -42,13 +42,7 @@ impl<'a> Problem<'a> {
         points_mm: &'a [Vector3<f64>],
         free: Vec<usize>,
     ) -> Result<Self, IdentifyError> {
-        let m = check_poses(robot, poses_rad)?;
-        if points_mm.len() != m {
-            return Err(IdentifyError::PointCount {
-                poses: m,
-                points: points_mm.len(),
-            });
-        }
+        check_poses_and_points(robot, poses_rad, points_mm)?;
         for (j, p) in points_mm.iter().enumerate() {
             for (c, name) in ["x", "y", "z"].iter().enumerate() {
                 if !p[c].is_finite() {
@@ -214,6 +208,22 @@ pub(crate) fn check_poses(robot: &Robot, poses_rad: &[f64]) -> Result<usize, Ide
                 detail: format!("q{} = {}", i + 1, q[i]),
             });
         }
+    }
+    Ok(m)
+}
+
+/// [`check_poses`], and one measured point per pose; returns the number of poses.
+pub(crate) fn check_poses_and_points(
+    robot: &Robot,
+    poses_rad: &[f64],
+    points_mm: &[Vector3<f64>],
+) -> Result<usize, IdentifyError> {
+    let m = check_poses(robot, poses_rad)?;
+    if points_mm.len() != m {
+        return Err(IdentifyError::PointCount {
+            poses: m,
+            points: points_mm.len(),
+        });
     }
     Ok(m)
 }

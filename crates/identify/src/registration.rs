@@ -19,7 +19,7 @@ use nalgebra::{Matrix3, Rotation3, Vector3};
 use serde::{Deserialize, Serialize};
 
 use crate::error::IdentifyError;
-use crate::problem::check_poses;
+use crate::problem::check_poses_and_points;
 
 fn default_threshold_mm() -> f64 {
     10.0
@@ -188,13 +188,7 @@ pub fn register_base(
     poses_rad: &[f64],
     points_mm: &[Vector3<f64>],
 ) -> Result<(Robot, RegistrationReport), IdentifyError> {
-    let m = check_poses(robot, poses_rad)?;
-    if points_mm.len() != m {
-        return Err(IdentifyError::PointCount {
-            poses: m,
-            points: points_mm.len(),
-        });
-    }
+    check_poses_and_points(robot, poses_rad, points_mm)?;
     let predicted = robot.points(poses_rad);
     let t = kabsch(&predicted, points_mm)?;
     let before = mean_point_error(robot, poses_rad, points_mm);
