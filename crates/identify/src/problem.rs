@@ -818,8 +818,8 @@ fn products(b: &[[[f64; L]; 3]], pp: usize, pf: usize, a: &mut [f64], g: &mut [f
 #[inline(never)]
 fn products_avx512(b: &[[[f64; L]; 3]], pp: usize, pf: usize, a: &mut [f64], g: &mut [f64]) {
     use std::arch::x86_64::{
-        __m512d, _mm256_storeu_pd, _mm512_add_pd, _mm512_castpd512_pd256, _mm512_extractf64x4_pd,
-        _mm512_loadu_pd, _mm512_mul_pd, _mm512_setzero_pd, _mm512_storeu_pd,
+        _mm256_storeu_pd, _mm512_add_pd, _mm512_castpd512_pd256, _mm512_extractf64x4_pd,
+        _mm512_setzero_pd, _mm512_storeu_pd,
     };
     let groups = b.len() / pp;
     for l0 in (0..=pf).step_by(TILE) {
@@ -831,23 +831,11 @@ fn products_avx512(b: &[[[f64; L]; 3]], pp: usize, pf: usize, a: &mut [f64], g: 
             let mut acc = [[_mm512_setzero_pd(); TILE]; TILE];
             for grp in 0..groups {
                 let blocks = &b[grp * pp..(grp + 1) * pp];
-                let bk: &[[[f64; L]; 3]; TILE] = blocks[k0..k0 + TILE].try_into().expect("rows");
-                let bl: &[[[f64; L]; 3]; TILE] = blocks[l0..l0 + TILE].try_into().expect("columns");
-                let mut vk = [[_mm512_setzero_pd(); 3]; TILE];
-                let mut vl = [[_mm512_setzero_pd(); 3]; TILE];
-                for i in 0..TILE {
-                    for r in 0..3 {
-                        // SAFETY: each row holds L = 8 doubles.
-                        vk[i][r] = unsafe { _mm512_loadu_pd(bk[i][r].as_ptr()) };
-                        vl[i][r] = unsafe { _mm512_loadu_pd(bl[i][r].as_ptr()) };
-                    }
-                }
+                let vk = columns_avx512(blocks, k0);
+                let vl = columns_avx512(blocks, l0);
                 for (ai, ki) in acc.iter_mut().zip(&vk) {
                     for (aij, lj) in ai.iter_mut().zip(&vl) {
-                        let xy =
-                            _mm512_add_pd(_mm512_mul_pd(ki[0], lj[0]), _mm512_mul_pd(ki[1], lj[1]));
-                        let term: __m512d = _mm512_add_pd(xy, _mm512_mul_pd(ki[2], lj[2]));
-                        *aij = _mm512_add_pd(*aij, term);
+                        *aij = _mm512_add_pd(*aij, term_avx512(ki, lj));
                     }
                 }
             }
@@ -898,9 +886,7 @@ fn products_avx512(b: &[[[f64; L]; 3]], pp: usize, pf: usize, a: &mut [f64], g: 
 #[target_feature(enable = "avx512f")]
 #[inline]
 fn diagonal_tile_avx512(b: &[[[f64; L]; 3]], pp: usize, k0: usize, a: &mut [f64]) {
-    use std::arch::x86_64::{
-        _mm512_add_pd, _mm512_loadu_pd, _mm512_mul_pd, _mm512_setzero_pd, _mm512_storeu_pd,
-    };
+    use std::arch::x86_64::{_mm512_add_pd, _mm512_setzero_pd, _mm512_storeu_pd};
     /// (row, column) of the entries on or above the diagonal, column by column.
     const UPPER: [(usize, usize); 10] = [
         (0, 0),
@@ -916,18 +902,9 @@ fn diagonal_tile_avx512(b: &[[[f64; L]; 3]], pp: usize, k0: usize, a: &mut [f64]
     ];
     let mut acc = [_mm512_setzero_pd(); 16];
     for blocks in b.chunks_exact(pp) {
-        let bk: &[[[f64; L]; 3]; TILE] = blocks[k0..k0 + TILE].try_into().expect("columns");
-        let mut v = [[_mm512_setzero_pd(); 3]; TILE];
-        for (vi, bi) in v.iter_mut().zip(bk) {
-            for (vir, bir) in vi.iter_mut().zip(bi) {
-                // SAFETY: each row holds L = 8 doubles.
-                *vir = unsafe { _mm512_loadu_pd(bir.as_ptr()) };
-            }
-        }
+        let v = columns_avx512(blocks, k0);
         for (s, &(i, j)) in acc.iter_mut().zip(&UPPER) {
-            let (ki, lj) = (&v[i], &v[j]);
-            let xy = _mm512_add_pd(_mm512_mul_pd(ki[0], lj[0]), _mm512_mul_pd(ki[1], lj[1]));
-            *s = _mm512_add_pd(*s, _mm512_add_pd(xy, _mm512_mul_pd(ki[2], lj[2])));
+            *s = _mm512_add_pd(*s, term_avx512(&v[i], &v[j]));
         }
     }
     let mut sums = [0.0; 16];
@@ -947,6 +924,39 @@ fn diagonal_tile_avx512(b: &[[[f64; L]; 3]], pp: usize, k0: usize, a: &mut [f64]
         let (at, from) = (tri(k0, k0 + j), j * (j + 1) / 2);
         a[at..at + j + 1].copy_from_slice(&sums[from..from + j + 1]);
     }
+}
+
+/// Rows x, y, z of the [`TILE`] columns `c0..c0 + TILE` of one group's `blocks`, as
+/// vectors of the group's 8 poses.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+#[inline]
+fn columns_avx512(blocks: &[[[f64; L]; 3]], c0: usize) -> [[std::arch::x86_64::__m512d; 3]; TILE] {
+    use std::arch::x86_64::{_mm512_loadu_pd, _mm512_setzero_pd};
+    let columns: &[[[f64; L]; 3]; TILE] = blocks[c0..c0 + TILE].try_into().expect("columns");
+    // (Loops, not `array::map`: the closures were not inlined and ran the solve 4× slower.)
+    let mut v = [[_mm512_setzero_pd(); 3]; TILE];
+    for (vc, column) in v.iter_mut().zip(columns) {
+        for (vr, row) in vc.iter_mut().zip(column) {
+            // SAFETY: each row holds L = 8 doubles.
+            *vr = unsafe { _mm512_loadu_pd(row.as_ptr()) };
+        }
+    }
+    v
+}
+
+/// One pose's term of an entry, lane by lane, in the documented order:
+/// `(x_k·x_l + y_k·y_l) + z_k·z_l`.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+#[inline]
+fn term_avx512(
+    k: &[std::arch::x86_64::__m512d; 3],
+    l: &[std::arch::x86_64::__m512d; 3],
+) -> std::arch::x86_64::__m512d {
+    use std::arch::x86_64::{_mm512_add_pd, _mm512_mul_pd};
+    let xy = _mm512_add_pd(_mm512_mul_pd(k[0], l[0]), _mm512_mul_pd(k[1], l[1]));
+    _mm512_add_pd(xy, _mm512_mul_pd(k[2], l[2]))
 }
 
 /// The [`lane_sum`]s of eight vectors at once (lane t of the result is vector t's): the
