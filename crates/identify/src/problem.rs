@@ -408,22 +408,41 @@ fn rss_impl(
     points_mm: &[Vector3<f64>],
     weights: Option<&[f64]>,
 ) -> f64 {
-    let m = points_mm.len();
     let mut sum = 0.0;
     for block in 0..trig.n_blocks() {
         let (s, c) = trig.lanes(block);
         let p = robot.point_lanes(s, c);
-        let first = block * POSE_LANES;
-        for (t, meas) in points_mm[first..m.min(first + POSE_LANES)]
-            .iter()
-            .enumerate()
-        {
-            let pt = Vector3::new(p[0][t], p[1][t], p[2][t]);
-            let e = (meas - pt).component_mul(&pose_weights(weights, first + t));
-            sum += e.norm_squared();
-        }
+        group_residuals(&p, points_mm, weights, block, &mut sum);
     }
     sum
+}
+
+/// The weighted residuals `w ∘ (p_meas − p)` of pose group `grp` from its points' lanes `p`
+/// (lane t: pose `8·grp + t`; zero in the lanes past the last pose), each pose's squared
+/// norm added to `cost` in pose order. The one computation of the cost, for
+/// [`weighted_rss_trig`] and [`NormalWork::assemble`], which must agree bit for bit.
+#[inline(always)]
+fn group_residuals(
+    p: &[[f64; L]; 3],
+    points_mm: &[Vector3<f64>],
+    weights: Option<&[f64]>,
+    grp: usize,
+    cost: &mut f64,
+) -> [[f64; L]; 3] {
+    let first = grp * L;
+    let mut e = [[0.0; L]; 3];
+    for (t, meas) in points_mm[first..points_mm.len().min(first + L)]
+        .iter()
+        .enumerate()
+    {
+        let pt = Vector3::new(p[0][t], p[1][t], p[2][t]);
+        let et = (meas - pt).component_mul(&pose_weights(weights, first + t));
+        *cost += et.norm_squared();
+        for r in 0..3 {
+            e[r][t] = et[r];
+        }
+    }
+    e
 }
 
 /// Poses whose blocks are computed together ([`Robot::point_jacobian_lanes`]), one per lane.
@@ -633,19 +652,9 @@ impl NormalWork {
             let first = grp * L;
             let count = L.min(m - first);
             let blocks = &mut self.b[grp * pp..(grp + 1) * pp];
-            let (p, w) = weighted_blocks(robot, trig, grp, &slot, weights, &mut blocks[..pf]);
+            let p = weighted_blocks(robot, trig, grp, &slot, weights, &mut blocks[..pf]);
             // The weighted residuals go into the block after the last free column.
-            let mut e = [[0.0; L]; 3];
-            for (t, meas) in points_mm[first..first + count].iter().enumerate() {
-                let wt = Vector3::new(w[0][t], w[1][t], w[2][t]);
-                let pt = Vector3::new(p[0][t], p[1][t], p[2][t]);
-                let et = (meas - pt).component_mul(&wt);
-                cost += et.norm_squared();
-                for r in 0..3 {
-                    e[r][t] = et[r];
-                }
-            }
-            blocks[pf] = e;
+            blocks[pf] = group_residuals(&p, points_mm, weights, grp, &mut cost);
             if let Some(st) = stack.as_deref_mut() {
                 scatter_stacked(&blocks[..pf], first, count, 3 * m, st);
             }
@@ -731,9 +740,9 @@ fn free_slots(robot: &Robot, free: &[usize]) -> [usize; MAX_PARAMS] {
 
 /// The weighted blocks of the free columns of pose group `grp` into `blocks` (one per free
 /// column, `slot` from [`free_slots`]): `blocks[c][r][t] = w[r][t]·∂p_r/∂x_c` of pose
-/// `8·grp + t`, zero in the lanes past the last pose. Returns the points' lanes and the
-/// weights `w[r][t]` (zero past the last pose). Unweighted, the factors would be 1 (exact),
-/// so only the lanes past the last pose are cleared.
+/// `8·grp + t`, zero in the lanes past the last pose. Returns the points' lanes.
+/// Unweighted, the factors would be 1 (exact), so only the lanes past the last pose are
+/// cleared.
 #[inline(always)]
 fn weighted_blocks(
     robot: &Robot,
@@ -742,18 +751,19 @@ fn weighted_blocks(
     slot: &[usize; MAX_PARAMS],
     weights: Option<&[f64]>,
     blocks: &mut [[[f64; L]; 3]],
-) -> ([[f64; L]; 3], [[f64; L]; 3]) {
+) -> [[f64; L]; 3] {
     let first = grp * L;
     let count = L.min(trig.n_poses() - first);
     let (sin_q, cos_q) = trig.lanes(grp);
     let p = robot.point_jacobian_lanes_to(sin_q, cos_q, &slot[..robot.n_params()], blocks);
-    let mut w = [[0.0; L]; 3];
-    for (r, wr) in w.iter_mut().enumerate() {
-        for (t, v) in wr[..count].iter_mut().enumerate() {
-            *v = pose_weights(weights, first + t)[r];
-        }
-    }
     if weights.is_some() {
+        // w[r][t]: the weight of row r of pose t (zero past the last pose).
+        let mut w = [[0.0; L]; 3];
+        for (r, wr) in w.iter_mut().enumerate() {
+            for (t, v) in wr[..count].iter_mut().enumerate() {
+                *v = pose_weights(weights, first + t)[r];
+            }
+        }
         for bc in blocks.iter_mut() {
             let v = *bc;
             *bc = std::array::from_fn(|r| std::array::from_fn(|t| v[r][t] * w[r][t]));
@@ -765,7 +775,7 @@ fn weighted_blocks(
             }
         }
     }
-    (p, w)
+    p
 }
 
 /// The `count` live poses of a group's blocks (first pose `first`) into the stacked
