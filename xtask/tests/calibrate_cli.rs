@@ -667,7 +667,7 @@ const UR10_REFERENCE_MM: (f64, f64) = (0.45, 1.77);
 
 #[test]
 fn ur10_real_data_every_15th_row() {
-    let data = root().join("../shared/data/ur10-ipa/series-b-joint-configurations.csv");
+    let data = root().join("data/ur10-ipa/series-b-joint-configurations.csv");
     assert!(data.exists(), "{} is missing", data.display());
     let robot = root().join("scenarios/robots/ur10.json");
     let tmp = tempfile::tempdir().unwrap();

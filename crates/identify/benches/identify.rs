@@ -49,7 +49,6 @@ fn ur10_data() -> Option<(Vec<f64>, Vec<Vector3<f64>>)> {
     let candidates = [
         std::env::var_os("KINCAL_UR10_CSV").map(PathBuf::from),
         Some(workspace().join("data/ur10-ipa/series-b-joint-configurations.csv")),
-        Some(workspace().join("../shared/data/ur10-ipa/series-b-joint-configurations.csv")),
     ];
     let path = candidates.into_iter().flatten().find(|p| p.exists())?;
     let set =

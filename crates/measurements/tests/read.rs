@@ -421,7 +421,7 @@ fn header_only_file_is_an_empty_set() {
 fn real_ur10_series_b_file() {
     let path = concat!(
         env!("CARGO_MANIFEST_DIR"),
-        "/../../../shared/data/ur10-ipa/series-b-joint-configurations.csv"
+        "/../../data/ur10-ipa/series-b-joint-configurations.csv"
     );
     let opts = ReadOptions::new(6)
         .with_limits_deg(vec![[-360.0, 360.0]; 6])
