@@ -49,23 +49,27 @@ const TARGETS: &[(&str, f64, &str)] = &[
     ),
 ];
 
-fn workspace_root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .parent()
-        .expect("xtask lives in the workspace")
-        .to_path_buf()
+/// The workspace the command runs in: the nearest directory at or above the current one
+/// whose `Cargo.toml` has a `[workspace]` table (`cargo xtask` runs in the workspace root),
+/// so the benchmarks measure the tree the user is in, not the one this binary was built from.
+fn workspace_root() -> Result<PathBuf> {
+    let cwd = std::env::current_dir().context("reading the current directory")?;
+    cwd.ancestors()
+        .find(|d| {
+            std::fs::read_to_string(d.join("Cargo.toml"))
+                .is_ok_and(|t| t.lines().any(|l| l.trim() == "[workspace]"))
+        })
+        .map(Path::to_path_buf)
+        .with_context(|| {
+            format!(
+                "{} is not inside a cargo workspace: run `cargo xtask bench` in the kincal \
+                 repository",
+                cwd.display()
+            )
+        })
 }
 
-/// The CPU's model name from `/proc/cpuinfo` (`None` where there is none): recorded beside
-/// every wall-clock figure (`bench.json`, a campaign's `timing.json`).
-pub fn cpu_model_name() -> Option<String> {
-    std::fs::read_to_string("/proc/cpuinfo").ok().and_then(|s| {
-        s.lines()
-            .find(|l| l.starts_with("model name"))
-            .and_then(|l| l.split_once(':'))
-            .map(|(_, v)| v.trim().to_string())
-    })
-}
+use kincal::cpu_model_name;
 
 fn cpu_model() -> String {
     cpu_model_name().unwrap_or_else(|| "unknown".into())
@@ -153,7 +157,7 @@ fn human(ns: f64) -> String {
 
 /// `cargo xtask bench`.
 pub fn run(args: BenchArgs) -> Result<()> {
-    let root = workspace_root();
+    let root = workspace_root()?;
     let target_dir = std::env::var_os("CARGO_TARGET_DIR")
         .map(PathBuf::from)
         .unwrap_or_else(|| root.join("target"));

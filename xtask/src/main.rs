@@ -1,24 +1,22 @@
-//! `cargo xtask …`: the kincal command line. Parses arguments, calls the library crates,
-//! prints. No calibration logic lives here.
-// The argument docs of the clap types are `--help` text, printed verbatim: defaults are
-// written `[stdout]` and placeholders `<scenario>` there, not rustdoc links or HTML, so those
-// types allow the two rustdoc lints.
+//! `cargo xtask …`: the repository's automation — regenerate and check the committed
+//! results, run the benchmarks — and every user command of `kincal` (so `cargo xtask
+//! campaign …` works from a checkout without installing). Parses arguments and prints; the
+//! commands live in the `kincal` front end and the library crates.
 
 mod bench;
-mod calibrate;
-mod campaign_cmd;
 mod check_cmd;
-mod identifiability;
-mod identify_cmd;
-
-use std::path::PathBuf;
+mod regenerate;
 
 use anyhow::{Context, Result};
 use clap::{Parser, Subcommand};
 use kinematics::Robot;
 
 #[derive(Parser)]
-#[command(name = "xtask", about = "kincal: kinematic calibration harness")]
+#[command(
+    name = "xtask",
+    version,
+    about = "kincal's repository automation (regenerate, check, bench) and its user commands"
+)]
 struct Cli {
     #[command(subcommand)]
     cmd: Cmd,
@@ -31,56 +29,30 @@ enum Cmd {
     Poses {
         /// Robot model file (JSON).
         #[arg(long, default_value = "scenarios/robots/kr1000-titan.json")]
-        robot: PathBuf,
+        robot: std::path::PathBuf,
     },
-    /// Identifiability of a robot's parameters on a pose set: rank, redundant parameters and
-    /// what they are confounded with, condition number, observability indices O1–O5.
-    Identifiability(identifiability::IdentifiabilityArgs),
-    /// Run a Monte Carlo campaign of a scenario: trials in parallel, summary against the
-    /// paper, plots, in results/<scenario name>/.
-    Campaign(campaign_cmd::CampaignArgs),
-    /// Merge shard files written by `campaign --shard k/K` into one summary.
-    Merge(campaign_cmd::MergeArgs),
-    /// Simulate one trial of a scenario: identification.csv, validation.csv (spec §8) and
-    /// truth.json.
-    Simulate(campaign_cmd::SimulateArgs),
-    /// Run a sweep: the cross product of a scenario's axes, one campaign per point, one
-    /// table and curves in results/<sweep name>/.
-    Sweep(campaign_cmd::SweepArgs),
     /// Regenerate results/ from every committed scenario and sweep (`--check`: compare only).
-    Regenerate(campaign_cmd::RegenerateArgs),
+    Regenerate(regenerate::RegenerateArgs),
     /// Identifiability regression: small fixed-seed campaigns (rank, redundant set,
     /// recovery, improvement, O1–O5) against results/baselines/ within the check file's
     /// tolerances; non-zero exit on regression (`--bless` writes the baselines).
     Check(check_cmd::CheckArgs),
-    /// Calibrate a robot from measurements (spec §8 CSV): register, identify, screen
-    /// outliers, validate; writes identified.json, registered-nominal.json, parameters.json
-    /// and report.md.
-    Identify(identify_cmd::IdentifyArgs),
-    /// Predicted x, y, z of a robot model for each row of a joint file.
-    Predict(calibrate::PredictArgs),
-    /// Joints to command so that the calibrated robot reaches the nominal targets.
-    Compensate(calibrate::CompensateArgs),
-    /// Run the criterion benchmarks (kinematics, identification, one campaign trial) and
-    /// write results/bench.json with the machine's CPU, SIMD features and cores.
+    /// Run the criterion benchmarks (kinematics, identification, one campaign trial) of the
+    /// current tree and write results/bench.json with the machine's CPU, SIMD features and
+    /// cores.
     Bench(bench::BenchArgs),
+    #[command(flatten)]
+    User(kincal::Command),
 }
 
 fn main() -> Result<()> {
     let cli = Cli::parse();
     match cli.cmd {
         Cmd::Poses { robot } => poses(&robot),
-        Cmd::Identifiability(args) => identifiability::run(&args),
-        Cmd::Campaign(args) => campaign_cmd::campaign(args),
-        Cmd::Merge(args) => campaign_cmd::merge(args),
-        Cmd::Simulate(args) => campaign_cmd::simulate(args),
-        Cmd::Sweep(args) => campaign_cmd::sweep(args),
-        Cmd::Regenerate(args) => campaign_cmd::regenerate(args),
+        Cmd::Regenerate(args) => regenerate::regenerate(args),
         Cmd::Check(args) => check_cmd::run(&args),
-        Cmd::Identify(args) => identify_cmd::run(&args),
-        Cmd::Predict(args) => calibrate::predict(&args),
-        Cmd::Compensate(args) => calibrate::compensate_cmd(&args),
         Cmd::Bench(args) => bench::run(args),
+        Cmd::User(cmd) => kincal::run(cmd),
     }
 }
 

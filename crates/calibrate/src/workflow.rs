@@ -1,17 +1,16 @@
-//! `cargo xtask identify`: calibrate a robot from a measurement file (spec §8).
+//! The calibration workflow on a measurement file (`docs/model.md`, measurement files):
 //!
-//! Reads → (splits) → registers the base if the data are in another frame → identifies →
-//! screens outliers (refits without them on request) → analyses identifiability at the
-//! solution → validates → renders `identified.json`, `parameters.json` and `report.md` in
-//! memory → writes them atomically into the output directory, which is created only then.
+//! read → (split) → register the base if the data are in another frame → identify → screen
+//! outliers (refit without them on request) → analyse identifiability at the solution →
+//! validate → render `identified.json`, `registered-nominal.json`, `parameters.json` and
+//! `report.md` in memory ([`Calibration::render`]) → write them atomically into the output
+//! directory, which is created only then ([`Rendered::write_to`]).
 
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use anyhow::{Context, Result, bail};
-use clap::{Args, ValueEnum};
 use evaluate::{AxisStats, ErrorStats, Table4, improvement_pct};
 use identify::{
     Damping, Fit, IdentifiabilityOptions, IdentifiabilityReport, IdentifyOptions, LmOptions,
@@ -23,12 +22,15 @@ use measurements::{Measurement, MeasurementError};
 use nalgebra::Vector3;
 use serde::Serialize;
 
-use crate::calibrate::{LoadedRobot, file_name, points_mm, poses_rad, read_set, row_label};
+use crate::error::{CalibrateError, Result, id_err};
+use crate::files::{LoadedRobot, file_name, points_mm, poses_rad, row_label};
 
-/// The damping schedule (spec §7).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+/// The damping schedule (`docs/model.md`, damping schedules).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum Schedule {
     /// The paper's: (JᵀJ + μI), μ0 = 1e-3, ÷10 / ×10.
+    #[default]
     Levenberg,
     /// (JᵀJ + μ diag JᵀJ), same updates.
     Marquardt,
@@ -37,7 +39,8 @@ pub enum Schedule {
 }
 
 impl Schedule {
-    fn damping(self) -> Damping {
+    /// The solver's damping for this schedule.
+    pub fn damping(self) -> Damping {
         match self {
             Schedule::Levenberg => Damping::levenberg(),
             Schedule::Marquardt => Damping::marquardt(),
@@ -47,18 +50,24 @@ impl Schedule {
 }
 
 /// What the solver does with free parameters exactly redundant at the start.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum RedundantArg {
-    /// Hold them at their start values and solve on the identifiable rest.
+    /// Hold them at their start values and solve on the identifiable rest [default: the
+    /// solve is well posed and converges in a few iterations].
+    #[default]
     Hold,
     /// Keep them in the damped system (the paper's verbatim method).
     Damp,
 }
 
 /// When to register the measurement frame onto the robot base before identifying.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum Registration {
-    /// When the nominal model misses the points by more than 10 mm on average.
+    /// When the nominal model misses the points by more than 10 mm on average [default:
+    /// geometric errors are millimetres, a tracker frame is metres away].
+    #[default]
     Auto,
     /// Always.
     Always,
@@ -66,56 +75,70 @@ pub enum Registration {
     Never,
 }
 
-/// Arguments of `identify`.
-#[derive(Args, Debug)]
-pub struct IdentifyArgs {
-    /// Nominal robot model file (JSON); its joint limits check the data.
-    #[arg(long)]
-    robot: PathBuf,
-    /// Identification measurements (spec §8 CSV: q1…qN in degrees, x, y, z in mm).
-    #[arg(long)]
-    data: PathBuf,
-    /// Validation measurements (spec §8 CSV): Table 4 of the nominal (after registration)
-    /// and the identified model's predictions.
-    #[arg(long, conflicts_with = "every")]
-    validate: Option<PathBuf>,
-    /// Hold-out split of --data: identify on data rows OFFSET, OFFSET+K, OFFSET+2K, …
-    /// (0-based, comments and blank lines not counted) and validate on all the others.
-    #[arg(long, value_name = "K")]
-    every: Option<usize>,
-    /// First identification row of --every.
-    #[arg(long, default_value_t = 0, requires = "every")]
-    offset: usize,
-    /// Parameters to identify: `paper` (all, redundant ones included), `minimal` (the
-    /// identifiable set at the registered nominal model), or comma-separated names.
-    #[arg(long, default_value = "paper")]
-    params: String,
-    /// Damping schedule.
-    #[arg(long, value_enum, default_value_t = Schedule::Levenberg)]
-    schedule: Schedule,
-    /// Free parameters exactly redundant at the start (e.g. 10 of the UR10's 35): held at
-    /// their start values, or kept in the damped system as the paper does.
-    #[arg(long, value_enum, default_value_t = RedundantArg::Hold)]
-    redundant: RedundantArg,
-    /// Registration of the measurement frame.
-    #[arg(long, value_enum, default_value_t = Registration::Auto)]
-    registration: Registration,
-    /// Drop the outliers found after the first fit and refit (without it they are only
-    /// reported).
-    #[arg(long)]
-    reject_outliers: bool,
-    /// Outlier threshold: ‖residual‖ > k·σ̂₃, σ̂₃ = √3·σ̂ the fit's 3-D residual scale.
-    #[arg(long, default_value_t = 3.0, value_name = "K")]
-    outlier_k: f64,
-    /// Worst points listed in the report, per data set.
-    #[arg(long, default_value_t = 10, value_name = "N")]
-    worst: usize,
-    /// Output directory, created if missing (only once everything succeeded).
-    #[arg(long, default_value = "identified")]
-    out: PathBuf,
+/// Which data rows identify and which validate.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub enum Split {
+    /// All rows identify; validation, if any, comes from another file.
+    #[default]
+    All,
+    /// Identify on data rows `offset`, `offset + every`, … (0-based, comments and blank lines
+    /// not counted) and validate on all the others.
+    Every {
+        /// K ≥ 1.
+        every: usize,
+        /// First identification row, below `every`.
+        offset: usize,
+    },
 }
 
-/// File names in the output directory.
+/// What to calibrate and how. Every field is an option of `kincal identify`.
+#[derive(Clone, Debug)]
+pub struct IdentifyRequest {
+    /// Nominal robot model file (JSON); its joint limits check the data.
+    pub robot: PathBuf,
+    /// Identification measurements.
+    pub data: PathBuf,
+    /// Validation measurements (with [`Split::All`] only).
+    pub validate: Option<PathBuf>,
+    /// Hold-out split of `data`.
+    pub split: Split,
+    /// Parameters to identify: `paper` (all), `minimal` (the identifiable set at the
+    /// registered nominal model), or comma-separated names [`paper`: the paper's method].
+    pub params: String,
+    /// Damping schedule [Levenberg: the paper's].
+    pub schedule: Schedule,
+    /// Exactly redundant free parameters [held].
+    pub redundant: RedundantArg,
+    /// Registration of the measurement frame [auto].
+    pub registration: Registration,
+    /// Drop the outliers found after the first fit and refit [no: only reported].
+    pub reject_outliers: bool,
+    /// Outlier threshold k: ‖residual‖ > k·σ̂₃ [3: fewer than one Gaussian point in 10⁵].
+    pub outlier_k: f64,
+    /// Worst points listed in the report, per data set [10].
+    pub worst: usize,
+}
+
+impl IdentifyRequest {
+    /// A request with every option at its default.
+    pub fn new(robot: impl Into<PathBuf>, data: impl Into<PathBuf>) -> Self {
+        IdentifyRequest {
+            robot: robot.into(),
+            data: data.into(),
+            validate: None,
+            split: Split::All,
+            params: "paper".into(),
+            schedule: Schedule::default(),
+            redundant: RedundantArg::default(),
+            registration: Registration::default(),
+            reject_outliers: false,
+            outlier_k: 3.0,
+            worst: 10,
+        }
+    }
+}
+
+/// File names in the output directory: the calibrated robot.
 pub const ROBOT_FILE: &str = "identified.json";
 /// The nominal robot in the measurement frame (its base registered on the data).
 pub const REGISTERED_FILE: &str = "registered-nominal.json";
@@ -125,33 +148,80 @@ pub const PARAMETERS_FILE: &str = "parameters.json";
 pub const REPORT_FILE: &str = "report.md";
 
 /// Validation of the nominal and identified models on one measurement set.
-struct Validation {
-    source: String,
-    rows: Vec<Measurement>,
+#[derive(Clone, Debug)]
+pub struct Validation {
+    /// Where the rows come from.
+    pub source: String,
+    /// The validation rows.
+    pub rows: Vec<Measurement>,
+    /// measured − start model (the nominal after registration).
+    pub before: Vec<[f64; 3]>,
     /// measured − identified.
-    after: Vec<[f64; 3]>,
-    table: Table4,
+    pub after: Vec<[f64; 3]>,
+    /// Table 4 of before and after.
+    pub table: Table4,
     /// Mean and max of the nominal model rigidly registered on these points themselves.
-    self_registered: Option<(f64, f64)>,
+    pub self_registered: Option<(f64, f64)>,
 }
 
-/// Everything the outputs are rendered from.
-struct Outcome<'a> {
-    args: &'a IdentifyArgs,
-    nominal: &'a LoadedRobot,
-    start: Robot,
-    registration: Option<RegistrationReport>,
-    selection: String,
-    used: Vec<Measurement>,
-    free: Vec<usize>,
-    first: Fit,
-    screen: Option<OutlierScreen>,
+/// A finished calibration: everything the outputs are rendered from.
+#[derive(Clone, Debug)]
+pub struct Calibration {
+    /// What was asked.
+    pub request: IdentifyRequest,
+    /// The nominal robot file.
+    pub nominal: LoadedRobot,
+    /// The model the fit started from (the nominal after registration).
+    pub start: Robot,
+    /// The registration, if considered.
+    pub registration: Option<RegistrationReport>,
+    /// Which rows identified, in words.
+    pub selection: String,
+    /// The identification rows used by the final fit.
+    pub used: Vec<Measurement>,
+    /// Free parameter indices.
+    pub free: Vec<usize>,
+    /// The first fit (before outlier rejection).
+    pub first: Fit,
+    /// The outlier screen after the first fit.
+    pub screen: Option<OutlierScreen>,
     /// Rows screened (the rows of the first fit), for labels.
-    screened_rows: Vec<Measurement>,
-    rejected: bool,
-    fit: Fit,
-    analysis: IdentifiabilityReport,
-    validation: Option<Validation>,
+    pub screened_rows: Vec<Measurement>,
+    /// Whether outliers were excluded and the model refitted.
+    pub rejected: bool,
+    /// The final fit.
+    pub fit: Fit,
+    /// Identifiability at the solution.
+    pub analysis: IdentifiabilityReport,
+    /// Validation, if validation rows were given.
+    pub validation: Option<Validation>,
+    /// Reader notices (ignored columns), in reading order.
+    pub notices: Vec<String>,
+    /// Wall-clock time of registration, identification and validation (ms).
+    pub elapsed_ms: f64,
+}
+
+/// The four output files, rendered.
+#[derive(Clone, Debug)]
+pub struct Rendered {
+    /// `(file name, contents)`, in writing order.
+    pub files: Vec<(&'static str, String)>,
+}
+
+impl Rendered {
+    /// Creates `dir` and writes every file atomically into it.
+    pub fn write_to(&self, dir: &Path) -> Result<()> {
+        std::fs::create_dir_all(dir).map_err(|source| CalibrateError::Write {
+            path: dir.to_path_buf(),
+            source,
+        })?;
+        for (name, text) in &self.files {
+            let path = dir.join(name);
+            measurements::write_atomically(&path, text.as_bytes())
+                .map_err(|source| CalibrateError::Write { path, source })?;
+        }
+        Ok(())
+    }
 }
 
 /// Rows needed so that 3·rows ≥ the free parameters of `set`, and that count. For `minimal`
@@ -159,7 +229,10 @@ struct Outcome<'a> {
 fn free_count(robot: &Robot, set: &ParamSet, opts: &IdentifiabilityOptions) -> Result<usize> {
     Ok(match set {
         ParamSet::Paper => robot.n_params(),
-        ParamSet::Names(_) => set.resolve(robot, &[], None, opts)?.len(),
+        ParamSet::Names(_) => set
+            .resolve(robot, &[], None, opts)
+            .map_err(id_err("resolving the parameter names"))?
+            .len(),
         ParamSet::Minimal => {
             let all: Vec<usize> = (0..robot.n_params()).collect();
             random_poses(robot, robot.n_params(), 1)
@@ -174,11 +247,9 @@ fn to_arr(v: Vector3<f64>) -> [f64; 3] {
     [v.x, v.y, v.z]
 }
 
-fn norms(errors: &[[f64; 3]]) -> Vec<f64> {
-    errors
-        .iter()
-        .map(|e| Vector3::from(*e).norm())
-        .collect::<Vec<_>>()
+/// The 3-D norms of error vectors.
+pub fn norms(errors: &[[f64; 3]]) -> Vec<f64> {
+    errors.iter().map(|e| Vector3::from(*e).norm()).collect()
 }
 
 fn mean_max(v: &[f64]) -> (f64, f64) {
@@ -186,8 +257,8 @@ fn mean_max(v: &[f64]) -> (f64, f64) {
     (mean, v.iter().copied().fold(0.0, f64::max))
 }
 
-/// Residuals `measured − robot` of `rows`.
-fn residuals(robot: &Robot, rows: &[Measurement]) -> Vec<[f64; 3]> {
+/// Residuals `measured − robot` of `rows` (which have points), mm.
+pub fn residuals(robot: &Robot, rows: &[Measurement]) -> Vec<[f64; 3]> {
     let n = robot.n_joints();
     let poses = poses_rad(rows);
     poses
@@ -213,7 +284,8 @@ fn register(
         },
     };
     if apply {
-        let (r, rep) = register_base(nominal, poses, points).context("registering the base")?;
+        let (r, rep) =
+            register_base(nominal, poses, points).map_err(id_err("registering the base"))?;
         return Ok((r, Some(rep)));
     }
     let layout = nominal.layout();
@@ -242,75 +314,85 @@ fn register(
     ))
 }
 
-/// `cargo xtask identify`.
-pub fn run(args: &IdentifyArgs) -> Result<()> {
+/// Runs the whole calibration of `request`: nothing is written (see [`Calibration::render`]
+/// and [`Rendered::write_to`]).
+pub fn run(request: &IdentifyRequest) -> Result<Calibration> {
+    let args = request;
     if !(args.outlier_k.is_finite() && args.outlier_k > 0.0) {
-        bail!(
+        return Err(CalibrateError::Refused(format!(
             "--outlier-k {}: must be a finite number > 0",
             args.outlier_k
-        );
+        )));
     }
-    if let Some(k) = args.every {
-        if k == 0 {
-            bail!("--every must be at least 1");
+    if let Split::Every { every, offset } = args.split {
+        if every == 0 {
+            return Err(CalibrateError::Refused("--every must be at least 1".into()));
         }
-        if args.offset >= k {
-            bail!("--offset {} must be below --every {k}", args.offset);
+        if offset >= every {
+            return Err(CalibrateError::Refused(format!(
+                "--offset {offset} must be below --every {every}"
+            )));
+        }
+        if args.validate.is_some() {
+            return Err(CalibrateError::Refused(
+                "--validate and --every exclude each other: --every validates on the rows it \
+                 does not identify on"
+                    .into(),
+            ));
         }
     }
     let nominal = LoadedRobot::load(&args.robot, "robot")?;
     let nom = &nominal.robot;
     let id_opts = IdentifiabilityOptions::default();
     let set: ParamSet = args.params.parse().expect("infallible");
-    let n_free =
-        free_count(nom, &set, &id_opts).with_context(|| format!("--params {}", args.params))?;
+    let n_free = free_count(nom, &set, &id_opts)
+        .map_err(|e| e.context(format!("--params {}", args.params)))?;
     let min_rows = n_free.div_ceil(3);
     let why = format!(
         "{n_free} free parameters (--params {}) need at least {min_rows} rows: 3 equations per \
          row, at least as many equations as free parameters",
         args.params
     );
-    let data = read_set(
-        &nominal,
+    let data = nominal.read_set(
         &args.data,
         true,
         (min_rows, Some(&why)),
         "identification data",
     )?;
+    let mut notices = data.notices.clone();
     let n_file_rows = data.rows.len();
 
     // Split.
-    let (id_rows, val_rows, selection) = match args.every {
-        Some(k) => {
+    let (id_rows, val_rows, selection) = match args.split {
+        Split::Every { every: k, offset } => {
             let (mut sel, mut rest) = (Vec::new(), Vec::new());
             for (i, r) in data.rows.iter().enumerate() {
-                if i % k == args.offset {
+                if i % k == offset {
                     sel.push(r.clone());
                 } else {
                     rest.push(r.clone());
                 }
             }
             if sel.len() < min_rows {
-                return Err(MeasurementError::TooFewRows {
-                    file: data.source.clone(),
-                    found: sel.len(),
-                    needed: min_rows,
-                })
-                .with_context(|| {
-                    format!(
-                        "--every {k} --offset {} selects {} of the {n_file_rows} data rows; {why}",
-                        args.offset,
+                return Err(CalibrateError::Read {
+                    context: format!(
+                        "--every {k} --offset {offset} selects {} of the {n_file_rows} data \
+                         rows; {why}",
                         sel.len()
-                    )
+                    ),
+                    source: MeasurementError::TooFewRows {
+                        file: data.source.clone(),
+                        found: sel.len(),
+                        needed: min_rows,
+                    },
                 });
             }
             let text = format!(
-                "{} of {n_file_rows} rows (data rows {}, {}, {}, … — every {k}th from {})",
+                "{} of {n_file_rows} rows (data rows {offset}, {}, {}, … — every {k}th from \
+                 {offset})",
                 sel.len(),
-                args.offset,
-                args.offset + k,
-                args.offset + 2 * k,
-                args.offset
+                offset + k,
+                offset + 2 * k,
             );
             let val = (!rest.is_empty()).then(|| {
                 (
@@ -320,10 +402,11 @@ pub fn run(args: &IdentifyArgs) -> Result<()> {
             });
             (sel, val, text)
         }
-        None => {
+        Split::All => {
             let val = match &args.validate {
                 Some(path) => {
-                    let v = read_set(&nominal, path, true, (1, None), "validation data")?;
+                    let v = nominal.read_set(path, true, (1, None), "validation data")?;
+                    notices.extend(v.notices);
                     Some((v.source, v.rows))
                 }
                 None => None,
@@ -336,10 +419,10 @@ pub fn run(args: &IdentifyArgs) -> Result<()> {
     let poses = poses_rad(&id_rows);
     let points = points_mm(&id_rows);
     let (start, registration) = register(nom, &poses, &points, args.registration)
-        .with_context(|| format!("identification data {}", data.source))?;
+        .map_err(|e| e.context(format!("identification data {}", data.source)))?;
     let free = set
         .resolve(&start, &poses, None, &id_opts)
-        .with_context(|| format!("--params {}", args.params))?;
+        .map_err(id_err(format!("--params {}", args.params)))?;
     let options = IdentifyOptions {
         lm: LmOptions {
             redundant: match args.redundant {
@@ -353,16 +436,21 @@ pub fn run(args: &IdentifyArgs) -> Result<()> {
     };
     let fit_rows = |rows: &[Measurement]| -> Result<Fit> {
         let (p, x) = (poses_rad(rows), points_mm(rows));
-        let problem = Problem::new(&start, &p, &x, free.clone())
-            .with_context(|| format!("setting up the identification on {}", data.source))?;
-        identify(&problem, &options)
-            .with_context(|| format!("identifying {} on {}", nom.name(), data.source))
+        let problem = Problem::new(&start, &p, &x, free.clone()).map_err(id_err(format!(
+            "setting up the identification on {}",
+            data.source
+        )))?;
+        identify(&problem, &options).map_err(id_err(format!(
+            "identifying {} on {}",
+            nom.name(),
+            data.source
+        )))
     };
     let first = fit_rows(&id_rows)?;
     let screen = match first.sigma_hat {
         Some(s) => Some(
             outliers::screen(&first.robot, &poses, &points, s, args.outlier_k)
-                .context("screening outliers")?,
+                .map_err(id_err("screening outliers"))?,
         ),
         None => None,
     };
@@ -376,7 +464,7 @@ pub fn run(args: &IdentifyArgs) -> Result<()> {
             .map(|(_, r)| r.clone())
             .collect();
         if 3 * kept.len() < free.len() {
-            bail!(
+            return Err(CalibrateError::Refused(format!(
                 "{}: {} of {} rows are outliers; the {} left are too few for {} free parameters \
                  (3 equations per row) — run without --reject-outliers",
                 data.source,
@@ -384,20 +472,25 @@ pub fn run(args: &IdentifyArgs) -> Result<()> {
                 id_rows.len(),
                 kept.len(),
                 free.len()
-            );
+            )));
         }
-        let refit = fit_rows(&kept).context("refitting without the outliers")?;
+        let refit = fit_rows(&kept).map_err(|e| e.context("refitting without the outliers"))?;
         (refit, kept)
     } else {
         (first.clone(), id_rows.clone())
     };
     let analysis = analyze(&fit.robot, &poses_rad(&used), None, &free, &id_opts)
-        .context("identifiability at the solution")?;
+        .map_err(id_err("identifiability at the solution"))?;
     let validation = match val_rows {
         Some((source, rows)) => {
             let before = residuals(&start, &rows);
             let after = residuals(&fit.robot, &rows);
-            let table = Table4::from_errors(&before, &after).context("validation statistics")?;
+            let table = Table4::from_errors(&before, &after).map_err(|source| {
+                CalibrateError::Evaluate {
+                    context: "validation statistics".into(),
+                    source,
+                }
+            })?;
             let (vp, vx) = (poses_rad(&rows), points_mm(&rows));
             let self_registered = register_base(nom, &vp, &vx)
                 .ok()
@@ -405,6 +498,7 @@ pub fn run(args: &IdentifyArgs) -> Result<()> {
             Some(Validation {
                 source,
                 rows,
+                before,
                 after,
                 table,
                 self_registered,
@@ -413,10 +507,9 @@ pub fn run(args: &IdentifyArgs) -> Result<()> {
         None => None,
     };
     let elapsed_ms = started.elapsed().as_secs_f64() * 1e3;
-
-    let outcome = Outcome {
-        args,
-        nominal: &nominal,
+    Ok(Calibration {
+        request: request.clone(),
+        nominal: nominal.clone(),
         start,
         registration,
         selection,
@@ -429,45 +522,41 @@ pub fn run(args: &IdentifyArgs) -> Result<()> {
         fit,
         analysis,
         validation,
-    };
+        notices,
+        elapsed_ms,
+    })
+}
 
-    // Render everything, then write.
-    let mut robot = outcome.fit.robot.clone();
-    robot.set_name(format!(
-        "{}, identified from {}",
-        nom.name(),
-        file_name(&args.data)
-    ));
-    let robot_json = robot.to_spec().to_json_string();
-    let mut registered = outcome.start.clone();
-    if outcome.registration.as_ref().is_some_and(|r| r.applied) {
-        registered.set_name(format!(
-            "{}, base registered on {}",
-            nom.name(),
-            file_name(&args.data)
-        ));
+impl Calibration {
+    /// Renders the four output files in memory.
+    pub fn render(&self) -> Rendered {
+        let nom = &self.nominal.robot;
+        let data = file_name(&self.request.data);
+        let mut robot = self.fit.robot.clone();
+        robot.set_name(format!("{}, identified from {data}", nom.name()));
+        let mut registered = self.start.clone();
+        if self.registration.as_ref().is_some_and(|r| r.applied) {
+            registered.set_name(format!("{}, base registered on {data}", nom.name()));
+        }
+        Rendered {
+            files: vec![
+                (ROBOT_FILE, robot.to_spec().to_json_string()),
+                (REGISTERED_FILE, registered.to_spec().to_json_string()),
+                (PARAMETERS_FILE, parameters_json(self)),
+                (REPORT_FILE, render_report(self)),
+            ],
+        }
     }
-    let registered_json = registered.to_spec().to_json_string();
-    let params_json = parameters_json(&outcome);
-    let report = render_report(&outcome);
-    std::fs::create_dir_all(&args.out)
-        .with_context(|| format!("creating {}", args.out.display()))?;
-    for (name, text) in [
-        (ROBOT_FILE, &robot_json),
-        (REGISTERED_FILE, &registered_json),
-        (PARAMETERS_FILE, &params_json),
-        (REPORT_FILE, &report),
-    ] {
-        let path = args.out.join(name);
-        measurements::write_atomically(&path, text.as_bytes())
-            .with_context(|| format!("writing {}", path.display()))?;
+
+    /// The console summary: what was fitted, registration, fit, held parameters, outliers,
+    /// validation (one line each).
+    pub fn summary(&self) -> String {
+        summary_text(self)
     }
-    print_summary(&outcome, elapsed_ms);
-    Ok(())
 }
 
 /// `nominal, registered` or `nominal`: the model the fit started from.
-fn start_label(o: &Outcome) -> &'static str {
+fn start_label(o: &Calibration) -> &'static str {
     if o.registration.as_ref().is_some_and(|r| r.applied) {
         "nominal, registered"
     } else {
@@ -475,8 +564,8 @@ fn start_label(o: &Outcome) -> &'static str {
     }
 }
 
-fn schedule_name(args: &IdentifyArgs) -> &'static str {
-    args.schedule.damping().name()
+fn schedule_name(request: &IdentifyRequest) -> &'static str {
+    request.schedule.damping().name()
 }
 
 /// One row of `parameters.json`.
@@ -510,7 +599,7 @@ struct ParamTable<'a> {
     parameters: Vec<ParamRow<'a>>,
 }
 
-fn parameters_json(o: &Outcome) -> String {
+fn parameters_json(o: &Calibration) -> String {
     let layout = o.start.layout();
     let (xn, xs) = (o.nominal.robot.params(), o.start.params());
     let cov = o.fit.covariance.as_ref();
@@ -561,10 +650,10 @@ fn parameters_json(o: &Outcome) -> String {
     let table = ParamTable {
         format: "kincal-parameters/1",
         robot_file: ROBOT_FILE,
-        nominal_robot: o.args.robot.display().to_string(),
-        data: o.args.data.display().to_string(),
+        nominal_robot: o.request.robot.display().to_string(),
+        data: o.request.data.display().to_string(),
         rows: o.used.len(),
-        params: &o.args.params,
+        params: &o.request.params,
         free: o.free.len(),
         rank: o.analysis.rank,
         sigma_hat_mm: o.fit.sigma_hat,
@@ -634,8 +723,8 @@ fn worst_md(out: &mut String, rows: &[Measurement], errors: &[[f64; 3]], n: usiz
     }
 }
 
-fn render_report(o: &Outcome) -> String {
-    let a = o.args;
+fn render_report(o: &Calibration) -> String {
+    let a = &o.request;
     let nom = &o.nominal.robot;
     let mut s = String::new();
     let _ = writeln!(s, "# Calibration of {}\n", nom.name());
@@ -723,7 +812,7 @@ fn render_report(o: &Outcome) -> String {
         None => s.push_str("- registration: off (`--registration never`)\n"),
     }
     s.push_str(
-        "- model: geometry only (spec §2). Compliance, gear errors and other non-geometric \
+        "- model: geometry only (docs/model.md). Compliance, gear errors and other non-geometric \
          effects are not identified; they stay in the residuals.\n",
     );
 
@@ -905,10 +994,12 @@ fn render_report(o: &Outcome) -> String {
     s
 }
 
-fn print_summary(o: &Outcome, elapsed_ms: f64) {
-    let a = o.args;
+fn summary_text(o: &Calibration) -> String {
+    let mut out = String::new();
+    let a = &o.request;
     let nom = &o.nominal.robot;
-    println!(
+    let _ = writeln!(
+        out,
         "{} — {} of {} ({} free parameters, --params {}, {} damping)",
         nom.name(),
         o.selection,
@@ -920,7 +1011,8 @@ fn print_summary(o: &Outcome, elapsed_ms: f64) {
     if let Some(r) = &o.registration
         && r.applied
     {
-        println!(
+        let _ = writeln!(
+            out,
             "registration: nominal mean error {:.3} mm → {:.3} mm (rotation {:.3}°, translation \
              {:.1} mm)",
             r.mean_error_before_mm,
@@ -930,7 +1022,8 @@ fn print_summary(o: &Outcome, elapsed_ms: f64) {
         );
     }
     let (_, fit_max) = mean_max(&norms(&residuals(&o.fit.robot, &o.used)));
-    println!(
+    let _ = writeln!(
+        out,
         "fit: RMS {:.4} mm, max {:.4} mm on {} poses; σ̂ {} mm/axis; rank {} of {}; {} after {} \
          iterations; {:.1} ms",
         o.fit.rms_mm,
@@ -943,17 +1036,19 @@ fn print_summary(o: &Outcome, elapsed_ms: f64) {
         o.free.len(),
         o.fit.stop,
         o.fit.iterations,
-        elapsed_ms
+        o.elapsed_ms
     );
     if !o.fit.held.is_empty() {
-        println!(
+        let _ = writeln!(
+            out,
             "held at their start values (exactly redundant there; --redundant damp keeps them \
              in the damped system): {}",
             o.fit.held.join(", ")
         );
     }
     if !o.fit.stop.converged() {
-        println!(
+        let _ = writeln!(
+            out,
             "warning: the solver stopped without converging ({}): some free parameters are \
              (nearly) redundant and drift along a flat valley; predictions are unaffected, \
              but only the identifiable values mean anything — try --params minimal",
@@ -962,7 +1057,8 @@ fn print_summary(o: &Outcome, elapsed_ms: f64) {
     }
     if let Some(sc) = &o.screen {
         if sc.outliers.is_empty() {
-            println!(
+            let _ = writeln!(
+                out,
                 "outliers (‖e‖ > {} σ̂₃ = {:.4} mm): none",
                 sc.k, sc.threshold_mm
             );
@@ -979,7 +1075,8 @@ fn print_summary(o: &Outcome, elapsed_ms: f64) {
                     )
                 })
                 .collect();
-            println!(
+            let _ = writeln!(
+                out,
                 "outliers (‖e‖ > {} σ̂₃ = {:.4} mm): {} — {}{}; {}",
                 sc.k,
                 sc.threshold_mm,
@@ -999,7 +1096,8 @@ fn print_summary(o: &Outcome, elapsed_ms: f64) {
     }
     if let Some(v) = &o.validation {
         let (b, af) = (&v.table.before.norm, &v.table.after.norm);
-        println!(
+        let _ = writeln!(
+            out,
             "validation: {} poses of {}: {} mean {:.3} mm, max {:.3} mm → calibrated mean \
              {:.3} mm, max {:.3} mm",
             v.rows.len(),
@@ -1015,10 +1113,5 @@ fn print_summary(o: &Outcome, elapsed_ms: f64) {
             af.max_mm
         );
     }
-    println!(
-        "→ {}: {ROBOT_FILE} (the calibrated robot), {REGISTERED_FILE} (the nominal robot in \
-         the same frame: compensation targets), {PARAMETERS_FILE} (parameter table), \
-         {REPORT_FILE}",
-        a.out.display(),
-    );
+    out
 }

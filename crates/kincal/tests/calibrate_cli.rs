@@ -4,7 +4,7 @@
 
 mod common;
 
-use common::{root, xtask};
+use common::{kincal, root};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::process::Output;
@@ -80,7 +80,7 @@ fn sim() -> &'static Path {
     DIR.get_or_init(|| {
         let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("calibrate-cli-sim");
         let _ = std::fs::remove_dir_all(&dir);
-        ok(&xtask(&[
+        ok(&kincal(&[
             "simulate",
             "scenarios/noise-floor.json",
             "--out",
@@ -95,7 +95,7 @@ fn simulate_identify_predict_compensate_round_trip() {
     let sim = sim();
     let tmp = tempfile::tempdir().unwrap();
     let cal = tmp.path().join("cal");
-    let out = ok(&xtask(&[
+    let out = ok(&kincal(&[
         "identify",
         "--robot",
         s(kr1000()),
@@ -150,7 +150,7 @@ fn simulate_identify_predict_compensate_round_trip() {
     let measured = points_by_id(&validation, 6);
     let predict = |robot: &Path, joints: &Path, name: &str| {
         let p = tmp.path().join(name);
-        ok(&xtask(&[
+        ok(&kincal(&[
             "predict",
             "--robot",
             s(robot),
@@ -197,7 +197,7 @@ fn simulate_identify_predict_compensate_round_trip() {
     // compensate → re-measure (the true geometry at the compensated joints) reaches the
     // nominal targets to the noise floor; before, the true robot misses them by ≈ 1.1 mm.
     let comp = tmp.path().join("comp.csv");
-    let out = xtask(&[
+    let out = kincal(&[
         "compensate",
         "--robot",
         s(&cal.join("identified.json")),
@@ -259,7 +259,7 @@ fn rejected(header: &str, rows: &[String], name: &str) -> String {
     std::fs::create_dir(&made).unwrap();
     let fresh = tmp.path().join("fresh");
     for out_dir in [&made, &fresh] {
-        let out = xtask(&[
+        let out = kincal(&[
             "identify",
             "--robot",
             s(kr1000()),
@@ -277,7 +277,7 @@ fn rejected(header: &str, rows: &[String], name: &str) -> String {
         "files written"
     );
     assert!(!fresh.exists(), "output directory created");
-    stderr(&xtask(&[
+    stderr(&kincal(&[
         "identify",
         "--robot",
         s(kr1000()),
@@ -294,7 +294,7 @@ fn clean_rows_are_accepted() {
     let tmp = tempfile::tempdir().unwrap();
     let data = tmp.path().join("clean.csv");
     std::fs::write(&data, format!("{header}\n{}\n", rows.join("\n"))).unwrap();
-    let out = ok(&xtask(&[
+    let out = ok(&kincal(&[
         "identify",
         "--robot",
         s(kr1000()),
@@ -386,7 +386,7 @@ fn fewer_rows_than_free_parameters_need_is_rejected() {
     let tmp = tempfile::tempdir().unwrap();
     let data = tmp.path().join("few.csv");
     std::fs::write(&data, format!("{header}\n{}\n", rows.join("\n"))).unwrap();
-    ok(&xtask(&[
+    ok(&kincal(&[
         "identify",
         "--robot",
         s(kr1000()),
@@ -438,7 +438,7 @@ fn malformed_validation_file_is_rejected_before_anything_is_written() {
     let val = tmp.path().join("val.csv");
     std::fs::write(&val, format!("{header}\n{},oops\n", rows[0])).unwrap();
     let out_dir = tmp.path().join("o");
-    let out = xtask(&[
+    let out = kincal(&[
         "identify",
         "--robot",
         s(kr1000()),
@@ -486,7 +486,7 @@ fn crlf_bom_extra_columns_and_comments_are_read() {
     std::fs::write(&fancy, text).unwrap();
 
     // identify reads it (and names the ignored columns).
-    let out = xtask(&[
+    let out = kincal(&[
         "identify",
         "--robot",
         s(kr1000()),
@@ -519,7 +519,7 @@ fn crlf_bom_extra_columns_and_comments_are_read() {
                 args.extend(["--nominal", s(kr1000()), "--targets", s(input)]);
             }
             args.extend(["--out", s(&out)]);
-            ok(&xtask(&args));
+            ok(&kincal(&args));
             let text = std::fs::read_to_string(&out).unwrap();
             text.lines()
                 .filter(|l| !l.starts_with('#'))
@@ -570,7 +570,7 @@ fn outliers_are_reported_and_excluded_only_on_request() {
             s(&dir),
         ];
         args.extend_from_slice(extra);
-        let stdout = ok(&xtask(&args));
+        let stdout = ok(&kincal(&args));
         let report = std::fs::read_to_string(dir.join("report.md")).unwrap();
         let table: serde_json::Value =
             serde_json::from_str(&std::fs::read_to_string(dir.join("parameters.json")).unwrap())
@@ -598,7 +598,7 @@ fn outliers_are_reported_and_excluded_only_on_request() {
     );
 
     // A tighter k flags more; an invalid k is refused.
-    let out = xtask(&[
+    let out = kincal(&[
         "identify",
         "--robot",
         s(kr1000()),
@@ -638,7 +638,7 @@ fn unreachable_targets_fail_unless_allowed() {
         "--out",
         s(&out_file),
     ];
-    let out = xtask(&args);
+    let out = kincal(&args);
     assert!(!out.status.success());
     let err = stderr(&out);
     assert!(
@@ -649,7 +649,7 @@ fn unreachable_targets_fail_unless_allowed() {
 
     let mut allowed = args.to_vec();
     allowed.push("--allow-unreachable");
-    let out = xtask(&allowed);
+    let out = kincal(&allowed);
     ok(&out);
     assert!(stderr(&out).contains("targets.csv:3: unreachable"));
     let text = std::fs::read_to_string(&out_file).unwrap();
@@ -672,7 +672,7 @@ fn ur10_real_data_every_15th_row() {
     let robot = root().join("scenarios/robots/ur10.json");
     let tmp = tempfile::tempdir().unwrap();
     let cal = tmp.path().join("cal");
-    let out = ok(&xtask(&[
+    let out = ok(&kincal(&[
         "identify",
         "--robot",
         s(&robot),
@@ -716,7 +716,7 @@ fn ur10_real_data_every_15th_row() {
 
     // The same figures from predict with identified.json on the held-out rows.
     let pred = tmp.path().join("pred.csv");
-    ok(&xtask(&[
+    ok(&kincal(&[
         "predict",
         "--robot",
         s(&cal.join("identified.json")),
@@ -746,7 +746,7 @@ fn ur10_real_data_every_15th_row() {
 
     // The minimal set converges to the same predictions.
     let min = tmp.path().join("min");
-    let out = ok(&xtask(&[
+    let out = ok(&kincal(&[
         "identify",
         "--robot",
         s(&robot),
@@ -775,7 +775,7 @@ fn ur10_real_data_every_15th_row() {
     // that frame (written by identify); the nominal file itself is refused.
     let comp = tmp.path().join("comp.csv");
     let compensate = |nominal: &Path| {
-        xtask(&[
+        kincal(&[
             "compensate",
             "--robot",
             s(&min.join("identified.json")),
@@ -845,7 +845,7 @@ fn predict_and_compensate_reject_malformed_joint_files() {
         ] {
             let mut args = args.clone();
             args.extend(["--out", s(&out_file)]);
-            let out = xtask(&args);
+            let out = kincal(&args);
             assert!(!out.status.success(), "{args:?} accepted {name}");
             assert!(stderr(&out).contains(expect), "{args:?}: {}", stderr(&out));
             assert!(!out_file.exists(), "{args:?} wrote {}", out_file.display());
@@ -856,7 +856,7 @@ fn predict_and_compensate_reject_malformed_joint_files() {
 /// `identifiability --json` carries the keys the issue names, computed for the KR1000.
 #[test]
 fn identifiability_json_has_rank_redundant_condition_and_observability() {
-    let out = xtask(&[
+    let out = kincal(&[
         "identifiability",
         "--robot",
         s(kr1000()),

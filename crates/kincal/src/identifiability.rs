@@ -1,4 +1,4 @@
-//! `cargo xtask identifiability`: the identifiability report of a robot model on a pose set.
+//! `kincal identifiability`: the identifiability report of a robot model on a pose set.
 
 use std::path::{Path, PathBuf};
 
@@ -10,13 +10,18 @@ use measurements::{ReadOptions, read_file};
 use nalgebra::Vector3;
 
 /// Arguments of `identifiability`.
+#[allow(rustdoc::broken_intra_doc_links, rustdoc::invalid_html_tags)] // clap help text
 #[derive(Args, Debug)]
+#[command(after_help = "Examples:
+  kincal identifiability --robot scenarios/robots/kr1000-titan.json --random-poses 50
+  kincal identifiability --robot scenarios/robots/ur10.json \\
+      --data data/ur10-ipa/series-b-joint-configurations.csv --params minimal --json")]
 #[command(group(ArgGroup::new("poses").required(true).args(["data", "scenario", "random_poses"])))]
 pub struct IdentifiabilityArgs {
     /// Robot model file (JSON).
     #[arg(long)]
     robot: PathBuf,
-    /// Measurement file (spec §8 CSV): the poses; measured points are optional here.
+    /// Measurement file (docs/model.md CSV): the poses; measured points are optional here.
     #[arg(long)]
     data: Option<PathBuf>,
     /// Scenario file (JSON): its identification poses (trial 0) are analysed. The robot file

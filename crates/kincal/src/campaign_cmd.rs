@@ -1,4 +1,4 @@
-//! `cargo xtask campaign | merge | simulate`: thin wrappers over the campaign crate.
+//! `kincal campaign | merge | simulate | sweep`: thin wrappers over the campaign crate.
 
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -14,6 +14,10 @@ use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 /// Arguments of `campaign`.
 #[allow(rustdoc::broken_intra_doc_links, rustdoc::invalid_html_tags)] // clap help text
 #[derive(clap::Args)]
+#[command(after_help = "Examples:
+  kincal campaign scenarios/paper-kr1000.json --out my-run     # the paper's experiment, 200 trials
+  kincal campaign scenarios/paper-kr1000.json --trials 100000 --shard 3/32 --out shards/
+  Outputs: summary.json, summary.md, trial-0.md, plots; timing.json (wall clock, not committed).")]
 pub struct CampaignArgs {
     /// Scenario file (JSON), e.g. scenarios/paper-kr1000.json.
     pub scenario: PathBuf,
@@ -40,6 +44,8 @@ pub struct CampaignArgs {
 /// Arguments of `merge`.
 #[allow(rustdoc::broken_intra_doc_links, rustdoc::invalid_html_tags)] // clap help text
 #[derive(clap::Args)]
+#[command(after_help = "Example:
+  kincal merge shards/shard-*-of-32.json --out paper-1e6")]
 pub struct MergeArgs {
     /// Shard files written by `campaign --shard`.
     #[arg(required = true)]
@@ -52,6 +58,8 @@ pub struct MergeArgs {
 /// Arguments of `simulate`.
 #[allow(rustdoc::broken_intra_doc_links, rustdoc::invalid_html_tags)] // clap help text
 #[derive(clap::Args)]
+#[command(after_help = "Example:
+  kincal simulate scenarios/paper-kr1000.json --out sim   # sim/identification.csv, validation.csv, truth.json")]
 pub struct SimulateArgs {
     /// Scenario file (JSON).
     pub scenario: PathBuf,
@@ -100,7 +108,7 @@ fn default_out(name: &str) -> PathBuf {
 }
 
 fn write_timing(dir: &Path, trials: u64, threads: usize, seconds: f64) -> Result<()> {
-    let cpu = crate::bench::cpu_model_name().unwrap_or_default();
+    let cpu = crate::cpu_model_name().unwrap_or_default();
     let timing = serde_json::json!({
         "trials": trials,
         "threads": threads,
@@ -114,7 +122,7 @@ fn write_timing(dir: &Path, trials: u64, threads: usize, seconds: f64) -> Result
         .with_context(|| format!("writing {}", path.display()))
 }
 
-/// `cargo xtask campaign`.
+/// `kincal campaign`.
 pub fn campaign(args: CampaignArgs) -> Result<()> {
     run_campaign(
         &args.scenario,
@@ -132,7 +140,7 @@ fn threads_or_all(threads: Option<usize>) -> usize {
 }
 
 /// Runs a campaign (or one shard of it) and writes its outputs; returns the output directory.
-fn run_campaign(
+pub fn run_campaign(
     scenario_path: &Path,
     trials: Option<u64>,
     threads: Option<usize>,
@@ -219,7 +227,7 @@ fn run_campaign(
     Ok(())
 }
 
-/// `cargo xtask merge`.
+/// `kincal merge`.
 pub fn merge(args: MergeArgs) -> Result<()> {
     let files = args
         .shards
@@ -240,7 +248,7 @@ pub fn merge(args: MergeArgs) -> Result<()> {
     Ok(())
 }
 
-/// `cargo xtask simulate`.
+/// `kincal simulate`.
 pub fn simulate(args: SimulateArgs) -> Result<()> {
     let loaded = Scenario::from_file(&args.scenario)
         .with_context(|| format!("loading scenario {}", args.scenario.display()))?;
@@ -278,6 +286,8 @@ pub fn simulate(args: SimulateArgs) -> Result<()> {
 /// Arguments of `sweep`.
 #[allow(rustdoc::broken_intra_doc_links, rustdoc::invalid_html_tags)] // clap help text
 #[derive(clap::Args)]
+#[command(after_help = "Example:
+  kincal sweep scenarios/sweeps/pose-count.json --trials 50 --out my-sweep")]
 pub struct SweepArgs {
     /// Sweep file (JSON), e.g. scenarios/sweeps/pose-count.json.
     pub sweep: PathBuf,
@@ -292,12 +302,12 @@ pub struct SweepArgs {
     pub out: Option<PathBuf>,
 }
 
-/// `cargo xtask sweep`.
+/// `kincal sweep`.
 pub fn sweep(args: SweepArgs) -> Result<()> {
     run_sweep_to(&args.sweep, args.trials, args.threads, args.out, false)
 }
 
-fn run_sweep_to(
+pub fn run_sweep_to(
     sweep_path: &Path,
     trials: Option<u64>,
     threads: Option<usize>,
@@ -363,89 +373,6 @@ fn run_sweep_to(
         spec.trials,
         started.elapsed().as_secs_f64(),
         out.display()
-    );
-    Ok(())
-}
-
-/// Arguments of `regenerate`.
-#[derive(clap::Args)]
-pub struct RegenerateArgs {
-    /// Regenerate into a temporary directory and fail if any file differs from results/
-    /// (wall-clock files timing.json and bench.json excepted).
-    #[arg(long)]
-    pub check: bool,
-}
-
-/// Files in `results/` that hold wall-clock figures, not reproducible bytes.
-const WALL_CLOCK_FILES: [&str; 2] = ["timing.json", "bench.json"];
-
-/// `cargo xtask regenerate`: every committed scenario (`scenarios/*.json`) and sweep
-/// (`scenarios/sweeps/*.json`) into `results/<name>/`.
-pub fn regenerate(args: RegenerateArgs) -> Result<()> {
-    let list = |dir: &str| -> Result<Vec<PathBuf>> {
-        let mut v: Vec<PathBuf> = std::fs::read_dir(dir)
-            .with_context(|| format!("listing {dir}"))?
-            .filter_map(|e| e.ok().map(|e| e.path()))
-            .filter(|p| p.extension().is_some_and(|e| e == "json"))
-            .collect();
-        v.sort();
-        Ok(v)
-    };
-    let target = if args.check {
-        std::env::temp_dir().join(format!("kincal-regenerate-{}", std::process::id()))
-    } else {
-        PathBuf::from("results")
-    };
-    let mut names = Vec::new();
-    for path in list("scenarios")? {
-        let name = Scenario::from_file(&path)
-            .with_context(|| format!("loading {}", path.display()))?
-            .scenario
-            .name;
-        run_campaign(
-            &path,
-            None,
-            None,
-            Some(target.join(&name)),
-            None,
-            true,
-            false,
-        )?;
-        names.push(name);
-    }
-    for path in list("scenarios/sweeps")? {
-        let name = campaign::SweepSpec::from_file(&path)?.name;
-        run_sweep_to(&path, None, None, Some(target.join(&name)), true)?;
-        names.push(name);
-    }
-    if !args.check {
-        return Ok(());
-    }
-    let mut differ = Vec::new();
-    for name in &names {
-        let fresh = target.join(name);
-        for entry in std::fs::read_dir(&fresh)? {
-            let file = entry?.file_name();
-            if WALL_CLOCK_FILES.iter().any(|w| file == *w) {
-                continue;
-            }
-            let committed = Path::new("results").join(name).join(&file);
-            let a = std::fs::read(fresh.join(&file))?;
-            if std::fs::read(&committed).ok().as_deref() != Some(&a[..]) {
-                differ.push(committed.display().to_string());
-            }
-        }
-    }
-    let _ = std::fs::remove_dir_all(&target);
-    if !differ.is_empty() {
-        bail!(
-            "results/ does not match the committed scenarios; run `cargo xtask regenerate` and commit: {}",
-            differ.join(", ")
-        );
-    }
-    eprintln!(
-        "results/ regenerates byte for byte ({} outputs)",
-        names.len()
     );
     Ok(())
 }

@@ -2,7 +2,7 @@
 
 mod common;
 
-use common::{root, xtask};
+use common::{kincal, root};
 
 #[test]
 fn no_iso_drops_the_iso_rows_of_the_summary() {
@@ -21,7 +21,7 @@ fn no_iso_drops_the_iso_rows_of_the_summary() {
             out_dir.to_str().unwrap(),
         ];
         args.extend_from_slice(extra);
-        let out = xtask(&args);
+        let out = kincal(&args);
         assert!(
             out.status.success(),
             "{}",

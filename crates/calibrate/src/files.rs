@@ -1,0 +1,110 @@
+//! Robot files and measurement files as a calibration reads them: the robot's joint count and
+//! joint limits check every row; errors name the file, line and column.
+
+use std::path::{Path, PathBuf};
+
+use kinematics::{Robot, RobotSpec};
+use measurements::{Measurement, MeasurementError, MeasurementSet, ReadOptions, read_file};
+use nalgebra::Vector3;
+
+use crate::error::{CalibrateError, Result};
+
+/// A robot file, parsed, with the exact degree limits of the file.
+#[derive(Clone, Debug)]
+pub struct LoadedRobot {
+    /// The file as parsed.
+    pub spec: RobotSpec,
+    /// The model.
+    pub robot: Robot,
+    /// Where it was read from.
+    pub path: PathBuf,
+}
+
+impl LoadedRobot {
+    /// Loads and validates a robot model file (JSON, [`RobotSpec`]); `what` names it in
+    /// errors (`"robot"`, `"nominal robot"`, …).
+    pub fn load(path: &Path, what: &'static str) -> Result<Self> {
+        let err = |source| CalibrateError::Robot {
+            what,
+            path: path.to_path_buf(),
+            source,
+        };
+        let spec = RobotSpec::from_file(path).map_err(err)?;
+        let robot = Robot::from_spec(&spec).map_err(err)?;
+        Ok(LoadedRobot {
+            spec,
+            robot,
+            path: path.to_path_buf(),
+        })
+    }
+
+    /// Joint limits in degrees, exactly as in the file.
+    pub fn limits_deg(&self) -> Vec<[f64; 2]> {
+        self.spec.joints.iter().map(|j| j.limits_deg).collect()
+    }
+
+    /// Reads a measurement file for this robot: its joint count, its joint limits, points
+    /// required or not, at least `min_rows` rows (`why`, if given, explains that minimum
+    /// when it is not met). `what` names the file in errors. Notices (ignored columns) are in
+    /// the returned set's `notices`.
+    pub fn read_set(
+        &self,
+        path: &Path,
+        require_points: bool,
+        (min_rows, why): (usize, Option<&str>),
+        what: &str,
+    ) -> Result<MeasurementSet> {
+        let mut opts = ReadOptions::new(self.robot.n_joints())
+            .with_limits_deg(self.limits_deg())
+            .with_min_rows(min_rows);
+        if !require_points {
+            opts = opts.joints_only();
+        }
+        read_file(path, &opts).map_err(|source| {
+            let too_few = matches!(source, MeasurementError::TooFewRows { .. });
+            let err = CalibrateError::Read {
+                context: format!(
+                    "reading the {what} {} for {} ({} joints)",
+                    path.display(),
+                    self.robot.name(),
+                    self.robot.n_joints()
+                ),
+                source,
+            };
+            match why {
+                Some(why) if too_few => err.context(why),
+                _ => err,
+            }
+        })
+    }
+}
+
+/// The joint values of `rows`, radians, flat.
+pub fn poses_rad(rows: &[Measurement]) -> Vec<f64> {
+    rows.iter()
+        .flat_map(|r| r.q_deg.iter().map(|q| q.to_radians()))
+        .collect()
+}
+
+/// The measured points of `rows` (which must have them: read with points required), mm.
+pub fn points_mm(rows: &[Measurement]) -> Vec<Vector3<f64>> {
+    rows.iter()
+        .map(|r| Vector3::from(r.point_mm.expect("read with points required")))
+        .collect()
+}
+
+/// `V003 (line 5)` or `line 5`.
+pub fn row_label(row: &Measurement) -> String {
+    match &row.id {
+        Some(id) => format!("{id} (line {})", row.line),
+        None => format!("line {}", row.line),
+    }
+}
+
+/// The file name of a path, for headers and names.
+pub fn file_name(path: &Path) -> String {
+    path.file_name().map_or_else(
+        || path.display().to_string(),
+        |n| n.to_string_lossy().into(),
+    )
+}

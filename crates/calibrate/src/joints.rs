@@ -1,0 +1,230 @@
+//! Prediction and compensation of joint files: what `kincal predict` and `kincal compensate`
+//! compute, rendered as measurement files (`docs/model.md`, measurement files).
+
+use std::path::Path;
+
+use identify::{compensate, kabsch};
+use kinematics::{IkOptions, Robot};
+use measurements::{Measurement, MeasurementSet, to_csv_string};
+use nalgebra::Vector3;
+
+use crate::error::{CalibrateError, Result};
+use crate::files::{LoadedRobot, file_name, poses_rad};
+
+/// The predicted points of a robot at the rows of a joint file.
+#[derive(Clone, Debug)]
+pub struct Prediction {
+    /// `id` (if the input has ids), `q1…qN` as read, predicted `x, y, z` (mm, the robot's
+    /// measurement frame), with a comment header.
+    pub csv: String,
+    /// Rows predicted.
+    pub rows: usize,
+    /// When every input row has a point: mean and max of |file − predicted| (mm).
+    pub file_error_mm: Option<(f64, f64)>,
+    /// Reader notices (ignored columns).
+    pub notices: Vec<String>,
+}
+
+/// Predicts the measured point of `robot` at each row of the joint file `joints`; `out_label`
+/// names the output in the CSV (a path or `stdout`).
+pub fn predict(robot: &LoadedRobot, joints: &Path, out_label: &str) -> Result<Prediction> {
+    let set = robot.read_set(joints, false, (1, None), "joint file")?;
+    let mut rows = Vec::with_capacity(set.rows.len());
+    let mut errors = Vec::new();
+    let mut q = vec![0.0; robot.robot.n_joints()];
+    for r in &set.rows {
+        for (qr, d) in q.iter_mut().zip(&r.q_deg) {
+            *qr = d.to_radians();
+        }
+        let p = robot.robot.point(&q);
+        if let Some(m) = r.point_mm {
+            errors.push((Vector3::from(m) - p).norm());
+        }
+        rows.push(Measurement {
+            line: 0,
+            id: r.id.clone(),
+            q_deg: r.q_deg.clone(),
+            point_mm: Some([p.x, p.y, p.z]),
+        });
+    }
+    let n = rows.len();
+    let out_set = MeasurementSet::new(out_label, robot.robot.n_joints(), rows);
+    let header = format!(
+        "kincal predict: points of {} ({}) at the joints of {}\nq in degrees as read; x y z \
+         predicted, mm, in the robot's measurement frame",
+        robot.robot.name(),
+        file_name(&robot.path),
+        file_name(joints)
+    );
+    let csv = to_csv_string(&out_set, Some(&header)).map_err(|source| CalibrateError::Read {
+        context: "formatting the predictions".into(),
+        source,
+    })?;
+    let file_error_mm = (n > 0 && errors.len() == n).then(|| {
+        let mean = errors.iter().sum::<f64>() / n as f64;
+        (mean, errors.iter().copied().fold(0.0, f64::max))
+    });
+    Ok(Prediction {
+        csv,
+        rows: n,
+        file_error_mm,
+        notices: set.notices,
+    })
+}
+
+/// Largest mean shift (mm) of the rigid transform between the nominal and the calibrated
+/// robot's points that [`compensate_targets`] accepts [10 mm, the threshold above which
+/// `identify` registers: geometric errors are millimetres, another frame is metres].
+pub const SAME_FRAME_MM: f64 = 10.0;
+
+/// The joints to command for each target, and what was left out.
+#[derive(Clone, Debug)]
+pub struct Compensation {
+    /// `id, q1…qN, x, y, z`: the joints to command (degrees) and the target point they
+    /// reach on the calibrated model (mm), with a comment header. Rows without an id get
+    /// `L<line>` (their line in the targets file).
+    pub csv: String,
+    /// Targets compensated.
+    pub compensated: usize,
+    /// Targets read.
+    pub targets: usize,
+    /// `file:line: id: unreachable: why`, one per target left out.
+    pub unreachable: Vec<String>,
+    /// Largest change of a joint (degrees).
+    pub max_joint_change_deg: f64,
+    /// Largest IK position error (mm).
+    pub max_ik_error_mm: f64,
+    /// Reader notices (ignored columns).
+    pub notices: Vec<String>,
+}
+
+/// Refuses a nominal model that is not in the calibrated robot's measurement frame: the
+/// rigid transform best mapping the nominal model's points onto the calibrated robot's at the
+/// target poses must move them by at most [`SAME_FRAME_MM`] on average. (Base parameters alone
+/// cannot tell: with redundant parameters the identified base trades against θ1 and d1.)
+/// Skipped when the targets do not determine a rotation (fewer than three, or collinear).
+fn check_same_frame(calibrated: &LoadedRobot, nominal: &LoadedRobot, poses: &[f64]) -> Result<()> {
+    let (pn, pi) = (nominal.robot.points(poses), calibrated.robot.points(poses));
+    let Ok(t) = kabsch(&pn, &pi) else {
+        return Ok(());
+    };
+    let shift = pn.iter().map(|p| (t.apply(p) - p).norm()).sum::<f64>() / pn.len() as f64;
+    if shift > SAME_FRAME_MM {
+        return Err(CalibrateError::Refused(format!(
+            "{} and {} are not in the same measurement frame: at the target poses a rigid \
+             transform of {:.3}° and {:.1} mm separates their points (mean shift {shift:.1} mm \
+             > {SAME_FRAME_MM} mm), so the nominal targets would be meaningless for the \
+             calibrated robot; pass the nominal model registered in its frame \
+             (`registered-nominal.json`, written by `identify` next to `identified.json`)",
+            calibrated.path.display(),
+            nominal.path.display(),
+            t.angle_deg(),
+            t.translation_mm.norm()
+        )));
+    }
+    Ok(())
+}
+
+/// For each commanded pose of `targets`, the joints that bring `calibrated`'s point onto
+/// `nominal`'s (flange orientation held), by IK of the calibrated model. Unreachable targets
+/// are an error listing them unless `allow_unreachable`; `out_label` names the output.
+pub fn compensate_targets(
+    calibrated: &LoadedRobot,
+    nominal: &LoadedRobot,
+    targets: &Path,
+    allow_unreachable: bool,
+    out_label: &str,
+) -> Result<Compensation> {
+    let (id_r, nom_r): (&Robot, &Robot) = (&calibrated.robot, &nominal.robot);
+    if id_r.layout() != nom_r.layout() {
+        return Err(CalibrateError::Refused(format!(
+            "{} ({} joints, {} parameters) and {} ({} joints, {} parameters) are not the same \
+             kind of robot",
+            calibrated.path.display(),
+            id_r.n_joints(),
+            id_r.n_params(),
+            nominal.path.display(),
+            nom_r.n_joints(),
+            nom_r.n_params()
+        )));
+    }
+    let set = nominal.read_set(targets, false, (1, None), "target joint file")?;
+    let n = nom_r.n_joints();
+    check_same_frame(calibrated, nominal, &poses_rad(&set.rows))?;
+    let ik = IkOptions::default();
+    let mut rows = Vec::with_capacity(set.rows.len());
+    let mut unreachable = Vec::new();
+    let mut q = vec![0.0; n];
+    let mut cmd = vec![0.0; n];
+    let (mut max_dq_deg, mut max_err_mm) = (0.0_f64, 0.0_f64);
+    for r in &set.rows {
+        for (qr, d) in q.iter_mut().zip(&r.q_deg) {
+            *qr = d.to_radians();
+        }
+        cmd.copy_from_slice(&q);
+        match compensate(nom_r, id_r, &mut q, &ik) {
+            Ok(rep) => {
+                let target = nom_r.point(&cmd);
+                let q_deg: Vec<f64> = q.iter().map(|v| v.to_degrees()).collect();
+                for (a, b) in q_deg.iter().zip(&r.q_deg) {
+                    max_dq_deg = max_dq_deg.max((a - b).abs());
+                }
+                max_err_mm = max_err_mm.max(rep.pos_err_mm);
+                rows.push(Measurement {
+                    line: 0,
+                    id: Some(r.id.clone().unwrap_or_else(|| format!("L{}", r.line))),
+                    q_deg,
+                    point_mm: Some([target.x, target.y, target.z]),
+                });
+            }
+            Err(e) => unreachable.push(format!(
+                "{}:{}: {}unreachable: {e}",
+                set.source,
+                r.line,
+                r.id.as_ref().map_or(String::new(), |id| format!("{id}: "))
+            )),
+        }
+    }
+    if !unreachable.is_empty() && !allow_unreachable {
+        return Err(CalibrateError::Refused(format!(
+            "{}\n{} of {} targets in {} are unreachable for {} (listed above); nothing written — \
+             --allow-unreachable writes the others",
+            unreachable.join("\n"),
+            unreachable.len(),
+            set.rows.len(),
+            set.source,
+            id_r.name()
+        )));
+    }
+    if rows.is_empty() {
+        return Err(CalibrateError::Refused(format!(
+            "{}\nno target in {} is reachable; nothing written",
+            unreachable.join("\n"),
+            set.source
+        )));
+    }
+    let compensated = rows.len();
+    let out_set = MeasurementSet::new(out_label, n, rows);
+    let header = format!(
+        "kincal compensate: joints (degrees) to command so that {} ({}) reaches the points of \
+         {} ({}) at the commanded joints of {}\nx y z: that target point, mm",
+        id_r.name(),
+        file_name(&calibrated.path),
+        nom_r.name(),
+        file_name(&nominal.path),
+        file_name(targets)
+    );
+    let csv = to_csv_string(&out_set, Some(&header)).map_err(|source| CalibrateError::Read {
+        context: "formatting the joints".into(),
+        source,
+    })?;
+    Ok(Compensation {
+        csv,
+        compensated,
+        targets: set.rows.len(),
+        unreachable,
+        max_joint_change_deg: max_dq_deg,
+        max_ik_error_mm: max_err_mm,
+        notices: set.notices,
+    })
+}

@@ -1,0 +1,89 @@
+//! The workflow as a library: the real UR10 (data/ur10-ipa) every 15th row, validated on the
+//! rest, against the independent SciPy MINPACK fit quoted in data/ur10-ipa/README.md; bad
+//! options are refused before anything is read; a failed write leaves nothing behind.
+
+use std::path::PathBuf;
+
+use calibrate::{CalibrateError, IdentifyRequest, Split};
+
+fn root() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..")
+}
+
+fn ur10_request() -> IdentifyRequest {
+    IdentifyRequest {
+        split: Split::Every {
+            every: 15,
+            offset: 0,
+        },
+        ..IdentifyRequest::new(
+            root().join("scenarios/robots/ur10.json"),
+            root().join("data/ur10-ipa/series-b-joint-configurations.csv"),
+        )
+    }
+}
+
+#[test]
+fn ur10_every_15th_row_matches_the_independent_fit() {
+    let cal = calibrate::run(&ur10_request()).unwrap();
+    assert_eq!(cal.used.len(), 100);
+    let v = cal.validation.as_ref().expect("the other rows validate");
+    assert_eq!(v.rows.len(), 1395);
+    let after = &v.table.after.norm;
+    // SciPy's MINPACK LM on the same split: 0.45 mm mean, 1.77 mm max (README of the data).
+    assert!((after.mean_mm - 0.45).abs() < 0.01, "{}", after.mean_mm);
+    assert!((after.max_mm - 1.77).abs() < 0.02, "{}", after.max_mm);
+    assert!(v.table.before.norm.mean_mm > 2.5);
+    let rendered = cal.render();
+    let names: Vec<&str> = rendered.files.iter().map(|(n, _)| *n).collect();
+    assert_eq!(
+        names,
+        [
+            "identified.json",
+            "registered-nominal.json",
+            "parameters.json",
+            "report.md"
+        ]
+    );
+    assert!(cal.summary().contains("validation: 1395 poses"));
+}
+
+#[test]
+fn bad_options_are_refused_with_the_option_named() {
+    let mut r = ur10_request();
+    r.outlier_k = f64::NAN;
+    let e = calibrate::run(&r).unwrap_err();
+    assert!(matches!(e, CalibrateError::Refused(_)));
+    assert!(e.to_string().contains("--outlier-k"), "{e}");
+    let mut r = ur10_request();
+    r.split = Split::Every {
+        every: 3,
+        offset: 3,
+    };
+    assert!(
+        calibrate::run(&r)
+            .unwrap_err()
+            .to_string()
+            .contains("--offset 3")
+    );
+    let mut r = ur10_request();
+    r.robot = root().join("scenarios/robots/missing.json");
+    let e = calibrate::run(&r).unwrap_err();
+    assert!(e.to_string().contains("missing.json"), "{e}");
+}
+
+#[test]
+fn a_failed_write_leaves_no_directory() {
+    let mut r = ur10_request();
+    r.split = Split::Every {
+        every: 10,
+        offset: 0,
+    };
+    let cal = calibrate::run(&r).unwrap();
+    let tmp = tempfile::tempdir().unwrap();
+    let file = tmp.path().join("a-file");
+    std::fs::write(&file, "x").unwrap();
+    let e = cal.render().write_to(&file.join("out")).unwrap_err();
+    assert!(e.to_string().contains("a-file"), "{e}");
+    assert_eq!(std::fs::read_to_string(&file).unwrap(), "x");
+}

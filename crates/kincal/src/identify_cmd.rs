@@ -1,0 +1,109 @@
+//! `kincal identify`: calibrate a robot from a measurement file. Parses the options into a
+//! [`calibrate::IdentifyRequest`], runs it, writes the outputs and prints the summary.
+
+use std::path::PathBuf;
+
+use anyhow::{Context, Result};
+use calibrate::{
+    IdentifyRequest, PARAMETERS_FILE, REGISTERED_FILE, REPORT_FILE, ROBOT_FILE, RedundantArg,
+    Registration, Schedule, Split,
+};
+use clap::Args;
+
+/// Arguments of `identify`.
+#[allow(rustdoc::broken_intra_doc_links, rustdoc::invalid_html_tags)] // clap help text
+#[derive(Args, Debug)]
+#[command(
+    after_help = "Example (the real UR10 of data/ur10-ipa, from the repository root):
+  kincal identify --robot scenarios/robots/ur10.json \\
+      --data data/ur10-ipa/series-b-joint-configurations.csv --every 15 --out ur10-cal
+  → ur10-cal/identified.json, registered-nominal.json, parameters.json, report.md"
+)]
+pub struct IdentifyArgs {
+    /// Nominal robot model file (JSON); its joint limits check the data.
+    #[arg(long)]
+    robot: PathBuf,
+    /// Identification measurements (docs/model.md CSV: q1…qN in degrees, x, y, z in mm).
+    #[arg(long)]
+    data: PathBuf,
+    /// Validation measurements (same CSV format): Table 4 of the nominal (after
+    /// registration) and the identified model's predictions.
+    #[arg(long, conflicts_with = "every")]
+    validate: Option<PathBuf>,
+    /// Hold-out split of --data: identify on data rows OFFSET, OFFSET+K, OFFSET+2K, …
+    /// (0-based, comments and blank lines not counted) and validate on all the others.
+    #[arg(long, value_name = "K")]
+    every: Option<usize>,
+    /// First identification row of --every.
+    #[arg(long, default_value_t = 0, requires = "every")]
+    offset: usize,
+    /// Parameters to identify: `paper` (all, redundant ones included), `minimal` (the
+    /// identifiable set at the registered nominal model), or comma-separated names.
+    #[arg(long, default_value = "paper")]
+    params: String,
+    /// Damping schedule.
+    #[arg(long, value_enum, default_value_t = Schedule::Levenberg)]
+    schedule: Schedule,
+    /// Free parameters exactly redundant at the start (e.g. 10 of the UR10's 35): held at
+    /// their start values, or kept in the damped system as the paper does.
+    #[arg(long, value_enum, default_value_t = RedundantArg::Hold)]
+    redundant: RedundantArg,
+    /// Registration of the measurement frame.
+    #[arg(long, value_enum, default_value_t = Registration::Auto)]
+    registration: Registration,
+    /// Drop the outliers found after the first fit and refit (without it they are only
+    /// reported).
+    #[arg(long)]
+    reject_outliers: bool,
+    /// Outlier threshold: ‖residual‖ > k·σ̂₃, σ̂₃ = √3·σ̂ the fit's 3-D residual scale.
+    #[arg(long, default_value_t = 3.0, value_name = "K")]
+    outlier_k: f64,
+    /// Worst points listed in the report, per data set.
+    #[arg(long, default_value_t = 10, value_name = "N")]
+    worst: usize,
+    /// Output directory, created if missing (only once everything succeeded).
+    #[arg(long, default_value = "identified")]
+    out: PathBuf,
+}
+
+impl IdentifyArgs {
+    fn request(&self) -> IdentifyRequest {
+        IdentifyRequest {
+            validate: self.validate.clone(),
+            split: match self.every {
+                Some(every) => Split::Every {
+                    every,
+                    offset: self.offset,
+                },
+                None => Split::All,
+            },
+            params: self.params.clone(),
+            schedule: self.schedule,
+            redundant: self.redundant,
+            registration: self.registration,
+            reject_outliers: self.reject_outliers,
+            outlier_k: self.outlier_k,
+            worst: self.worst,
+            ..IdentifyRequest::new(&self.robot, &self.data)
+        }
+    }
+}
+
+/// `kincal identify`.
+pub fn run(args: &IdentifyArgs) -> Result<()> {
+    let cal = calibrate::run(&args.request())?;
+    for notice in &cal.notices {
+        eprintln!("note: {notice}");
+    }
+    cal.render()
+        .write_to(&args.out)
+        .with_context(|| format!("writing the outputs into {}", args.out.display()))?;
+    print!("{}", cal.summary());
+    println!(
+        "→ {}: {ROBOT_FILE} (the calibrated robot), {REGISTERED_FILE} (the nominal robot in \
+         the same frame: compensation targets), {PARAMETERS_FILE} (parameter table), \
+         {REPORT_FILE}",
+        args.out.display(),
+    );
+    Ok(())
+}

@@ -1,0 +1,129 @@
+//! `kincal predict | compensate`: parse, call [`calibrate::predict`] /
+//! [`calibrate::compensate_targets`], write or print.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, Result};
+use calibrate::LoadedRobot;
+use clap::Args;
+
+/// Writes `text` to `out` atomically, or prints it to stdout.
+fn emit(out: Option<&Path>, text: &str) -> Result<()> {
+    match out {
+        Some(path) => measurements::write_atomically(path, text.as_bytes())
+            .with_context(|| format!("writing {}", path.display())),
+        None => {
+            print!("{text}");
+            Ok(())
+        }
+    }
+}
+
+fn out_label(out: Option<&Path>) -> String {
+    out.map_or_else(|| "stdout".to_string(), |p| p.display().to_string())
+}
+
+/// Arguments of `predict`.
+#[allow(rustdoc::broken_intra_doc_links, rustdoc::invalid_html_tags)] // clap help text
+#[derive(Args, Debug)]
+#[command(after_help = "Example:
+  kincal predict --robot ur10-cal/identified.json \\
+      --joints data/ur10-ipa/series-b-joint-configurations.csv --out predicted.csv")]
+pub struct PredictArgs {
+    /// Robot model file (JSON), e.g. an `identified.json` written by `identify`.
+    #[arg(long)]
+    robot: PathBuf,
+    /// Joint file (docs/model.md CSV; the joints-only form `id, q1…qN` is enough; other
+    /// columns are ignored; `x, y, z`, if present, are compared with the prediction on
+    /// stderr).
+    #[arg(long)]
+    joints: PathBuf,
+    /// Output file [stdout]: `id` (if the input has ids), `q1…qN` as read, and the
+    /// predicted `x, y, z` in mm in the robot's measurement frame.
+    #[arg(long)]
+    out: Option<PathBuf>,
+}
+
+/// `kincal predict`.
+pub fn predict(args: &PredictArgs) -> Result<()> {
+    let robot = LoadedRobot::load(&args.robot, "robot")?;
+    let p = calibrate::predict(&robot, &args.joints, &out_label(args.out.as_deref()))?;
+    for notice in &p.notices {
+        eprintln!("note: {notice}");
+    }
+    emit(args.out.as_deref(), &p.csv)?;
+    match p.file_error_mm {
+        Some((mean, max)) => eprintln!(
+            "{} rows; the file has points x, y, z: |file − predicted| mean {mean:.4} mm, max \
+             {max:.4} mm",
+            p.rows
+        ),
+        None => eprintln!("{} rows", p.rows),
+    }
+    if let Some(out) = &args.out {
+        eprintln!("→ {}", out.display());
+    }
+    Ok(())
+}
+
+/// Arguments of `compensate`.
+#[allow(rustdoc::broken_intra_doc_links, rustdoc::invalid_html_tags)] // clap help text
+#[derive(Args, Debug)]
+#[command(after_help = "Example (after `kincal identify … --out ur10-cal`):
+  kincal compensate --robot ur10-cal/identified.json \\
+      --nominal ur10-cal/registered-nominal.json --targets targets.csv --out commands.csv")]
+pub struct CompensateArgs {
+    /// The calibrated robot (e.g. `identified.json` from `identify`).
+    #[arg(long)]
+    robot: PathBuf,
+    /// The nominal robot in the calibrated robot's measurement frame: its forward kinematics
+    /// at the commanded joints are the targets. When `identify` registered the data (they
+    /// were in a tracker frame), use the `registered-nominal.json` it wrote.
+    #[arg(long)]
+    nominal: PathBuf,
+    /// Commanded joints (docs/model.md joints-only CSV; other columns ignored).
+    #[arg(long)]
+    targets: PathBuf,
+    /// Output file [stdout]: `id, q1…qN, x, y, z`: the joints to command (degrees) and the
+    /// target point they reach on the calibrated model (mm; compare a re-measurement with
+    /// it, e.g. `predict --joints` on this file). Rows without an id get `L<line>` (their
+    /// line in the targets file).
+    #[arg(long)]
+    out: Option<PathBuf>,
+    /// Write the reachable rows and list the unreachable ones instead of failing.
+    #[arg(long)]
+    allow_unreachable: bool,
+}
+
+/// `kincal compensate`.
+pub fn compensate(args: &CompensateArgs) -> Result<()> {
+    let calibrated = LoadedRobot::load(&args.robot, "calibrated robot")?;
+    let nominal = LoadedRobot::load(&args.nominal, "nominal robot")?;
+    let c = calibrate::compensate_targets(
+        &calibrated,
+        &nominal,
+        &args.targets,
+        args.allow_unreachable,
+        &out_label(args.out.as_deref()),
+    )?;
+    for notice in &c.notices {
+        eprintln!("note: {notice}");
+    }
+    for u in &c.unreachable {
+        eprintln!("{u}");
+    }
+    emit(args.out.as_deref(), &c.csv)?;
+    eprintln!(
+        "compensated {} of {} targets ({} unreachable left out); largest joint change \
+         {:.4}°, largest IK position error {:.1e} mm{}",
+        c.compensated,
+        c.targets,
+        c.unreachable.len(),
+        c.max_joint_change_deg,
+        c.max_ik_error_mm,
+        args.out
+            .as_ref()
+            .map_or(String::new(), |p| format!(" → {}", p.display()))
+    );
+    Ok(())
+}

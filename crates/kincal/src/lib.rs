@@ -1,0 +1,68 @@
+//! The front end of the `kincal` command line, as a library so that the repository's
+//! automation (`cargo xtask`) runs the same commands: argument types (clap), and functions
+//! that call the library crates and print. No calibration logic lives here: campaigns are
+//! `campaign`'s, the real-data workflow is `calibrate`'s.
+// The argument docs of the clap types are `--help` text, printed verbatim: defaults are
+// written `[stdout]` and placeholders `<scenario>` there, not rustdoc links or HTML, so those
+// types allow the two rustdoc lints.
+
+pub mod campaign_cmd;
+pub mod identifiability;
+pub mod identify_cmd;
+pub mod joints_cmd;
+
+use anyhow::Result;
+use clap::Subcommand;
+
+/// The user commands of `kincal` (also reachable as `cargo xtask <command>` in the
+/// repository).
+#[allow(rustdoc::broken_intra_doc_links, rustdoc::invalid_html_tags)] // clap help text
+#[derive(Subcommand)]
+pub enum Command {
+    /// Run a Monte Carlo campaign of a scenario: trials in parallel, summary against the
+    /// paper, plots, in results/<scenario name>/ (or --out).
+    Campaign(campaign_cmd::CampaignArgs),
+    /// Merge shard files written by `campaign --shard k/K` into one summary.
+    Merge(campaign_cmd::MergeArgs),
+    /// Run a sweep: the cross product of a scenario's axes, one campaign per point, one
+    /// table and curves in results/<sweep name>/ (or --out).
+    Sweep(campaign_cmd::SweepArgs),
+    /// Simulate one trial of a scenario: identification.csv, validation.csv (measurement
+    /// files) and truth.json.
+    Simulate(campaign_cmd::SimulateArgs),
+    /// Calibrate a robot from measurements: register, identify, screen outliers, validate;
+    /// writes identified.json, registered-nominal.json, parameters.json and report.md.
+    Identify(identify_cmd::IdentifyArgs),
+    /// Predicted x, y, z of a robot model for each row of a joint file.
+    Predict(joints_cmd::PredictArgs),
+    /// Joints to command so that the calibrated robot reaches the nominal targets.
+    Compensate(joints_cmd::CompensateArgs),
+    /// Identifiability of a robot's parameters on a pose set: rank, redundant parameters and
+    /// what they are confounded with, condition number, observability indices O1–O5.
+    Identifiability(identifiability::IdentifiabilityArgs),
+}
+
+/// Runs a user command.
+pub fn run(cmd: Command) -> Result<()> {
+    match cmd {
+        Command::Campaign(args) => campaign_cmd::campaign(args),
+        Command::Merge(args) => campaign_cmd::merge(args),
+        Command::Sweep(args) => campaign_cmd::sweep(args),
+        Command::Simulate(args) => campaign_cmd::simulate(args),
+        Command::Identify(args) => identify_cmd::run(&args),
+        Command::Predict(args) => joints_cmd::predict(&args),
+        Command::Compensate(args) => joints_cmd::compensate(&args),
+        Command::Identifiability(args) => identifiability::run(&args),
+    }
+}
+
+/// The CPU's model name from `/proc/cpuinfo` (`None` where there is none): recorded beside
+/// every wall-clock figure (`bench.json`, a campaign's `timing.json`).
+pub fn cpu_model_name() -> Option<String> {
+    std::fs::read_to_string("/proc/cpuinfo").ok().and_then(|s| {
+        s.lines()
+            .find(|l| l.starts_with("model name"))
+            .and_then(|l| l.split_once(':'))
+            .map(|(_, v)| v.trim().to_string())
+    })
+}
