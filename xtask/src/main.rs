@@ -41,7 +41,7 @@ enum Cmd {
     Campaign(campaign_cmd::CampaignArgs),
     /// Merge shard files written by `campaign --shard k/K` into one summary.
     Merge(campaign_cmd::MergeArgs),
-    /// Simulate one trial of a scenario: identification.csv, validation.csv (spec §8) and
+    /// Simulate one trial of a scenario: identification.csv, validation.csv (docs/model.md §5) and
     /// truth.json.
     Simulate(campaign_cmd::SimulateArgs),
     /// Run a sweep: the cross product of a scenario's axes, one campaign per point, one
@@ -53,7 +53,7 @@ enum Cmd {
     /// recovery, improvement, O1–O5) against results/baselines/ within the check file's
     /// tolerances; non-zero exit on regression (`--bless` writes the baselines).
     Check(check_cmd::CheckArgs),
-    /// Calibrate a robot from measurements (spec §8 CSV): register, identify, screen
+    /// Calibrate a robot from measurements (docs/model.md §5 CSV): register, identify, screen
     /// outliers, validate; writes identified.json, registered-nominal.json, parameters.json
     /// and report.md.
     Identify(identify_cmd::IdentifyArgs),
