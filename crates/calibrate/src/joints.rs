@@ -1,5 +1,5 @@
 //! Prediction and compensation of joint files: what `kincal predict` and `kincal compensate`
-//! compute, rendered as measurement files (`docs/model.md`, measurement files).
+//! compute, rendered as measurement files (`docs/model.md` §5).
 
 use std::path::Path;
 

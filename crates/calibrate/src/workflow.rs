@@ -1,4 +1,4 @@
-//! The calibration workflow on a measurement file (`docs/model.md`, measurement files):
+//! The calibration workflow on a measurement file (`docs/model.md` §5):
 //!
 //! read → (split) → register the base if the data are in another frame → identify → screen
 //! outliers (refit without them on request) → analyse identifiability at the solution →
@@ -25,7 +25,7 @@ use serde::Serialize;
 use crate::error::{CalibrateError, Result, id_err};
 use crate::files::{LoadedRobot, file_name, points_mm, poses_rad, row_label};
 
-/// The damping schedule (`docs/model.md`, damping schedules).
+/// The damping schedule (`docs/model.md` §7).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 #[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum Schedule {
@@ -812,7 +812,7 @@ fn render_report(o: &Calibration) -> String {
         None => s.push_str("- registration: off (`--registration never`)\n"),
     }
     s.push_str(
-        "- model: geometry only (docs/model.md). Compliance, gear errors and other non-geometric \
+        "- model: geometry only (docs/model.md §2–§3). Compliance, gear errors and other non-geometric \
          effects are not identified; they stay in the residuals.\n",
     );
 

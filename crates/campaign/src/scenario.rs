@@ -138,7 +138,7 @@ impl CompensationConfig {
     }
 }
 
-/// The ISO 9283 position test (spec §6).
+/// The ISO 9283 position test (`docs/model.md` §9).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct IsoConfig {

@@ -270,7 +270,8 @@ pub struct TrialResult {
     pub predicted_error_mm: f64,
     /// Recovery per minimal-set parameter (when enabled and computable).
     pub recovery: Vec<ParameterRecovery>,
-    /// Observability indices O1–O5 of the identification poses (spec §3; see [`Observability`]).
+    /// Observability indices O1–O5 of the identification poses (`docs/model.md` §6; see
+    /// [`Observability`]).
     pub observability: Option<Observability>,
     /// ISO 9283 results (when enabled).
     pub iso: Option<IsoReport>,
@@ -420,8 +421,8 @@ pub fn run_trial(ctx: &Context, trial: u64) -> Result<TrialResult, CampaignError
     })
 }
 
-/// Observability indices O1–O5 (spec §3) of a trial's identification poses: on the singular
-/// values of the Jacobian of the minimal identifiable set at the nominal model, columns
+/// Observability indices O1–O5 (`docs/model.md` §6) of a trial's identification poses: on the
+/// singular values of the Jacobian of the minimal identifiable set at the nominal model, columns
 /// scaled to unit Euclidean norm — the square roots of the eigenvalues of the scaled Gram
 /// matrix `D·JᵀJ·D`, `D = diag(1/‖J_k‖)` (relative accuracy ≈ ε·cond², ample for the
 /// condition numbers of a full-rank set). `None` if the set is degenerate on these poses.

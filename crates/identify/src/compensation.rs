@@ -1,5 +1,5 @@
 //! Compensation: the joint values to command so that the calibrated robot reaches what the
-//! nominal model promised (spec §6).
+//! nominal model promised (`docs/model.md` §8).
 //!
 //! For commanded joints q, the target is the nominal model's measured point
 //! `p* = T_nom(q)·t_nom` with the nominal flange orientation `R* = R_nom(q)`; the physical

@@ -1,6 +1,6 @@
 //! Identifiability of a parameter set on a pose set: singular values of the column-scaled
 //! Jacobian, numerical rank, redundant parameters and what they are confounded with, a minimal
-//! parameter set, condition number and the observability indices O1–O5 (spec §3).
+//! parameter set, condition number and the observability indices O1–O5 (`docs/model.md` §6).
 //!
 //! # Scaling
 //!
@@ -27,11 +27,11 @@
 //! (while P·drop_row_min² < 1). For exactly confounded groups this is QR with a fixed pivot
 //! order on the column space: within each group the highest-priority parameters are kept.
 //!
-//! The priority ([`keep_priority`]) follows spec §3's list: first the ball offset `tool_*`,
-//! then the base translations `base_dx, base_dy, base_dz`, then the joint parameters in
-//! layout order (θ, d, a, α per joint, then β), then the base rotations `base_rx, base_ry,
-//! base_rz`. For the KR1000 it drops exactly d1 (kept: base_dz), base_rz (kept: θ1), d3 (kept:
-//! d2) and θ6, d6, a6, α6 (kept: tool_x, tool_y, tool_z).
+//! The priority ([`keep_priority`]) follows the list of `docs/model.md` §6: first the ball
+//! offset `tool_*`, then the base translations `base_dx, base_dy, base_dz`, then the joint
+//! parameters in layout order (θ, d, a, α per joint, then β), then the base rotations `base_rx,
+//! base_ry, base_rz`. For the KR1000 it drops exactly d1 (kept: base_dz), base_rz (kept: θ1),
+//! d3 (kept: d2) and θ6, d6, a6, α6 (kept: tool_x, tool_y, tool_z).
 //!
 //! # Confounding
 //!
@@ -105,8 +105,8 @@ impl IdentifiabilityOptions {
     }
 }
 
-/// The observability indices of spec §3 on the r identifiable singular values σ_1 ≥ … ≥ σ_r
-/// of the column-scaled Jacobian (L = r, m = number of poses).
+/// The observability indices of `docs/model.md` §6 on the r identifiable singular values
+/// σ_1 ≥ … ≥ σ_r of the column-scaled Jacobian (L = r, m = number of poses).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Observability {
     /// O1 = (∏σ_i)^(1/L) / √m (Borm–Menq).

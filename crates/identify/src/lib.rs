@@ -1,10 +1,10 @@
-//! Kinematic parameter identification (spec `calibration-model.md` §3 and §7).
+//! Kinematic parameter identification (`docs/model.md` §6 and §7).
 //!
 //! * [`Problem`]: a start model, poses, measured points, optional per-row weights, the free
 //!   parameters; residual `e = p^meas − p(x; q)`.
-//! * [`solve`]: damped least squares with the schedules of spec §7 ([`Damping`]: the paper's
-//!   Levenberg, Marquardt, Nielsen), optional column scaling, five stopping tests with the
-//!   reason reported ([`StopReason`]) and a per-iteration trace. Normal equations are
+//! * [`solve`]: damped least squares with the schedules of `docs/model.md` §7 ([`Damping`]: the
+//!   paper's Levenberg, Marquardt, Nielsen), optional column scaling, five stopping tests with
+//!   the reason reported ([`StopReason`]) and a per-iteration trace. Normal equations are
 //!   accumulated per pose from [`kinematics::Robot::point_jacobian_into`] on the free
 //!   parameters only and solved by Cholesky.
 //! * [`identify`]: registration (when the data are far from the start model), [`solve`], and

@@ -76,7 +76,7 @@ fn default_nu0() -> f64 {
     2.0
 }
 
-/// How the damping μ starts and adapts (spec §7). Serialised with a `kind` tag, e.g.
+/// How the damping μ starts and adapts (`docs/model.md` §7). Serialised with a `kind` tag, e.g.
 /// `{"kind": "levenberg", "mu0": 0.001}`; omitted fields take the defaults below.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "kind", rename_all = "lowercase", deny_unknown_fields)]
@@ -210,7 +210,7 @@ impl Damping {
 }
 
 /// What [`solve`] does with free parameters that are exactly redundant at the start model
-/// (spec §3: with the paper's 34 parameters, 7 on the KR1000 and 10 on the UR10).
+/// (`docs/model.md` §6: with the paper's 34 parameters, 7 on the KR1000 and 10 on the UR10).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Redundant {

@@ -1,5 +1,5 @@
-//! Identifiability of the KR1000 (spec §3): computed rank, redundant parameters and their
-//! confounded groups, the minimal set, and the lower rank with the ball on the flange axis.
+//! Identifiability of the KR1000 (`docs/model.md` §6): computed rank, redundant parameters and
+//! their confounded groups, the minimal set, and the lower rank with the ball on the flange axis.
 
 mod common;
 
@@ -13,7 +13,7 @@ fn set(names: &[&str]) -> BTreeSet<String> {
 }
 
 #[test]
-fn kr1000_off_axis_ball_rank_27_with_the_groups_of_spec_section_3() {
+fn kr1000_off_axis_ball_rank_27_with_the_documented_redundancy_groups() {
     let robot = kr1000(TOOL);
     let poses = poses(&robot, 50, 1);
     let all: Vec<usize> = (0..robot.n_params()).collect();
@@ -34,7 +34,8 @@ fn kr1000_off_axis_ball_rank_27_with_the_groups_of_spec_section_3() {
     assert!(s[26] > 1e-3 * s[0], "smallest identifiable σ {:e}", s[26]);
     assert!(s[27] < 1e-12 * s[0], "largest redundant σ {:e}", s[27]);
 
-    // The null space involves exactly the groups of spec §3 (basis-free: projector components).
+    // The null space involves exactly the groups of docs/model.md §6 (basis-free: projector
+    // components).
     let groups: BTreeSet<BTreeSet<String>> = rep
         .confounded_groups
         .iter()
@@ -50,7 +51,7 @@ fn kr1000_off_axis_ball_rank_27_with_the_groups_of_spec_section_3() {
     .collect();
     assert_eq!(groups, expected);
 
-    // With spec §3's keep priority the dropped ones are exactly spec §3's list.
+    // With the keep priority of docs/model.md §6 the dropped ones are exactly its list.
     let redundant: BTreeSet<String> = rep.redundant.iter().cloned().collect();
     assert_eq!(
         redundant,

@@ -7,7 +7,7 @@ use common::{TOOL, kr1000, noisy, perturbed, poses, rms_point_diff};
 use identify::{Fit, IdentifyOptions, ParamSet, Problem, identify};
 use nalgebra::DMatrix;
 
-/// Per-axis tracker noise, mm (spec §4: σ ≈ ½ MPE ≈ 0.01–0.02 mm at 2–3 m).
+/// Per-axis tracker noise, mm (docs/model.md §10: σ ≈ ½ MPE ≈ 0.01–0.02 mm at 2–3 m).
 const SIGMA_MM: f64 = 0.015;
 
 /// Mean and standard deviation of the mean squared held-out point error implied by the

@@ -21,7 +21,7 @@ pub struct IdentifiabilityArgs {
     /// Robot model file (JSON).
     #[arg(long)]
     robot: PathBuf,
-    /// Measurement file (docs/model.md CSV): the poses; measured points are optional here.
+    /// Measurement file (docs/model.md §5 CSV): the poses; measured points are optional here.
     #[arg(long)]
     data: Option<PathBuf>,
     /// Scenario file (JSON): its identification poses (trial 0) are analysed. The robot file

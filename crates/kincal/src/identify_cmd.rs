@@ -23,7 +23,7 @@ pub struct IdentifyArgs {
     /// Nominal robot model file (JSON); its joint limits check the data.
     #[arg(long)]
     robot: PathBuf,
-    /// Identification measurements (docs/model.md CSV: q1…qN in degrees, x, y, z in mm).
+    /// Identification measurements (docs/model.md §5 CSV: q1…qN in degrees, x, y, z in mm).
     #[arg(long)]
     data: PathBuf,
     /// Validation measurements (same CSV format): Table 4 of the nominal (after

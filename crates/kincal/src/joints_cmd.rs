@@ -33,7 +33,7 @@ pub struct PredictArgs {
     /// Robot model file (JSON), e.g. an `identified.json` written by `identify`.
     #[arg(long)]
     robot: PathBuf,
-    /// Joint file (docs/model.md CSV; the joints-only form `id, q1…qN` is enough; other
+    /// Joint file (docs/model.md §5 CSV; the joints-only form `id, q1…qN` is enough; other
     /// columns are ignored; `x, y, z`, if present, are compared with the prediction on
     /// stderr).
     #[arg(long)]
@@ -81,7 +81,7 @@ pub struct CompensateArgs {
     /// were in a tracker frame), use the `registered-nominal.json` it wrote.
     #[arg(long)]
     nominal: PathBuf,
-    /// Commanded joints (docs/model.md joints-only CSV; other columns ignored).
+    /// Commanded joints (docs/model.md §5 joints-only CSV; other columns ignored).
     #[arg(long)]
     targets: PathBuf,
     /// Output file [stdout]: `id, q1…qN, x, y, z`: the joints to command (degrees) and the

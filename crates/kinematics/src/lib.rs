@@ -1,5 +1,5 @@
 //! Kinematics of serial revolute robots in the Hayati-modified DH convention of
-//! `docs/model.md`: robot model files, the identification parameter
+//! `docs/model.md` §2: robot model files, the identification parameter
 //! vector with names and units, forward kinematics of the flange and of the measured point,
 //! the analytic identification Jacobian, and damped-Newton inverse kinematics valid for any
 //! parameter values.

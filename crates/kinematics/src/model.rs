@@ -24,7 +24,7 @@ use crate::error::ModelError;
 /// Largest number of joints a chain may have (frames live in fixed-size arrays on the stack).
 pub const MAX_JOINTS: usize = 16;
 
-/// One revolute joint in the Hayati-modified standard DH convention (spec §2):
+/// One revolute joint in the Hayati-modified standard DH convention (`docs/model.md` §2):
 /// `T_i = Rz(θ_i + q_i) · Tz(d_i) · Tx(a_i) · Rx(α_i) · Ry(β_i)`.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]

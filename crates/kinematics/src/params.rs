@@ -1,10 +1,10 @@
 //! The identification parameter vector: names, units, order, and subsets.
 //!
-//! Order (spec §2), for an N-joint chain: for i = 1..N `theta_i, d_i, a_i, alpha_i`; then
-//! `beta_i` for every joint i < N whose nominal α_i is zero (|α_i| < [`BETA_ALPHA_TOL_DEG`]:
-//! the axis is parallel to the next one, Hayati's case); then `base_rx, base_ry, base_rz,
-//! base_dx, base_dy, base_dz`; then `tool_x, tool_y, tool_z`. The KR1000 gets 34 parameters
-//! (β2 only), a UR10 35 (β2, β3).
+//! Order (`docs/model.md` §3), for an N-joint chain: for i = 1..N `theta_i, d_i, a_i, alpha_i`;
+//! then `beta_i` for every joint i < N whose nominal α_i is zero (|α_i| <
+//! [`BETA_ALPHA_TOL_DEG`]: the axis is parallel to the next one, Hayati's case); then `base_rx,
+//! base_ry, base_rz, base_dx, base_dy, base_dz`; then `tool_x, tool_y, tool_z`. The KR1000 gets
+//! 34 parameters (β2 only), a UR10 35 (β2, β3).
 //!
 //! Values in a parameter vector are in internal units: radians and millimetres. Use
 //! [`ParamInfo::to_display`] / [`ParamInfo::from_display`] at interfaces (degrees, mm).

@@ -144,7 +144,7 @@ impl Base {
 
 /// A serial revolute robot with its full geometric parameter set.
 ///
-/// FK of the measured point (spec §2):
+/// FK of the measured point (`docs/model.md` §2):
 /// `p = T_base · T_1(q_1) ··· T_N(q_N) · [t, 1]ᵀ`, with
 /// `T_i = Rz(θ_i + q_i) · Tz(d_i) · Tx(a_i) · Rx(α_i) · Ry(β_i)`.
 /// Joint values `q` are radians, lengths mm.

@@ -21,7 +21,7 @@ fn kr1000_target_at_zero_pose() {
     let p = r.point(&[0.0; 6]);
     assert!(
         (p - Vector3::new(2172.0, 0.0, 2565.0)).norm() < 1e-9,
-        "q = 0 target at {p:?}, spec §2 says (2172, 0, 2565)"
+        "q = 0 target at {p:?}, docs/model.md §2 says (2172, 0, 2565)"
     );
 }
 

@@ -1,4 +1,4 @@
-//! Reading and writing the kincal measurement file (spec `calibration-model.md` §8).
+//! Reading and writing the kincal measurement file (`docs/model.md` §5).
 //!
 //! This is the only crate that parses or produces measurement CSV files. It knows nothing
 //! about kinematics and uses no randomness. It also provides [`write_atomically`], which every

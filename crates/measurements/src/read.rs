@@ -8,7 +8,7 @@ use crate::{Measurement, MeasurementError, MeasurementSet, ReadOptions};
 /// Longest offending field text quoted in an error message.
 const MAX_QUOTED_CHARS: usize = 60;
 
-/// Read a measurement file (spec §8). The file's path, as given, becomes
+/// Read a measurement file (`docs/model.md` §5). The file's path, as given, becomes
 /// [`MeasurementSet::source`] and the file name in error messages.
 pub fn read_file(path: &Path, opts: &ReadOptions) -> Result<MeasurementSet, MeasurementError> {
     let source = path.display().to_string();
@@ -26,7 +26,7 @@ pub fn read_file(path: &Path, opts: &ReadOptions) -> Result<MeasurementSet, Meas
     read_str(text, &source, opts)
 }
 
-/// Read measurement-file text (spec §8). `source` names the text in errors and becomes
+/// Read measurement-file text (`docs/model.md` §5). `source` names the text in errors and becomes
 /// [`MeasurementSet::source`].
 pub fn read_str(
     text: &str,

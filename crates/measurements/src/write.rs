@@ -8,7 +8,7 @@ use std::sync::atomic::{AtomicU64, Ordering};
 
 use crate::{MeasurementError, MeasurementSet};
 
-/// Format `set` as a measurement file (spec §8).
+/// Format `set` as a measurement file (`docs/model.md` §5).
 ///
 /// Layout: the optional `header_comment`, each of its lines prefixed with `# `; then the header
 /// `id,q1,…,qN,x,y,z`, where `id` appears only if some row has an id (rows without one get an

@@ -4,7 +4,7 @@
 //! true robot (nominal parameters plus injected errors), a Leica AT960-class laser tracker,
 //! errors the identification model does not contain, the sampled pose sets and the random
 //! streams of the measuring process. [`simulate()`] measures the pose sets and returns the two
-//! measurement files of spec §8 and the truth; [`Simulation::write`] puts them on disk.
+//! measurement files of `docs/model.md` §5 and the truth; [`Simulation::write`] puts them on disk.
 //!
 //! # Measuring chain
 //!
@@ -79,7 +79,8 @@
 //!
 //! **Masses.** KUKA's data sheet gives ≈ 4690 kg for the KR 1000 titan (rated payload
 //! 1000 kg, reach 3202 mm). It gives no per-link split; this one is an estimate from the
-//! robot's proportions ([`KR1000_LINKS`], centres of mass in the link frames of spec §2):
+//! robot's proportions ([`KR1000_LINKS`], centres of mass in the link frames of
+//! `docs/model.md` §2):
 //!
 //! | body | mass (kg) | centre of mass |
 //! |---|---|---|
@@ -103,7 +104,7 @@
 //! ([`KR1000_COUNTERBALANCE_FRACTION`], an assumption). These are chosen so that the
 //! self-weight deflection left over after a linearised fit of the 34 parameters on 50
 //! sampled poses is ≈ 0.2 mm — about 55 % of the paper's 0.340 mm residual, the share a
-//! published KR 210 study attributes to elasticity (spec §5); the test
+//! published KR 210 study attributes to elasticity (`docs/model.md` §11); the test
 //! `compliance_left_after_a_linear_fit` checks that figure.
 //!
 //! **Deflection at the measured point** `‖p(q + Δq) − p(q)‖` of the nominal KR1000 with the

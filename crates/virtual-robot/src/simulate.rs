@@ -16,8 +16,8 @@ pub const VALIDATION_FILE: &str = "validation.csv";
 /// File name of the truth.
 pub const TRUTH_FILE: &str = "truth.json";
 
-/// One simulated trial: the two measurement sets (spec §8; joints in degrees, points in mm
-/// in the measurement frame) and the truth.
+/// One simulated trial: the two measurement sets (`docs/model.md` §5; joints in degrees,
+/// points in mm in the measurement frame) and the truth.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Simulation {
     /// Identification poses and their measured points (ids `I001`, …).
@@ -108,7 +108,7 @@ impl Simulation {
         )
     }
 
-    /// `identification.csv` as text (spec §8).
+    /// `identification.csv` as text (`docs/model.md` §5).
     pub fn identification_csv(&self) -> Result<String, SimError> {
         Ok(to_csv_string(
             &self.identification,
@@ -116,7 +116,7 @@ impl Simulation {
         )?)
     }
 
-    /// `validation.csv` as text (spec §8).
+    /// `validation.csv` as text (`docs/model.md` §5).
     pub fn validation_csv(&self) -> Result<String, SimError> {
         Ok(to_csv_string(
             &self.validation,

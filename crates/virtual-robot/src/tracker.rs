@@ -1,4 +1,4 @@
-//! The `tracker` section and the virtual Leica AT960-class laser tracker (spec §4).
+//! The `tracker` section and the virtual Leica AT960-class laser tracker (`docs/model.md` §10).
 //!
 //! With `r` the range head → target in metres and `f` = `sigma_fraction` (½ by default,
 //! Leica's "typical = MPE/2"; ⅓ is the other common choice):
@@ -19,7 +19,7 @@
 //! The measurement frame is the robot base frame as built from the tracker; the
 //! `base_residual` is the error of that construction, applied to every reading as
 //! `p_meas = T_res · p` with `T_res = Trans(dx, dy, dz)·Rz(rz)·Ry(ry)·Rx(rx)` (the base
-//! convention of spec §2, so the six `base_*` parameters can absorb it exactly).
+//! convention of `docs/model.md` §2, so the six `base_*` parameters can absorb it exactly).
 //!
 //! ```json
 //! "tracker": {
@@ -107,7 +107,7 @@ impl BaseResidual {
 #[serde(deny_unknown_fields, default)]
 pub struct TrackerConfig {
     /// Tracker head in the robot base frame, mm. Default (4000, −1500, 1200): 4.27 m from
-    /// axis 1 (spec §4: 3.5–5 m), at tripod height.
+    /// axis 1 (`docs/model.md` §10: outside the envelope, 3.5–5 m away), at tripod height.
     pub position_mm: [f64; 3],
     /// The head must be at least this far from axis 1 horizontally, mm (the robot's
     /// envelope; default 3202 mm, the KR1000 titan's reach).

@@ -1,8 +1,8 @@
 //! The `truth` section: which geometric errors the true robot has.
 //!
-//! Errors are differences true − nominal of the identification parameters (spec §2), in the
-//! interface units of each parameter (degrees or millimetres). Three ways to choose them,
-//! combined in this order:
+//! Errors are differences true − nominal of the identification parameters (`docs/model.md` §3),
+//! in the interface units of each parameter (degrees or millimetres). Three ways to choose
+//! them, combined in this order:
 //!
 //! 1. `random`: every parameter drawn independently with the σ of its class — joint angles
 //!    (θ, α, β: `joint_angle_sigma_deg`), lengths (d, a: `length_sigma_mm`), base rotation
@@ -19,7 +19,7 @@
 //!    constraints evaluated on the nominal robot, so every trial of a seed is scaled on the
 //!    same "workspace". s is found by a safeguarded secant iteration to 1e-11 relative.
 //!
-//! Redundant parameters (spec §3) may carry errors: the truth need not be identifiable.
+//! Redundant parameters (`docs/model.md` §6) may carry errors: the truth need not be identifiable.
 //!
 //! ```json
 //! "truth": {

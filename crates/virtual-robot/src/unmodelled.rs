@@ -1,4 +1,5 @@
-//! The `unmodelled` section: errors the identification model does not contain (spec §5).
+//! The `unmodelled` section: errors the identification model does not contain
+//! (`docs/model.md` §11).
 //! Each is switched by its own `enabled` flag and sized in the scenario; compliance and
 //! repeatability are on by default, gear errors and drift off.
 //!
@@ -50,7 +51,7 @@ use crate::error::ConfigError;
 use crate::validate::{all_finite, finite, non_negative, positive};
 
 /// Mass and centre of mass of one link, in the link frame after its joint (frame i of
-/// spec §2, the frame [`Robot::frames_into`] writes at index i).
+/// `docs/model.md` §2, the frame [`Robot::frames_into`] writes at index i).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct LinkMass {

@@ -47,7 +47,7 @@ fn world_sigmas(model: NoiseModel, fraction: f64, range_m: f64, n: usize) -> ([f
 fn anisotropic_sigmas_match_the_model_at_2_4_6_m() {
     for range_m in [2.0, 4.0, 6.0] {
         let (sig, [sr, st]) = world_sigmas(NoiseModel::Anisotropic, 0.5, range_m, 100_000);
-        // Spec §4: σ_r = ½(10 + 0.3 r) µm, σ_⊥ = ½(15 + 6 r) µm.
+        // docs/model.md §10: σ_r = ½(10 + 0.3 r) µm, σ_⊥ = ½(15 + 6 r) µm.
         let model_r = 0.5 * (10.0 + 0.3 * range_m) * 1e-3;
         let model_t = 0.5 * (15.0 + 6.0 * range_m) * 1e-3;
         assert!((sr - model_r).abs() < 1e-15 && (st - model_t).abs() < 1e-15);

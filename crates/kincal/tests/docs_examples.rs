@@ -1,0 +1,220 @@
+//! Examples that cannot drift: every ```console block of README.md and docs/*.md whose
+//! first line is `$ kincal …` is run, and its output must be the block's text.
+//!
+//! A block is one command (a line starting with `$ `, continued by lines ending in `\`)
+//! followed by what it prints (stdout, then stderr). The blocks of one file run in order in
+//! one scratch directory holding links to the repository's `scenarios/`, `data/` and
+//! `results/`, so a block can use files an earlier block wrote (`--out ur10-cal`, then
+//! `--robot ur10-cal/identified.json`) and the repository stays untouched. Wall-clock
+//! figures (`12.3 ms`, `0.25 s`) are compared as `<time>`; everything else to the
+//! character, trailing spaces aside.
+//!
+//! `KINCAL_BLESS_DOCS=1 cargo test -p kincal --test docs_examples` rewrites the blocks with
+//! what the commands print now (after a change that moves them on purpose).
+
+mod common;
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use common::root;
+use regex::Regex;
+
+/// One example: the file and line it starts at, the command's arguments, the expected text.
+struct Example {
+    file: String,
+    line: usize,
+    /// 0-based line range of the expected output in the file.
+    output_lines: std::ops::Range<usize>,
+    args: Vec<String>,
+    expected: String,
+}
+
+/// The ```console blocks of `text` that run `kincal`.
+fn examples(file: &str, text: &str) -> Vec<Example> {
+    let mut out = Vec::new();
+    let mut lines = text.lines().enumerate();
+    while let Some((i, l)) = lines.next() {
+        if l.trim() != "```console" {
+            continue;
+        }
+        let block: Vec<&str> = lines
+            .by_ref()
+            .map(|(_, l)| l)
+            .take_while(|l| l.trim() != "```")
+            .collect();
+        let Some(first) = block.first() else { continue };
+        if !first.starts_with("$ kincal ") {
+            continue;
+        }
+        let mut cmd = String::new();
+        let mut rest = 0;
+        for (k, l) in block.iter().enumerate() {
+            let l = if k == 0 { &l[2..] } else { l.trim() };
+            match l.strip_suffix('\\') {
+                Some(head) => cmd.push_str(head),
+                None => {
+                    cmd.push_str(l);
+                    rest = k + 1;
+                    break;
+                }
+            }
+        }
+        let args = cmd.split_whitespace().skip(1).map(str::to_string).collect();
+        out.push(Example {
+            file: file.to_string(),
+            line: i + 1,
+            output_lines: i + 1 + rest..i + 1 + block.len(),
+            args,
+            expected: block[rest..].join("\n"),
+        });
+    }
+    out
+}
+
+/// Wall-clock figures as `<time>`, trailing spaces and blank edges dropped.
+fn normalise(text: &str) -> String {
+    let time = Regex::new(r"\b\d+(\.\d+)? (ms|s)\b").unwrap();
+    let text = time.replace_all(text, "<time>");
+    text.lines()
+        .map(str::trim_end)
+        .collect::<Vec<_>>()
+        .join("\n")
+        .trim()
+        .to_string()
+}
+
+fn doc_files(root: &Path) -> Vec<PathBuf> {
+    let mut files = vec![root.join("README.md")];
+    if let Ok(dir) = std::fs::read_dir(root.join("docs")) {
+        let mut docs: Vec<PathBuf> = dir
+            .filter_map(|e| e.ok().map(|e| e.path()))
+            .filter(|p| p.extension().is_some_and(|e| e == "md"))
+            .collect();
+        docs.sort();
+        files.extend(docs);
+    }
+    files
+}
+
+#[test]
+fn the_parser_finds_commands_continuations_and_output() {
+    let text = "x\n```console\n$ kincal predict --robot r.json \\\n    --joints j.csv\n\
+                12 rows\n```\n```console\n$ ls\n```\n";
+    let ex = examples("t.md", text);
+    assert_eq!(ex.len(), 1);
+    assert_eq!(ex[0].line, 2);
+    assert_eq!(
+        ex[0].args,
+        ["predict", "--robot", "r.json", "--joints", "j.csv"]
+    );
+    assert_eq!(ex[0].expected, "12 rows");
+    assert_eq!(
+        normalise("fit: 5 iterations; 12.3 ms  \nin 0.25 s → x\n"),
+        "fit: 5 iterations; <time>\nin <time> → x"
+    );
+}
+
+#[test]
+fn console_examples_in_the_docs_print_what_they_show() {
+    let root = root();
+    let mut failures = Vec::new();
+    let mut ran = 0;
+    for path in doc_files(&root) {
+        let text = std::fs::read_to_string(&path).unwrap();
+        let name = path.strip_prefix(&root).unwrap().display().to_string();
+        let list = examples(&name, &text);
+        if list.is_empty() {
+            continue;
+        }
+        let mut lines: Vec<String> = text.lines().map(str::to_string).collect();
+        let mut blessed = Vec::new();
+        let scratch = tempfile::tempdir().unwrap();
+        for dir in ["scenarios", "data", "results"] {
+            std::os::unix::fs::symlink(root.join(dir), scratch.path().join(dir)).unwrap();
+        }
+        for ex in list {
+            let out = Command::new(env!("CARGO_BIN_EXE_kincal"))
+                .args(&ex.args)
+                .current_dir(scratch.path())
+                .env("CI", "1")
+                .env("RUST_BACKTRACE", "0")
+                .output()
+                .unwrap();
+            ran += 1;
+            let got = format!(
+                "{}{}",
+                String::from_utf8_lossy(&out.stdout),
+                String::from_utf8_lossy(&out.stderr)
+            );
+            if normalise(&got) != normalise(&ex.expected) {
+                blessed.push((ex.output_lines.clone(), got.trim_end().to_string()));
+                failures.push(format!(
+                    "{}:{}: `kincal {}` printed\n{}\n--- but the doc shows ---\n{}",
+                    ex.file,
+                    ex.line,
+                    ex.args.join(" "),
+                    got.trim_end(),
+                    ex.expected
+                ));
+            }
+        }
+        if std::env::var_os("KINCAL_BLESS_DOCS").is_some() && !blessed.is_empty() {
+            for (range, got) in blessed.into_iter().rev() {
+                lines.splice(range, got.lines().map(str::to_string));
+            }
+            std::fs::write(&path, lines.join("\n") + "\n").unwrap();
+            failures.push(format!("{name}: blessed"));
+        }
+    }
+    assert!(
+        ran > 0,
+        "no ```console example runs kincal in README.md or docs/"
+    );
+    assert!(
+        failures.is_empty(),
+        "{} example(s) drifted from what the commands print (update the docs):\n\n{}",
+        failures.len(),
+        failures.join("\n\n")
+    );
+}
+
+/// The first column after the metric of a row of a summary.md table: `1.168 ± 0.166 […]` →
+/// `1.168`, and the paper's column.
+fn summary_row(summary: &str, metric: &str) -> (String, String) {
+    let row = summary
+        .lines()
+        .find(|l| l.starts_with(&format!("| {metric} |")))
+        .unwrap_or_else(|| panic!("summary.md has no row `{metric}`"));
+    let cells: Vec<&str> = row.split('|').map(str::trim).collect();
+    let ours = cells[2].split_whitespace().next().unwrap().to_string();
+    (ours, cells[3].to_string())
+}
+
+/// The README's paper table, as the committed `results/paper-kr1000/summary.md` gives it.
+fn paper_table(summary: &str) -> String {
+    let r = |m| summary_row(summary, m);
+    let (mb, pmb) = r("mean 3-D before (mm)");
+    let (ma, pma) = r("mean 3-D after (mm)");
+    let (xb, pxb) = r("max 3-D before (mm)");
+    let (xa, pxa) = r("max 3-D after (mm)");
+    let (imp, pimp) = r("improvement of mean (%)");
+    format!(
+        "| mean before → after (mm) | {mb} → {ma} | {pmb} → {pma} |\n\
+         | max before → after (mm) | {xb} → {xa} | {pxb} → {pxa} |\n\
+         | improvement of the mean (%) | {imp} | {pimp} |"
+    )
+}
+
+#[test]
+fn the_readme_paper_table_is_the_committed_result() {
+    let root = root();
+    let summary = std::fs::read_to_string(root.join("results/paper-kr1000/summary.md")).unwrap();
+    let readme = std::fs::read_to_string(root.join("README.md")).unwrap();
+    let table = paper_table(&summary);
+    assert!(
+        readme.contains(&table),
+        "README.md's paper table differs from results/paper-kr1000/summary.md; it should \
+         read:\n{table}"
+    );
+}
