@@ -218,3 +218,67 @@ fn the_readme_paper_table_is_the_committed_result() {
          read:\n{table}"
     );
 }
+
+/// The Markdown files of the repository's own docs (README, ARCHITECTURE, docs/, scenarios/,
+/// results/, data/), not those of build output.
+fn markdown_files(root: &Path) -> Vec<PathBuf> {
+    let mut out = Vec::new();
+    let mut stack = vec![root.to_path_buf()];
+    while let Some(dir) = stack.pop() {
+        for e in std::fs::read_dir(&dir).unwrap().flatten() {
+            let p = e.path();
+            let name = e.file_name().to_string_lossy().to_string();
+            if p.is_dir() {
+                if !name.starts_with('.') && name != "target" && !name.starts_with("target-") {
+                    stack.push(p);
+                }
+            } else if name.ends_with(".md") {
+                out.push(p);
+            }
+        }
+    }
+    out.sort();
+    out
+}
+
+#[test]
+fn doc_links_and_model_sections_resolve_inside_the_repository() {
+    let root = root();
+    let model = std::fs::read_to_string(root.join("docs/model.md")).unwrap();
+    let sections = model.lines().filter(|l| l.starts_with("## ")).count();
+    let link = Regex::new(r"\]\(([^)#\s]+)(#[^)]*)?\)").unwrap();
+    let section = Regex::new(r"docs/model\.md` ?§(\d+)|docs/model\.md ?§(\d+)").unwrap();
+    let mut bad = Vec::new();
+    let mut files = markdown_files(&root);
+    files.retain(|p| !p.starts_with(root.join("crates")) || p.ends_with("README.md"));
+    for path in files {
+        let text = std::fs::read_to_string(&path).unwrap();
+        let name = path.strip_prefix(&root).unwrap().display().to_string();
+        for (i, line) in text.lines().enumerate() {
+            for c in link.captures_iter(line) {
+                let target = &c[1];
+                if target.contains("://") || target.starts_with("mailto:") {
+                    continue;
+                }
+                let resolved = path.parent().unwrap().join(target);
+                let inside = resolved
+                    .canonicalize()
+                    .map(|p| p.starts_with(&root))
+                    .unwrap_or(false);
+                if !inside {
+                    bad.push(format!(
+                        "{name}:{}: link to {target} does not resolve inside the repository",
+                        i + 1
+                    ));
+                }
+            }
+            for c in section.captures_iter(line) {
+                let n: usize = c.get(1).or(c.get(2)).unwrap().as_str().parse().unwrap();
+                if n == 0 || n > sections {
+                    bad.push(format!("{name}:{}: docs/model.md has no §{n}", i + 1));
+                }
+            }
+        }
+    }
+    assert!(bad.is_empty(), "{}", bad.join("\n"));
+}
