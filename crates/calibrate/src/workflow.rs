@@ -107,15 +107,15 @@ pub struct IdentifyRequest {
     pub params: String,
     /// Damping schedule [Levenberg: the paper's].
     pub schedule: Schedule,
-    /// Exactly redundant free parameters [held].
+    /// Exactly redundant free parameters (default: held).
     pub redundant: RedundantArg,
-    /// Registration of the measurement frame [auto].
+    /// Registration of the measurement frame (default: auto).
     pub registration: Registration,
     /// Drop the outliers found after the first fit and refit [no: only reported].
     pub reject_outliers: bool,
     /// Outlier threshold k: ‖residual‖ > k·σ̂₃ [3: fewer than one Gaussian point in 10⁵].
     pub outlier_k: f64,
-    /// Worst points listed in the report, per data set [10].
+    /// Worst points listed in the report, per data set (default: 10).
     pub worst: usize,
 }
 
