@@ -275,3 +275,70 @@ pub fn identify_page(title: &str, report_md: &str, plots: &[(String, String)]) -
         .collect();
     html::page(title, report_md, &pictures)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn errors(n: usize, scale: f64) -> Vec<[f64; 3]> {
+        (0..n)
+            .map(|i| {
+                let t = i as f64;
+                [
+                    scale * (t * 0.7).sin(),
+                    scale * (t * 1.3).cos(),
+                    scale * 0.5 * (t * 0.4).sin(),
+                ]
+            })
+            .collect()
+    }
+
+    #[test]
+    fn identify_writes_four_plots_and_a_page_with_them() {
+        let (ib, ia) = (errors(100, 2.5), errors(100, 0.3));
+        let (vb, va) = (errors(300, 2.8), errors(300, 0.35));
+        let d = IdentifyPlotData {
+            robot: "UR10",
+            identification_before_mm: &ib,
+            identification_after_mm: &ia,
+            validation_before_mm: Some(&vb),
+            validation_after_mm: Some(&va),
+            outlier_threshold: Some((0.5, 3.0)),
+            outliers: &[7, 42],
+        };
+        let plots = identify_plots(&d).unwrap();
+        let names: Vec<&str> = plots.iter().map(|p| p.0.as_str()).collect();
+        assert_eq!(names, IDENTIFY_PLOT_FILES);
+        assert!(plots[0].1.contains("validation pose (row order)"));
+        assert!(plots[1].1.contains("validation poses (mm)"));
+        assert!(plots[3].1.contains("flagged as outliers"));
+        assert!(plots[3].1.contains("threshold 3 σ̂₃ = 0.500 mm"));
+        let md = "# Identification\n\n## Fit residuals\n\n| a | b |\n|---|---|\n| 1 | 2 |\n";
+        let html = identify_page("UR10", md, &plots);
+        assert_eq!(html.matches("<svg ").count(), 4);
+        assert!(html.contains("<table>"));
+        // Without validation data: one panel, the CDF of the identification rows.
+        let d = IdentifyPlotData {
+            validation_before_mm: None,
+            validation_after_mm: None,
+            ..d
+        };
+        let plots = identify_plots(&d).unwrap();
+        assert!(plots[1].1.contains("identification poses (mm)"));
+        // Bad input.
+        let d = IdentifyPlotData {
+            outliers: &[100],
+            ..d
+        };
+        assert!(identify_plots(&d).is_err());
+        let d = IdentifyPlotData {
+            identification_after_mm: &ia[..99],
+            outliers: &[],
+            ..d
+        };
+        assert!(matches!(
+            identify_plots(&d),
+            Err(PlotError::LengthMismatch { .. })
+        ));
+    }
+}

@@ -104,7 +104,7 @@ impl Scale {
     pub fn auto(values: impl IntoIterator<Item = f64>) -> Scale {
         let (mut lo, mut hi, mut any) = (f64::INFINITY, 0.0f64, false);
         for v in values {
-            if !(v > 0.0) || !v.is_finite() {
+            if v <= 0.0 || !v.is_finite() {
                 return Scale::Linear;
             }
             lo = lo.min(v);
@@ -276,7 +276,11 @@ pub fn panels_svg(panels: &[Figure], height: u32) -> Result<String, PlotError> {
     if panels.is_empty() {
         return Err(empty("the list of panels"));
     }
-    let prepared: Vec<Prepared> = panels.iter().map(prepare).collect::<Result<_, _>>()?;
+    let panel_h = height as f64 / panels.len() as f64;
+    let prepared: Vec<Prepared> = panels
+        .iter()
+        .map(|f| prepare(f, panel_h))
+        .collect::<Result<_, _>>()?;
     render(height, |root| {
         let areas = root.split_evenly((panels.len(), 1));
         for ((area, fig), p) in areas.iter().zip(panels).zip(&prepared) {
@@ -366,7 +370,7 @@ pub fn histogram_svg(
         vec![(lo, 0.0), (hi, max_count)],
         Style::Line,
     ));
-    let p = prepare(&fig)?;
+    let p = prepare(&fig, HEIGHT as f64)?;
     render(HEIGHT, |root| {
         let mut chart = build(root, root, &fig, &p)?;
         let gap =
@@ -646,7 +650,8 @@ fn legend_rows(fig: &Figure) -> usize {
         + fig.refs.iter().filter(|r| !r.label.is_empty()).count()
 }
 
-fn prepare(fig: &Figure) -> Result<Prepared, PlotError> {
+/// Validates `fig` and chooses its axes, for a panel `panel_h` pixels high.
+fn prepare(fig: &Figure, panel_h: f64) -> Result<Prepared, PlotError> {
     if fig.series.is_empty() {
         return Err(empty("the list of series"));
     }
@@ -714,7 +719,13 @@ fn prepare(fig: &Figure) -> Result<Prepared, PlotError> {
         xs.extend(t);
     }
 
-    let plot_h = HEIGHT as f64 - 140.0;
+    // The plotting area's height: the panel less the title, the margins and the x labels.
+    let x_area_px = match &fig.x_categories {
+        Some(c) => c.iter().map(|l| l.chars().count()).max().unwrap_or(0) as f64 * 8.5 + 40.0,
+        None => 50.0,
+    };
+    let title_px = if fig.title.is_empty() { 0.0 } else { 35.0 };
+    let plot_h = (panel_h - title_px - x_area_px - 30.0).max(100.0);
     let headroom = legend_headroom(legend_rows(fig), plot_h);
     let (y_pad_lo, y_pad_hi) = match fig.legend {
         LegendAt::UpperRight => (0.04, 0.06 + headroom),
@@ -920,9 +931,6 @@ fn draw_panel<'b>(
         } else {
             0.0
         };
-        if matches!(s.style, Style::LineMarkers | Style::Line) {
-            draw_line(&mut chart, &s.points, color, dash_of(i), 2)?;
-        }
         let px: Vec<(i32, i32)> = s
             .points
             .iter()
@@ -931,6 +939,18 @@ fn draw_panel<'b>(
                 ((x as f64 + dx).round() as i32, y)
             })
             .collect();
+        if matches!(s.style, Style::LineMarkers | Style::Line) {
+            // In pixels, through the dodged markers (every point is inside the axes).
+            let style = color.stroke_width(2);
+            let d = dash_of(i);
+            if d.0 == 0 {
+                root.draw(&PathElement::new(px.clone(), style))
+                    .map_err(backend)?;
+            } else {
+                root.draw(&DashedPathElement::new(px.clone(), d.0, d.1, style))
+                    .map_err(backend)?;
+            }
+        }
         if !s.bars.is_empty() {
             let ylo = 10f64.powf(p.y.lo);
             for (k, &(lo, hi)) in s.bars.iter().enumerate() {
@@ -1071,7 +1091,9 @@ fn draw_marker(
 /// The legend: a white box in the chosen corner, one row per named series (line sample in
 /// its dash pattern, marker) and per reference line.
 fn draw_legend(root: &Area<'_>, chart: &Chart<'_, '_>, fig: &Figure) -> Result<(), PlotError> {
-    let mut rows: Vec<(String, RGBColor, Option<Marker>, Option<(u32, u32)>)> = Vec::new();
+    /// Label, colour, marker, dash pattern.
+    type Row = (String, RGBColor, Option<Marker>, Option<(u32, u32)>);
+    let mut rows: Vec<Row> = Vec::new();
     for (i, s) in fig.series.iter().enumerate() {
         if s.name.is_empty() {
             continue;
@@ -1140,4 +1162,299 @@ fn draw_legend(root: &Area<'_>, chart: &Chart<'_, '_>, fig: &Figure) -> Result<(
         .map_err(backend)?;
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Checks the document frame and returns the contents of every `<text>` element.
+    fn texts(svg: &str) -> Vec<String> {
+        assert!(svg.starts_with("<svg"));
+        assert!(svg.trim_end().ends_with("</svg>"));
+        assert_eq!(svg.matches("<text").count(), svg.matches("</text>").count());
+        svg.split("<text")
+            .skip(1)
+            .map(|t| {
+                t[t.find('>').unwrap() + 1..t.find("</text>").unwrap()]
+                    .trim()
+                    .to_string()
+            })
+            .collect()
+    }
+
+    fn has(texts: &[String], want: &str) -> bool {
+        texts.iter().any(|t| t == want)
+    }
+
+    fn sweep_like(log_x: bool) -> Figure {
+        let xs = [1e-9, 1e-6, 1e-3, 1.0, 1e3, 1e6];
+        let mut f = Figure::new("T", "μ0 (damping, log scale)", "iterations");
+        f.x_scale = if log_x { Scale::Log } else { Scale::Linear };
+        f.x_ticks = Some(xs.to_vec());
+        f.dodge = true;
+        for name in ["Levenberg", "Marquardt"] {
+            let mut s = Series::new(
+                name,
+                xs.iter().map(|&x| (x, 3.0)).collect(),
+                Style::LineMarkers,
+            );
+            s.bars = vec![(2.5, 3.5); xs.len()];
+            f.series.push(s);
+        }
+        f.refs.push(RefLine::horizontal("paper: 3", 3.0));
+        f
+    }
+
+    /// Centres of the filled circles (the first series' markers) in the SVG.
+    fn circles(svg: &str) -> Vec<(f64, f64)> {
+        svg.lines()
+            .filter(|l| l.starts_with("<circle"))
+            .map(|l| {
+                let attr = |a: &str| -> f64 {
+                    let i = l.find(&format!(" {a}=\"")).unwrap() + a.len() + 3;
+                    l[i..i + l[i..].find('"').unwrap()].parse().unwrap()
+                };
+                (attr("cx"), attr("cy"))
+            })
+            .collect()
+    }
+
+    #[test]
+    fn log_x_axis_spreads_log_spaced_values_and_labels_every_tick() {
+        let svg = figure_svg(&sweep_like(true)).unwrap();
+        let t = texts(&svg);
+        for label in [
+            "1e-9",
+            "1e-6",
+            "0.001",
+            "1",
+            "1000",
+            "1e6",
+            "μ0 (damping, log scale)",
+            "iterations",
+            "Levenberg",
+            "Marquardt",
+            "paper: 3",
+            "T",
+        ] {
+            assert!(has(&t, label), "missing {label:?}");
+        }
+        // y ticks are labelled too.
+        assert!(has(&t, "3"), "{t:?}");
+        // The six points of a series sit at equal spacing (a linear axis would put five of
+        // them at the same pixel).
+        let c = circles(&svg);
+        let xs: Vec<f64> = c.iter().take(6).map(|p| p.0).collect();
+        let d: Vec<f64> = xs.windows(2).map(|w| w[1] - w[0]).collect();
+        assert!(d.iter().all(|&x| x > 80.0), "{xs:?}");
+        assert!(d.iter().all(|&x| (x - d[0]).abs() <= 2.0), "{d:?}");
+        let lin = circles(&figure_svg(&sweep_like(false)).unwrap());
+        assert!(
+            (lin[0].0 - lin[3].0).abs() <= 1.0,
+            "a linear axis squashes them: {lin:?}"
+        );
+    }
+
+    #[test]
+    fn equal_curves_stay_distinct() {
+        let svg = figure_svg(&sweep_like(true)).unwrap();
+        // Series 0 has filled circles, series 1 filled triangles, dodged sideways.
+        let circles = circles(&svg);
+        assert_eq!(circles.len(), 6 + 1, "six markers and one legend sample");
+        let triangles: Vec<&str> = svg.lines().filter(|l| l.starts_with("<polygon")).collect();
+        assert!(triangles.len() > 6);
+        // Different dash patterns: the second series is drawn in dashes (many short lines).
+        let orange = format!(
+            "#{:02X}{:02X}{:02X}",
+            PALETTE[1].0, PALETTE[1].1, PALETTE[1].2
+        );
+        assert!(
+            svg.lines()
+                .filter(|l| l.starts_with("<polyline") && l.contains(&orange))
+                .count()
+                > 20
+        );
+        // Dodged: the first marker of series 0 is 6 px left of where no dodge puts it.
+        let mut plain = sweep_like(true);
+        plain.dodge = false;
+        let undodged = super::tests::circles(&figure_svg(&plain).unwrap());
+        assert!(
+            (undodged[0].0 - circles[0].0 - 3.0).abs() <= 1.0,
+            "{undodged:?} {circles:?}"
+        );
+    }
+
+    #[test]
+    fn error_bars_are_drawn() {
+        let svg = figure_svg(&sweep_like(true)).unwrap();
+        let blue = format!(
+            "#{:02X}{:02X}{:02X}",
+            PALETTE[0].0, PALETTE[0].1, PALETTE[0].2
+        );
+        // One polyline per bar (caps and stem), 1 px wide, per series.
+        let bars = svg
+            .lines()
+            .filter(|l| {
+                l.starts_with("<polyline") && l.contains(&blue) && l.contains("stroke-width=\"1\"")
+            })
+            .count();
+        assert_eq!(bars, 6);
+    }
+
+    #[test]
+    fn scale_auto() {
+        assert_eq!(Scale::auto([1e-9, 1.0, 1e6]), Scale::Log);
+        assert_eq!(Scale::auto([8.0, 150.0]), Scale::Linear);
+        assert_eq!(Scale::auto([1.0, 100.0]), Scale::Log);
+        assert_eq!(Scale::auto([0.0, 100.0]), Scale::Linear);
+        assert_eq!(Scale::auto([]), Scale::Linear);
+    }
+
+    #[test]
+    fn ticks() {
+        assert_eq!(
+            log_ticks(-3.0, 3.0),
+            vec![0.001, 0.01, 0.1, 1.0, 10.0, 100.0, 1000.0]
+        );
+        assert_eq!(
+            log_ticks(-1.0, 1.0),
+            vec![0.1, 0.2, 0.5, 1.0, 2.0, 5.0, 10.0]
+        );
+        let wide = log_ticks(-9.5, 6.5);
+        assert!(wide.len() <= 10 && wide.contains(&1.0), "{wide:?}");
+        assert_eq!(
+            linear_ticks(0.0, 1.0, 5),
+            vec![0.0, 0.2, 0.4, 0.6, 0.8, 1.0]
+        );
+        assert_eq!(linear_ticks(0.31, 0.46, 5), vec![0.35, 0.4, 0.45]);
+        assert_eq!(linear_ticks(-7.0, 13.0, 6), vec![-5.0, 0.0, 5.0, 10.0]);
+    }
+
+    #[test]
+    fn a_sub_decade_log_axis_still_has_labelled_ticks() {
+        let mut f = Figure::new("t", "x", "error (mm)");
+        f.y_scale = Scale::Log;
+        f.series.push(Series::new(
+            "a",
+            vec![(1.0, 0.34), (2.0, 0.45)],
+            Style::LineMarkers,
+        ));
+        let t = texts(&figure_svg(&f).unwrap());
+        let numeric = t
+            .iter()
+            .filter(|s| s.parse::<f64>().is_ok_and(|v| (0.3..0.5).contains(&v)))
+            .count();
+        assert!(numeric >= 2, "{t:?}");
+    }
+
+    #[test]
+    fn crowded_explicit_ticks_are_thinned() {
+        let mut f = Figure::new("t", "poses", "e");
+        let xs = [8.0, 11.0, 12.0, 13.0, 15.0, 20.0, 30.0, 50.0, 100.0, 150.0];
+        f.x_ticks = Some(xs.to_vec());
+        f.series.push(Series::new(
+            "a",
+            xs.iter().map(|&x| (x, 1.0)).collect(),
+            Style::Markers,
+        ));
+        let t = texts(&figure_svg(&f).unwrap());
+        assert!(has(&t, "8") && has(&t, "150") && has(&t, "50"));
+        assert!(!has(&t, "11") || !has(&t, "12"), "{t:?}");
+    }
+
+    #[test]
+    fn cdf_steps_reach_one_hundred_percent() {
+        let f = cdf_figure(
+            "c",
+            "e (mm)",
+            &[("a".into(), vec![0.3, 0.1, 0.2])],
+            Vec::new(),
+        )
+        .unwrap();
+        let p = &f.series[0].points;
+        assert_eq!(p.first(), Some(&(0.1, 0.0)));
+        assert_eq!(p.last(), Some(&(0.3, 100.0)));
+        assert!(p.windows(2).all(|w| w[1].0 >= w[0].0 && w[1].1 >= w[0].1));
+        assert!(cdf_figure("c", "e", &[("a".into(), vec![])], Vec::new()).is_err());
+    }
+
+    #[test]
+    fn bad_input_is_an_error_naming_the_series() {
+        let mut f = sweep_like(true);
+        f.series[1].points[2].1 = f64::NAN;
+        assert!(
+            matches!(figure_svg(&f), Err(PlotError::NonFinite { series, index: 2, .. }) if series == "Marquardt")
+        );
+        let mut f = sweep_like(true);
+        f.series[0].points[0].0 = -1.0;
+        assert!(matches!(
+            figure_svg(&f),
+            Err(PlotError::InvalidValue { index: 0, .. })
+        ));
+        let mut f = sweep_like(true);
+        f.series[0].bars.pop();
+        assert!(matches!(
+            figure_svg(&f),
+            Err(PlotError::LengthMismatch {
+                expected: 6,
+                got: 5,
+                ..
+            })
+        ));
+        let mut f = sweep_like(true);
+        f.series[0].points.clear();
+        assert!(matches!(figure_svg(&f), Err(PlotError::Empty { .. })));
+        assert!(matches!(panels_svg(&[], 500), Err(PlotError::Empty { .. })));
+        assert!(matches!(
+            histogram_svg("t", "x", "n", &[], &[]),
+            Err(PlotError::Empty { .. })
+        ));
+        assert!(matches!(
+            histogram_svg("t", "x", "n", &[(0.0, 1.0, 1), (2.0, 2.0, 2)], &[]),
+            Err(PlotError::InvalidValue { index: 1, .. })
+        ));
+    }
+
+    #[test]
+    fn text_is_escaped_and_output_deterministic() {
+        let mut f = sweep_like(true);
+        f.title = "a < b & c".into();
+        let svg = figure_svg(&f).unwrap();
+        assert!(texts(&svg).contains(&"a &lt; b &amp; c".to_string()));
+        assert_eq!(svg, figure_svg(&f).unwrap());
+    }
+
+    #[test]
+    fn rebin_equal_width_and_conserves_counts() {
+        let bins = rebin(&[(0.0, 2), (1.0, 1), (2.5, 4), (4.0, 3), (10.0, 5)], 5);
+        assert_eq!(
+            bins.iter().map(|b| b.2).collect::<Vec<_>>(),
+            vec![3, 4, 3, 0, 5]
+        );
+        assert_eq!((bins[0].0, bins[4].1), (0.0, 10.0));
+        let one = rebin(&[(2.0, 3), (2.0, 4)], 5);
+        assert_eq!(
+            one.iter().map(|b| b.2).collect::<Vec<_>>(),
+            vec![0, 0, 7, 0, 0]
+        );
+        assert!(rebin(&[], 4).is_empty() && rebin(&[(1.0, 1)], 0).is_empty());
+    }
+
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig::with_cases(64))]
+        #[test]
+        fn rebin_properties(
+            values in proptest::collection::vec((-1e3f64..1e3, 0u64..100), 1..40),
+            n in 1usize..30,
+        ) {
+            let bins = rebin(&values, n);
+            proptest::prop_assert_eq!(bins.len(), n);
+            let total: u64 = values.iter().map(|v| v.1).sum();
+            proptest::prop_assert_eq!(bins.iter().map(|b| b.2).sum::<u64>(), total);
+            let mut reversed = values.clone();
+            reversed.reverse();
+            proptest::prop_assert_eq!(rebin(&reversed, n), bins);
+        }
+    }
 }

@@ -158,3 +158,34 @@ fn the_check_catches_an_empty_plot_and_a_broken_svg() {
     assert!(data_pixels(&rasterise(&svg, "line", &opt)) >= 150);
     assert!(resvg::usvg::Tree::from_str("<svg width=\"10\" height=\"10\"><path d=", &opt).is_err());
 }
+
+#[test]
+fn the_identify_plots_render() {
+    let opt = options();
+    let e = |n: usize, s: f64| -> Vec<[f64; 3]> {
+        (0..n)
+            .map(|i| {
+                let t = i as f64;
+                [
+                    s * (t * 0.7).sin(),
+                    s * (t * 1.3).cos(),
+                    s * 0.5 * (t * 0.4).sin(),
+                ]
+            })
+            .collect()
+    };
+    let (ib, ia, vb, va) = (e(100, 2.5), e(100, 0.3), e(1395, 2.8), e(1395, 0.35));
+    let d = report::identify::IdentifyPlotData {
+        robot: "UR10",
+        identification_before_mm: &ib,
+        identification_after_mm: &ia,
+        validation_before_mm: Some(&vb),
+        validation_after_mm: Some(&va),
+        outlier_threshold: Some((0.5, 3.0)),
+        outliers: &[7],
+    };
+    let png = std::env::var_os("KINCAL_PNG_DIR").map(PathBuf::from);
+    for (file, svg) in report::identify::identify_plots(&d).unwrap() {
+        check(&svg, &format!("identify-{file}"), &opt, png.as_deref());
+    }
+}
