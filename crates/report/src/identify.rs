@@ -237,25 +237,26 @@ pub fn identify_plots(d: &IdentifyPlotData<'_>) -> Result<Vec<(String, String)>,
 }
 
 /// `report.html` of an identification: `report.md` with the plots of [`identify_plots`] in
-/// place (after the fit section, the validation section, the outlier section; any plot whose
-/// section is missing goes at the end).
+/// place (per-axis residuals after "Fit residuals", the outlier view after "Outliers", the
+/// per-pose errors and the CDF after "Validation…"; a plot whose section is missing goes at
+/// the end).
 pub fn identify_page(title: &str, report_md: &str, plots: &[(String, String)]) -> String {
     let place = |file: &str| -> (Option<&str>, &str) {
         match file {
             "pose-errors.svg" => (
-                None,
+                Some("Validation"),
                 "3-D position error per pose before and after identification: the nominal model (registered in the measurement frame) and the identified model; dashed lines are the means.",
             ),
             "error-cdf.svg" => (
-                None,
+                Some("Validation"),
                 "Share of poses whose 3-D error is below a value, before and after: the further left the curve, the better the model.",
             ),
             "residuals-per-axis.svg" => (
-                None,
+                Some("Fit residuals"),
                 "Residual of the identified model along each axis per identification pose: structure (trends, steps) is error the model does not contain.",
             ),
             "outliers.svg" => (
-                None,
+                Some("Outliers"),
                 "3-D residual per identification pose against the outlier threshold k·σ̂₃.",
             ),
             _ => (None, "plot"),

@@ -1,5 +1,5 @@
-//! Every committed SVG and every SVG inside a committed HTML report renders with a real SVG
-//! renderer (resvg) and has data in its plot area.
+//! Every committed SVG (`results/`, `docs/`) and every SVG inside a committed HTML report
+//! renders with a real SVG renderer (resvg) and has data in its plot area.
 //!
 //! resvg needs fonts for `<text>`: the system's fonts are loaded (and DejaVu Sans or Liberation
 //! Sans, when present, is the `sans-serif` family). Without any font the text is skipped by
@@ -115,12 +115,22 @@ fn every_committed_svg_and_html_report_renders_with_data_in_the_plot() {
     let opt = options();
     let mut svgs = Vec::new();
     files(&root, "svg", &mut svgs);
+    // The plots the documentation shows (docs/img), unless another directory was asked for.
+    let docs = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../docs");
+    if std::env::var_os("KINCAL_RESULTS_DIR").is_none() {
+        files(&docs, "svg", &mut svgs);
+    }
     let mut htmls = Vec::new();
     files(&root, "html", &mut htmls);
     assert!(!svgs.is_empty(), "no SVG under {}", root.display());
     for path in &svgs {
         let text = std::fs::read_to_string(path).unwrap();
-        let what = path.strip_prefix(&root).unwrap().display().to_string();
+        let what = path
+            .strip_prefix(&root)
+            .or_else(|_| path.strip_prefix(&docs))
+            .unwrap()
+            .display()
+            .to_string();
         check(&text, &what, &opt, png.as_deref());
     }
     for path in &htmls {
