@@ -871,16 +871,18 @@ fn render(
     Ok(svg)
 }
 
+// plotters' SVG backend writes font sizes divided by 1.24 (its pixel-to-point factor): these
+// give 17, 15 and 13.3 px in the SVG.
 fn title_font() -> TextStyle<'static> {
-    ("sans-serif", 20.0).into_font().into()
+    ("sans-serif", 21.08).into_font().into()
 }
 
 fn axis_font() -> TextStyle<'static> {
-    ("sans-serif", 17.0).into_font().into()
+    ("sans-serif", 18.6).into_font().into()
 }
 
 fn tick_font() -> TextStyle<'static> {
-    ("sans-serif", 15.0).into_font().into()
+    ("sans-serif", 16.49).into_font().into()
 }
 
 fn build<'a, 'b>(
