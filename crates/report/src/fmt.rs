@@ -170,8 +170,8 @@ impl Quantity {
     }
 }
 
-/// `1e-9` → `10⁻⁹`-free plain text for tick labels and legends: rounded to 10 significant
-/// digits (hiding float noise such as `0.30000000000000004`), plain between 1e-4 and 1e6,
+/// A number for tick labels, legends and swept values: rounded to 10 significant digits
+/// (hiding float noise such as `0.30000000000000004`), plain between 1e-4 and 1e6,
 /// scientific (`1e-9`, `2.5e6`) outside.
 pub fn number(v: f64) -> String {
     let r: f64 = format!("{v:.9e}").parse().unwrap_or(v);
