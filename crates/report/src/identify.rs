@@ -29,6 +29,9 @@ pub struct IdentifyPlotData<'a> {
     pub outlier_threshold: Option<(f64, f64)>,
     /// Indices (into the identification rows) of the flagged points.
     pub outliers: &'a [usize],
+    /// Empty, or one label per flagged point (e.g. `line 857`), named in the legend (the
+    /// first five).
+    pub outlier_labels: &'a [String],
 }
 
 /// File names of the plots, in the order [`identify_plots`] returns them.
@@ -222,8 +225,20 @@ pub fn identify_plots(d: &IdentifyPlotData<'_>) -> Result<Vec<(String, String)>,
             .iter()
             .map(|&i| ((i + 1) as f64, ia[i]))
             .collect();
-        f.series
-            .push(Series::new("flagged as outliers", flagged, Style::Markers));
+        let name = if d.outlier_labels.is_empty() {
+            "flagged as outliers".to_string()
+        } else {
+            let more = if d.outlier_labels.len() > 5 {
+                ", …"
+            } else {
+                ""
+            };
+            format!(
+                "flagged as outliers: {}{more}",
+                d.outlier_labels[..d.outlier_labels.len().min(5)].join(", ")
+            )
+        };
+        f.series.push(Series::new(name, flagged, Style::Markers));
     }
     if let Some((t, k)) = d.outlier_threshold {
         f.refs.push(RefLine::horizontal(
@@ -306,13 +321,14 @@ mod tests {
             validation_after_mm: Some(&va),
             outlier_threshold: Some((0.5, 3.0)),
             outliers: &[7, 42],
+            outlier_labels: &["line 9".to_string(), "line 44".to_string()],
         };
         let plots = identify_plots(&d).unwrap();
         let names: Vec<&str> = plots.iter().map(|p| p.0.as_str()).collect();
         assert_eq!(names, IDENTIFY_PLOT_FILES);
         assert!(plots[0].1.contains("validation pose (row order)"));
         assert!(plots[1].1.contains("validation poses (mm)"));
-        assert!(plots[3].1.contains("flagged as outliers"));
+        assert!(plots[3].1.contains("flagged as outliers: line 9, line 44"));
         assert!(plots[3].1.contains("threshold 3 σ̂₃ = 0.500 mm"));
         let md = "# Identification\n\n## Fit residuals\n\n| a | b |\n|---|---|\n| 1 | 2 |\n";
         let html = identify_page("UR10", md, &plots);
@@ -329,6 +345,7 @@ mod tests {
         // Bad input.
         let d = IdentifyPlotData {
             outliers: &[100],
+            outlier_labels: &[],
             ..d
         };
         assert!(identify_plots(&d).is_err());

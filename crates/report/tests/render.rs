@@ -193,6 +193,7 @@ fn the_identify_plots_render() {
         validation_after_mm: Some(&va),
         outlier_threshold: Some((0.5, 3.0)),
         outliers: &[7],
+        outlier_labels: &[],
     };
     let png = std::env::var_os("KINCAL_PNG_DIR").map(PathBuf::from);
     for (file, svg) in report::identify::identify_plots(&d).unwrap() {
