@@ -52,6 +52,15 @@ pub enum CalibrateError {
         #[source]
         source: evaluate::EvalError,
     },
+    /// A plot of the report could not be drawn (non-finite errors).
+    #[error("drawing {what}")]
+    Plot {
+        /// Which plot.
+        what: String,
+        /// Why.
+        #[source]
+        source: report::PlotError,
+    },
     /// An option or input is unusable; the message names the option or the file.
     #[error("{0}")]
     Refused(String),

@@ -22,6 +22,7 @@ pub use error::{CalibrateError, Result};
 pub use files::{LoadedRobot, file_name, points_mm, poses_rad, row_label};
 pub use joints::{Compensation, Prediction, SAME_FRAME_MM, compensate_targets, predict};
 pub use workflow::{
-    Calibration, IdentifyRequest, PARAMETERS_FILE, REGISTERED_FILE, REPORT_FILE, ROBOT_FILE,
-    RedundantArg, Registration, Rendered, Schedule, Split, Validation, norms, residuals, run,
+    Calibration, IdentifyRequest, PARAMETERS_FILE, REGISTERED_FILE, REPORT_FILE, REPORT_HTML_FILE,
+    ROBOT_FILE, RedundantArg, Registration, Rendered, Schedule, Split, Validation, norms,
+    residuals, run,
 };

@@ -146,6 +146,8 @@ pub const REGISTERED_FILE: &str = "registered-nominal.json";
 pub const PARAMETERS_FILE: &str = "parameters.json";
 /// The report.
 pub const REPORT_FILE: &str = "report.md";
+/// The report as a self-contained HTML page with the plots inline.
+pub const REPORT_HTML_FILE: &str = "report.html";
 
 /// Validation of the nominal and identified models on one measurement set.
 #[derive(Clone, Debug)]
@@ -201,11 +203,12 @@ pub struct Calibration {
     pub elapsed_ms: f64,
 }
 
-/// The four output files, rendered.
+/// The output files, rendered: the four files, [`REPORT_HTML_FILE`] and the plots of
+/// [`report::identify::IDENTIFY_PLOT_FILES`].
 #[derive(Clone, Debug)]
 pub struct Rendered {
     /// `(file name, contents)`, in writing order.
-    pub files: Vec<(&'static str, String)>,
+    pub files: Vec<(String, String)>,
 }
 
 impl Rendered {
@@ -528,8 +531,15 @@ pub fn run(request: &IdentifyRequest) -> Result<Calibration> {
 }
 
 impl Calibration {
-    /// Renders the four output files in memory.
-    pub fn render(&self) -> Rendered {
+    /// Renders the output files in memory: `identified.json`, `registered-nominal.json`,
+    /// `parameters.json`, `report.md`, then `report.html` with the plots of
+    /// [`report::identify::identify_plots`] (errors of the start model and of the identified
+    /// one on the screened identification rows and on the validation rows; the outlier screen)
+    /// inline and beside it as SVG files.
+    ///
+    /// # Errors
+    /// [`CalibrateError::Plot`] when an error is not finite (nothing can be drawn).
+    pub fn render(&self) -> Result<Rendered> {
         let nom = &self.nominal.robot;
         let data = file_name(&self.request.data);
         let mut robot = self.fit.robot.clone();
@@ -538,14 +548,45 @@ impl Calibration {
         if self.registration.as_ref().is_some_and(|r| r.applied) {
             registered.set_name(format!("{}, base registered on {data}", nom.name()));
         }
-        Rendered {
-            files: vec![
-                (ROBOT_FILE, robot.to_spec().to_json_string()),
-                (REGISTERED_FILE, registered.to_spec().to_json_string()),
-                (PARAMETERS_FILE, parameters_json(self)),
-                (REPORT_FILE, render_report(self)),
-            ],
-        }
+        let report_md = render_report(self);
+        let id_before = residuals(&self.start, &self.screened_rows);
+        let id_after = residuals(&self.fit.robot, &self.screened_rows);
+        let flagged = self.screen.as_ref().map_or_else(Vec::new, |s| s.indices());
+        let labels: Vec<String> = flagged
+            .iter()
+            .map(|&i| row_label(&self.screened_rows[i]))
+            .collect();
+        let plots = report::identify::identify_plots(&report::identify::IdentifyPlotData {
+            robot: nom.name(),
+            identification_before_mm: &id_before,
+            identification_after_mm: &id_after,
+            validation_before_mm: self.validation.as_ref().map(|v| v.before.as_slice()),
+            validation_after_mm: self.validation.as_ref().map(|v| v.after.as_slice()),
+            outlier_threshold: self.screen.as_ref().map(|s| (s.threshold_mm, s.k)),
+            outliers: &flagged,
+            outlier_labels: &labels,
+        })
+        .map_err(|source| CalibrateError::Plot {
+            what: format!("the plots of {REPORT_HTML_FILE}"),
+            source,
+        })?;
+        let html = report::identify::identify_page(
+            &format!("Calibration of {} on {data}", nom.name()),
+            &report_md,
+            &plots,
+        );
+        let mut files = vec![
+            (ROBOT_FILE.to_string(), robot.to_spec().to_json_string()),
+            (
+                REGISTERED_FILE.to_string(),
+                registered.to_spec().to_json_string(),
+            ),
+            (PARAMETERS_FILE.to_string(), parameters_json(self)),
+            (REPORT_FILE.to_string(), report_md),
+            (REPORT_HTML_FILE.to_string(), html),
+        ];
+        files.extend(plots);
+        Ok(Rendered { files })
     }
 
     /// The console summary: what was fitted, registration, fit, held parameters, outliers,

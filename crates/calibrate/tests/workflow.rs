@@ -1,6 +1,7 @@
 //! The workflow as a library: the real UR10 (data/ur10-ipa) every 15th row, validated on the
 //! rest, against the independent SciPy MINPACK fit quoted in data/ur10-ipa/README.md; bad
-//! options are refused before anything is read; a failed write leaves nothing behind.
+//! options are refused before anything is read; a failed write leaves nothing behind; the
+//! plots shown in docs/img are this run's.
 
 use std::path::PathBuf;
 
@@ -34,17 +35,40 @@ fn ur10_every_15th_row_matches_the_independent_fit() {
     assert!((after.mean_mm - 0.45).abs() < 0.01, "{}", after.mean_mm);
     assert!((after.max_mm - 1.77).abs() < 0.02, "{}", after.max_mm);
     assert!(v.table.before.norm.mean_mm > 2.5);
-    let rendered = cal.render();
-    let names: Vec<&str> = rendered.files.iter().map(|(n, _)| *n).collect();
+    let rendered = cal.render().unwrap();
+    let names: Vec<&str> = rendered.files.iter().map(|(n, _)| n.as_str()).collect();
     assert_eq!(
         names,
         [
             "identified.json",
             "registered-nominal.json",
             "parameters.json",
-            "report.md"
+            "report.md",
+            "report.html",
+            "pose-errors.svg",
+            "error-cdf.svg",
+            "residuals-per-axis.svg",
+            "outliers.svg",
         ]
     );
+    // report.html holds every plot inline (captioned with its file name), nothing else.
+    let html = &rendered.files[4].1;
+    assert_eq!(html.matches("<svg ").count(), 4);
+    for (name, svg) in &rendered.files[5..] {
+        assert!(svg.starts_with("<svg"), "{name}");
+        assert!(html.contains(&format!("<code>{name}</code>")), "{name}");
+    }
+    // The README and docs/reports.md show two of these plots: they are this run's bytes.
+    for name in ["pose-errors.svg", "error-cdf.svg"] {
+        let shown = root().join("docs/img").join(format!("ur10-{name}"));
+        let svg = &rendered.files.iter().find(|(n, _)| n == name).unwrap().1;
+        assert!(
+            std::fs::read_to_string(&shown).unwrap() == *svg,
+            "{} differs from the {name} of `kincal identify --robot scenarios/robots/ur10.json \
+             --data data/ur10-ipa/series-b-joint-configurations.csv --every 15`: copy it there",
+            shown.display()
+        );
+    }
     assert!(cal.summary().contains("validation: 1395 poses"));
 }
 
@@ -83,7 +107,11 @@ fn a_failed_write_leaves_no_directory() {
     let tmp = tempfile::tempdir().unwrap();
     let file = tmp.path().join("a-file");
     std::fs::write(&file, "x").unwrap();
-    let e = cal.render().write_to(&file.join("out")).unwrap_err();
+    let e = cal
+        .render()
+        .unwrap()
+        .write_to(&file.join("out"))
+        .unwrap_err();
     assert!(e.to_string().contains("a-file"), "{e}");
     assert_eq!(std::fs::read_to_string(&file).unwrap(), "x");
 }

@@ -1,1360 +1,611 @@
-//! Dependency-free SVG plots for campaign reports, returned as `String`.
+//! The campaign's and the sweep's figures, drawn through the `report` crate's plotting layer,
+//! and their `report.html` pages.
 //!
-//! Every function is pure (data in, SVG text out) and deterministic: the same input gives the
-//! same bytes. Each figure is [`WIDTH`]×[`HEIGHT`] px with a title, axis labels that carry
-//! units, and a legend when more than one series is drawn.
-//!
-//! Rendering uses plotters' SVG backend without the `ttf` feature. In that configuration
-//! plotters estimates text extents with a crude built-in metric (no font files, no system
-//! libraries) and the SVG backend writes every string as an escaped `<text>` element, so the
-//! viewer's own sans-serif font draws it. The one thing plotters cannot do well here is
-//! rotated tick labels (it centres them on the tick), so [`recovery_svg`] places its
-//! parameter labels itself.
-//!
-//! Inputs are validated before anything is drawn: empty data, non-finite values (reported
-//! with the series name and index) and mismatched lengths are errors, never silently dropped.
+//! Every function is pure and deterministic (data in, SVG or HTML text out). Axis titles,
+//! legends and captions are in words with units; parameter lists are in kinematic order
+//! ([`kinematic_order`]).
 
-use std::ops::Range;
+use report::fmt::{self, number};
+use report::html::{self, Picture};
+use report::plot::{self, cdf_figure, figure_svg, histogram_svg, panels_svg, rebin};
+use report::{Figure, PlotError, RefLine, Scale, Series, Style};
 
-use plotters::coord::Shift;
-use plotters::coord::ranged1d::{
-    DefaultFormatting, KeyPointHint, NoDefaultFormatting, ValueFormatter,
-};
-use plotters::coord::types::RangedCoordf64;
-use plotters::prelude::*;
-use plotters::style::text_anchor::{HPos, Pos, VPos};
+use crate::aggregate::Summary;
+use crate::report::{CampaignSummary, PAPER, RecoverySummary};
+use crate::sweep::{PlotSpec, SweepPoint, SweepResult};
 
-/// Width of every figure, in pixels.
-pub const WIDTH: u32 = 800;
-/// Height of every figure, in pixels.
-pub const HEIGHT: u32 = 500;
-
-/// Why a plot could not be drawn.
-#[derive(Debug, Clone, thiserror::Error)]
-pub enum PlotError {
-    /// There is nothing to plot.
-    #[error("nothing to plot: {what} is empty")]
-    Empty {
-        /// Which input was empty.
-        what: String,
-    },
-    /// A value is NaN or infinite.
-    #[error("non-finite value {value} in series `{series}` at index {index}")]
-    NonFinite {
-        /// The series (or input) holding the value.
-        series: String,
-        /// Position of the value in its series (0-based).
-        index: usize,
-        /// The offending value.
-        value: f64,
-    },
-    /// Two inputs that must pair up element by element have different lengths.
-    #[error("length mismatch: {what} has {got} entries, expected {expected}")]
-    LengthMismatch {
-        /// Which input has the wrong length.
-        what: String,
-        /// The length it must have.
-        expected: usize,
-        /// The length it has.
-        got: usize,
-    },
-    /// A finite value that the plot still cannot represent (e.g. a negative standard
-    /// deviation, a non-positive value on a log axis, a bin whose upper edge is not above
-    /// its lower edge).
-    #[error("invalid value {value} in series `{series}` at index {index}: {reason}")]
-    InvalidValue {
-        /// The series (or input) holding the value.
-        series: String,
-        /// Position of the value in its series (0-based).
-        index: usize,
-        /// The offending value.
-        value: f64,
-        /// What is wrong with it.
-        reason: &'static str,
-    },
-    /// The plotting backend failed.
-    #[error("plot backend failed: {0}")]
-    Backend(String),
+/// Parameter names sorted in the kinematic order of `kinematics::ParamLayout` (per joint θ, d,
+/// a, α; then the β's; then the base rx … dz; then the tool x, y, z). Unknown names go last,
+/// alphabetically.
+pub fn kinematic_order<'a>(names: impl IntoIterator<Item = &'a str>) -> Vec<&'a str> {
+    // Sixteen joints with zero nominal twists: every joint parameter and every β exists, in
+    // the same relative order as in any smaller chain.
+    let layout = kinematics::ParamLayout::new(&[0.0; 16]);
+    let mut v: Vec<&str> = names.into_iter().collect();
+    v.sort_by_key(|n| (layout.index_of(n).unwrap_or(usize::MAX), *n));
+    v
 }
 
-// ---------------------------------------------------------------------------------------------
-// Public plots
-// ---------------------------------------------------------------------------------------------
+fn norms(v: &[[f64; 3]]) -> Vec<f64> {
+    v.iter()
+        .map(|e| (e[0] * e[0] + e[1] * e[1] + e[2] * e[2]).sqrt())
+        .collect()
+}
 
-/// The paper's Fig. 7: 3-D position error at each validation pose, before and after
-/// calibration.
-///
-/// x is the validation pose index (1-based), y the position error in mm. Both series are drawn
-/// as lines with markers (circles before, triangles after); the legend gives each series'
-/// mean. `before_mm[i]` and `after_mm[i]` must refer to the same pose.
-///
-/// # Errors
-/// [`PlotError::Empty`] if there are no poses, [`PlotError::LengthMismatch`] if the two
-/// slices differ in length, [`PlotError::NonFinite`] naming the series if a value is NaN or
-/// infinite.
-pub fn per_pose_errors_svg(
-    title: &str,
-    before_mm: &[f64],
-    after_mm: &[f64],
+fn mean(v: &[f64]) -> f64 {
+    v.iter().sum::<f64>() / v.len().max(1) as f64
+}
+
+/// Whether a campaign reproduces the paper (its Table 4 is the reference).
+pub fn is_paper(scenario_name: &str) -> bool {
+    scenario_name.starts_with("paper")
+}
+
+/// 3-D error per validation pose before and after calibration (the paper's Fig. 7), as points
+/// (the poses are independent), with each series' mean and, for the paper's scenarios, the
+/// paper's mean after calibration as dashed lines.
+pub fn per_pose_error_svg(
+    name: &str,
+    trial: u64,
+    before_mm: &[[f64; 3]],
+    after_mm: &[[f64; 3]],
+    paper: bool,
 ) -> Result<String, PlotError> {
-    const BEFORE: &str = "before calibration";
-    const AFTER: &str = "after calibration";
-    if before_mm.is_empty() {
-        return Err(empty("per-pose errors before calibration"));
+    let (b, a) = (norms(before_mm), norms(after_mm));
+    let idx = |v: &[f64]| -> Vec<(f64, f64)> {
+        v.iter()
+            .enumerate()
+            .map(|(i, &e)| ((i + 1) as f64, e))
+            .collect()
+    };
+    let mut f = Figure::new(
+        format!("{name}: 3-D error per validation pose (trial {trial})"),
+        "validation pose",
+        "3-D position error (mm)",
+    );
+    f.y_from_zero = true;
+    f.series
+        .push(Series::new("before calibration", idx(&b), Style::Markers));
+    f.series
+        .push(Series::new("after compensation", idx(&a), Style::Markers));
+    f.refs.push(
+        RefLine::horizontal(format!("mean before: {} mm", fmt::mm(mean(&b))), mean(&b)).colored(0),
+    );
+    f.refs.push(
+        RefLine::horizontal(format!("mean after: {} mm", fmt::mm(mean(&a))), mean(&a)).colored(1),
+    );
+    if paper {
+        f.refs.push(RefLine::horizontal(
+            format!("paper, mean after: {} mm", fmt::mm(PAPER.after_mean_mm)),
+            PAPER.after_mean_mm,
+        ));
     }
-    if after_mm.len() != before_mm.len() {
-        return Err(PlotError::LengthMismatch {
-            what: "per-pose errors after calibration".into(),
-            expected: before_mm.len(),
-            got: after_mm.len(),
-        });
-    }
-    check_finite(BEFORE, before_mm)?;
-    check_finite(AFTER, after_mm)?;
-
-    let n = before_mm.len();
-    let (y0, y1) = zero_based_range(before_mm.iter().chain(after_mm).copied(), 2);
-    let x_coord = TickedAxis::new(0.5, n as f64 + 0.5, index_ticks(n));
-    let series = [
-        (BEFORE, before_mm, PALETTE[1], Marker::Circle),
-        (AFTER, after_mm, PALETTE[0], Marker::Triangle),
-    ];
-
-    render(|root| {
-        let mut chart = chart_builder(root, title, 50, 70)
-            .build_cartesian_2d(x_coord, y0..y1)
-            .map_err(backend)?;
-        chart
-            .configure_mesh()
-            .disable_x_mesh()
-            .x_desc("validation pose index")
-            .y_desc("3-D position error (mm)")
-            .x_label_formatter(&|x| format!("{x:.0}"))
-            .axis_desc_style(axis_font())
-            .label_style(tick_font())
-            .max_light_lines(0)
-            .draw()
-            .map_err(backend)?;
-        for (name, values, color, marker) in series {
-            let points: Vec<(f64, f64)> = values
-                .iter()
-                .enumerate()
-                .map(|(i, &v)| ((i + 1) as f64, v))
-                .collect();
-            let mean = values.iter().sum::<f64>() / n as f64;
-            draw_line_with_markers(
-                &mut chart,
-                &points,
-                color,
-                marker,
-                format!("{name} (mean {mean:.3} mm)"),
-            )?;
-        }
-        draw_legend(&mut chart)
-    })
+    figure_svg(&f)
 }
 
-/// A histogram of pre-binned data: one bar per `(lo, hi, count)` bin.
-///
-/// The campaign aggregates values in streaming histograms, so it passes bins, not raw values;
-/// [`rebin`] turns `(value, count)` pairs into equal-width bins. `x_label` should carry the
-/// unit, e.g. `"mean position error after calibration (mm)"`; the y axis is the count. Bins
-/// need not be sorted or contiguous; zero-count bins are drawn as zero-height bars.
-///
-/// # Errors
-/// [`PlotError::Empty`] if there are no bins, [`PlotError::NonFinite`] if an edge is NaN or
-/// infinite, [`PlotError::InvalidValue`] if a bin's upper edge is not above its lower edge.
-pub fn histogram_svg(
-    title: &str,
-    x_label: &str,
-    bins: &[(f64, f64, u64)],
+/// Share of validation poses whose 3-D error is below x, before and after calibration, for
+/// one trial; for the paper's scenarios with the paper's means as vertical lines.
+pub fn error_cdf_svg(
+    name: &str,
+    trial: u64,
+    before_mm: &[[f64; 3]],
+    after_mm: &[[f64; 3]],
+    paper: bool,
 ) -> Result<String, PlotError> {
-    if bins.is_empty() {
-        return Err(empty("histogram bins"));
-    }
-    check_finite("bin lower edges", bins.iter().map(|b| b.0))?;
-    check_finite("bin upper edges", bins.iter().map(|b| b.1))?;
-    if let Some((index, &(_, hi, _))) = bins.iter().enumerate().find(|(_, b)| b.1 <= b.0) {
-        return Err(PlotError::InvalidValue {
-            series: "bin upper edges".into(),
-            index,
-            value: hi,
-            reason: "a bin's upper edge must be above its lower edge",
-        });
-    }
-
-    let lo = bins.iter().map(|b| b.0).fold(f64::INFINITY, f64::min);
-    let hi = bins.iter().map(|b| b.1).fold(f64::NEG_INFINITY, f64::max);
-    let (x0, x1) = padded_range(lo, hi, 0.02, 0.02);
-    let max_count = bins.iter().map(|b| b.2).max().unwrap_or(0);
-    let y1 = if max_count == 0 {
-        1.0
-    } else {
-        max_count as f64 * 1.08
-    };
-    // A one-pixel gap between bars when they are wide enough to afford it.
-    let gap = u32::from((hi - lo) / (x1 - x0) * 700.0 / bins.len() as f64 >= 6.0);
-
-    render(|root| {
-        let mut chart = chart_builder(root, title, 50, 70)
-            .build_cartesian_2d(x0..x1, 0.0..y1)
-            .map_err(backend)?;
-        chart
-            .configure_mesh()
-            .disable_x_mesh()
-            .x_desc(x_label)
-            .y_desc("count")
-            .y_label_formatter(&|y| format_count(*y))
-            .axis_desc_style(axis_font())
-            .label_style(tick_font())
-            .max_light_lines(0)
-            .draw()
-            .map_err(backend)?;
-        chart
-            .draw_series(bins.iter().map(|&(lo, hi, count)| {
-                let mut bar = Rectangle::new([(lo, 0.0), (hi, count as f64)], BAR.filled());
-                bar.set_margin(0, 0, gap, gap);
-                bar
-            }))
-            .map_err(backend)?;
-        Ok(())
-    })
-}
-
-/// Turns `(value, count)` pairs into `n_bins` equal-width `(lo, hi, count)` bins spanning the
-/// range of the values.
-///
-/// Each value falls in the bin `[lo, hi)`, except that the largest value goes in the last
-/// bin. Counts of equal values add up (saturating). Every finite value, including those with
-/// a zero count, widens the range. If all values are equal, the bins span `v ± 5 %` of `|v|`
-/// (`± 0.5` for `v = 0`), so the value sits in the middle bin (the upper middle one for an
-/// even `n_bins`). The result depends only on
-/// the multiset of pairs, not their order.
-///
-/// Returns an empty vector if `n_bins` is 0 or there are no finite values. Non-finite values
-/// are skipped (the campaign's streaming statistics already count them separately).
-pub fn rebin(values: &[(f64, u64)], n_bins: usize) -> Vec<(f64, f64, u64)> {
-    let finite = || values.iter().filter(|(v, _)| v.is_finite());
-    let Some(first) = finite().next() else {
-        return Vec::new();
-    };
-    if n_bins == 0 {
-        return Vec::new();
-    }
-    let (mut lo, mut hi) = (first.0, first.0);
-    for &(v, _) in finite() {
-        lo = lo.min(v);
-        hi = hi.max(v);
-    }
-    if lo == hi {
-        let half = if lo == 0.0 { 0.5 } else { lo.abs() * 0.05 };
-        (lo, hi) = (lo - half, hi + half);
-    }
-    let span = hi - lo;
-    let n = n_bins as f64;
-    let edge = |i: usize| {
-        if i == n_bins {
-            hi
-        } else {
-            lo + span * (i as f64 / n)
-        }
-    };
-    let mut bins: Vec<(f64, f64, u64)> = (0..n_bins).map(|i| (edge(i), edge(i + 1), 0)).collect();
-    for &(v, count) in finite() {
-        // `as usize` saturates (and maps NaN from an overflowing span to 0).
-        let i = (((v - lo) / span) * n).floor() as usize;
-        let bin = &mut bins[i.min(n_bins - 1)];
-        bin.2 = bin.2.saturating_add(count);
-    }
-    bins
-}
-
-/// Parameter recovery: one bar per identified parameter showing its mean absolute recovery
-/// error (identified − true), with ± 1 standard deviation drawn as a whisker.
-///
-/// `names`, `mean_abs_error`, `sd` and `unit_labels` are parallel: entry `i` describes
-/// parameter `names[i]` in display unit `unit_labels[i]` (e.g. `"mm"`, `"mdeg"`). If all
-/// units agree the y label is `"recovery error (<unit>)"`; otherwise it is
-/// `"recovery error (display unit)"` and each parameter label carries its unit in brackets.
-/// Parameter labels are rotated when they would not fit side by side.
-///
-/// # Errors
-/// [`PlotError::Empty`] if there are no parameters, [`PlotError::LengthMismatch`] if the
-/// slices differ in length, [`PlotError::NonFinite`] naming the parameter if a value is NaN
-/// or infinite, [`PlotError::InvalidValue`] for a negative standard deviation.
-pub fn recovery_svg(
-    title: &str,
-    names: &[String],
-    mean_abs_error: &[f64],
-    sd: &[f64],
-    unit_labels: &[String],
-) -> Result<String, PlotError> {
-    let n = names.len();
-    if n == 0 {
-        return Err(empty("parameter names"));
-    }
-    for (what, len) in [
-        ("mean absolute errors", mean_abs_error.len()),
-        ("standard deviations", sd.len()),
-        ("unit labels", unit_labels.len()),
-    ] {
-        if len != n {
-            return Err(PlotError::LengthMismatch {
-                what: what.into(),
-                expected: n,
-                got: len,
-            });
-        }
-    }
-    for (i, name) in names.iter().enumerate() {
-        for (what, value) in [("mean absolute error", mean_abs_error[i]), ("sd", sd[i])] {
-            if !value.is_finite() {
-                return Err(PlotError::NonFinite {
-                    series: format!("{what} of {name}"),
-                    index: i,
-                    value,
-                });
-            }
-        }
-        if sd[i] < 0.0 {
-            return Err(PlotError::InvalidValue {
-                series: format!("sd of {name}"),
-                index: i,
-                value: sd[i],
-                reason: "a standard deviation cannot be negative",
-            });
-        }
-    }
-
-    let same_unit = unit_labels.iter().all(|u| *u == unit_labels[0]);
-    let (y_desc, labels): (String, Vec<String>) = if same_unit {
-        (
-            format!("recovery error ({})", unit_labels[0]),
-            names.to_vec(),
-        )
-    } else {
-        (
-            "recovery error (display unit)".into(),
-            names
-                .iter()
-                .zip(unit_labels)
-                .map(|(name, unit)| format!("{name} [{unit}]"))
-                .collect(),
-        )
-    };
-
-    let lows = mean_abs_error.iter().zip(sd).map(|(m, s)| m - s);
-    let highs = mean_abs_error.iter().zip(sd).map(|(m, s)| m + s);
-    let (y0, y1) = zero_based_range(lows.chain(highs), 2);
-
-    // Rotate the parameter labels when they would not fit side by side.
-    const PLOT_WIDTH_PX: f64 = 700.0;
-    let longest = labels.iter().map(|l| l.chars().count()).max().unwrap_or(0);
-    let rotate = longest as f64 * CHAR_WIDTH_PX + 6.0 > PLOT_WIDTH_PX / n as f64;
-    let x_area = if rotate {
-        (longest as f64 * CHAR_WIDTH_PX) as u32 + 45
-    } else {
-        50
-    }
-    .min(HEIGHT / 3);
-
-    render(|root| {
-        let mut chart = chart_builder(root, title, x_area, 70)
-            // No automatic x ticks: the parameter labels are placed below.
-            .build_cartesian_2d(TickedAxis::new(-0.5, n as f64 - 0.5, Vec::new()), y0..y1)
-            .map_err(backend)?;
-        chart
-            .configure_mesh()
-            .disable_x_mesh()
-            .x_desc("parameter")
-            .y_desc(y_desc.as_str())
-            .axis_desc_style(axis_font())
-            .label_style(tick_font())
-            .max_light_lines(0)
-            .draw()
-            .map_err(backend)?;
-
-        let bar = BAR.filled();
-        chart
-            .draw_series(mean_abs_error.iter().enumerate().map(|(i, &m)| {
-                let x = i as f64;
-                Rectangle::new([(x - 0.35, 0.0), (x + 0.35, m)], bar)
-            }))
-            .map_err(backend)?
-            .label("mean |error|")
-            .legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 20, y + 5)], bar));
-
-        let whisker = WHISKER.stroke_width(1);
-        chart
-            .draw_series(
-                mean_abs_error
-                    .iter()
-                    .zip(sd)
-                    .enumerate()
-                    .map(|(i, (&m, &s))| {
-                        let (x, cap) = (i as f64, 0.15);
-                        let (lo, hi) = (m - s, m + s);
-                        // One polyline per whisker: lower cap, stem, upper cap.
-                        PathElement::new(
-                            vec![
-                                (x - cap, lo),
-                                (x + cap, lo),
-                                (x, lo),
-                                (x, hi),
-                                (x - cap, hi),
-                                (x + cap, hi),
-                            ],
-                            whisker,
-                        )
-                    }),
+    let refs = if paper {
+        vec![
+            RefLine::vertical(
+                format!("paper, mean before: {} mm", fmt::mm(PAPER.before_mean_mm)),
+                PAPER.before_mean_mm,
             )
-            .map_err(backend)?
-            .label("± 1 sd")
-            .legend(move |(x, y)| {
-                PathElement::new(
-                    vec![
-                        (x + 6, y - 6),
-                        (x + 14, y - 6),
-                        (x + 10, y - 6),
-                        (x + 10, y + 6),
-                    ]
-                    .into_iter()
-                    .chain([(x + 6, y + 6), (x + 14, y + 6)])
-                    .collect::<Vec<_>>(),
-                    whisker,
-                )
-            });
-
-        // Parameter labels and ticks below the plotting area.
-        let style = tick_font();
-        let label_style = if rotate {
-            // Reads bottom to top, ending just below the tick.
-            style
-                .transform(FontTransform::Rotate270)
-                .pos(Pos::new(HPos::Right, VPos::Center))
-        } else {
-            style.pos(Pos::new(HPos::Center, VPos::Top))
-        };
-        for (i, label) in labels.iter().enumerate() {
-            let (px, py) = chart.backend_coord(&(i as f64, y0));
-            root.draw(&PathElement::new(vec![(px, py), (px, py + 5)], BLACK))
-                .map_err(backend)?;
-            root.draw(&Text::new(
-                label.as_str(),
-                (px, py + 8),
-                label_style.clone(),
-            ))
-            .map_err(backend)?;
-        }
-        draw_legend(&mut chart)
-    })
+            .colored(0),
+            RefLine::vertical(
+                format!("paper, mean after: {} mm", fmt::mm(PAPER.after_mean_mm)),
+                PAPER.after_mean_mm,
+            )
+            .colored(1),
+        ]
+    } else {
+        Vec::new()
+    };
+    let f = cdf_figure(
+        &format!("{name}: distribution of the 3-D error (trial {trial})"),
+        "3-D position error on the validation poses (mm)",
+        &[
+            ("before calibration".to_string(), norms(before_mm)),
+            ("after compensation".to_string(), norms(after_mm)),
+        ],
+        refs,
+    )?;
+    figure_svg(&f)
 }
 
-/// Sweep curves: one line with markers per named series of `(x, y)` points, e.g. validation
-/// error versus pose count for each pose-selection schedule.
-///
-/// `x_label` and `y_label` should carry units. With `log_y` the y axis is logarithmic and
-/// every y must be positive. Points are drawn in the order given. A legend is drawn when there
-/// is more than one series.
-///
-/// # Errors
-/// [`PlotError::Empty`] if there are no series or a series has no points (naming it),
-/// [`PlotError::NonFinite`] naming the series if a coordinate is NaN or infinite,
-/// [`PlotError::InvalidValue`] for a non-positive y on a log axis.
-pub fn curves_svg(
-    title: &str,
-    x_label: &str,
-    y_label: &str,
-    series: &[(String, Vec<(f64, f64)>)],
-    log_y: bool,
+/// Distribution over trials of the improvement of the mean error, with its mean and (for the
+/// paper's scenarios) the paper's 69.7 % as vertical lines.
+pub fn improvement_histogram_svg(
+    name: &str,
+    values: &[(f64, u64)],
+    summary: &Summary,
+    paper: bool,
 ) -> Result<String, PlotError> {
-    if series.is_empty() {
-        return Err(empty("the list of series"));
+    let mut refs = vec![
+        RefLine::vertical(
+            format!("mean over trials: {} %", fmt::pct(summary.mean)),
+            summary.mean,
+        )
+        .colored(1),
+    ];
+    // The paper's value as a line when it falls near the data; far from them (Table 3 as
+    // the truth improves by 97 %) it would squeeze the bars into a pixel, so the axis title
+    // names it instead.
+    let span = (summary.max - summary.min).max(1.0);
+    let near = (summary.min - span..=summary.max + span).contains(&PAPER.improvement_pct);
+    let mut x_title = "improvement of the mean 3-D validation error (%)".to_string();
+    if paper && near {
+        refs.push(RefLine::vertical(
+            format!("paper: {} %", fmt::pct(PAPER.improvement_pct)),
+            PAPER.improvement_pct,
+        ));
+    } else if paper {
+        x_title = format!(
+            "improvement of the mean 3-D validation error (%); paper: {} %",
+            fmt::pct(PAPER.improvement_pct)
+        );
     }
-    for (name, points) in series {
-        if points.is_empty() {
-            return Err(empty(&format!("series `{name}`")));
+    histogram_svg(
+        &format!(
+            "{name}: improvement of the mean error over {} trials",
+            summary.n
+        ),
+        &x_title,
+        "trials",
+        &rebin(values, 20),
+        &refs,
+    )
+}
+
+/// One parameter's recovery, for the recovery figures.
+struct RecoveryRow<'a> {
+    name: &'a str,
+    angle: bool,
+    error: &'a Summary,
+    z: Option<&'a Summary>,
+}
+
+fn recovery_rows(
+    recovery: &std::collections::BTreeMap<String, RecoverySummary>,
+) -> Vec<RecoveryRow<'_>> {
+    kinematic_order(recovery.keys().map(String::as_str))
+        .into_iter()
+        .filter_map(|n| {
+            let r = &recovery[n];
+            r.error.as_ref().map(|e| RecoveryRow {
+                name: n,
+                angle: r.unit == "deg",
+                error: e,
+                z: r.z.as_ref(),
+            })
+        })
+        .collect()
+}
+
+/// Recovery error (estimate − truth) per parameter, mean ± 1 sd over trials, in kinematic
+/// order: lengths in mm in the upper panel, angles in arcseconds in the lower one.
+pub fn recovery_svg(
+    name: &str,
+    recovery: &std::collections::BTreeMap<String, RecoverySummary>,
+) -> Result<Option<String>, PlotError> {
+    let rows = recovery_rows(recovery);
+    let mut panels = Vec::new();
+    for (angle, unit, scale) in [(false, "mm", 1.0), (true, "arcsec", fmt::ARCSEC_PER_DEG)] {
+        let sel: Vec<&RecoveryRow> = rows.iter().filter(|r| r.angle == angle).collect();
+        if sel.is_empty() {
+            continue;
         }
-        for (index, &(x, y)) in points.iter().enumerate() {
-            for value in [x, y] {
-                if !value.is_finite() {
-                    return Err(PlotError::NonFinite {
-                        series: name.clone(),
-                        index,
-                        value,
-                    });
+        let title = if panels.is_empty() {
+            format!("{name}: parameter recovery over trials (minimal set)")
+        } else {
+            String::new()
+        };
+        let what = if angle { "angles" } else { "lengths" };
+        let mut f = Figure::new(
+            title,
+            format!("parameter ({what})"),
+            format!("estimate − truth ({unit})"),
+        );
+        f.x_categories = Some(sel.iter().map(|r| r.name.to_string()).collect());
+        let mut s = Series::new(
+            "mean over trials ± 1 sd",
+            sel.iter()
+                .enumerate()
+                .map(|(i, r)| (i as f64, r.error.mean * scale))
+                .collect(),
+            Style::Markers,
+        );
+        s.bars = sel
+            .iter()
+            .map(|r| {
+                (
+                    (r.error.mean - r.error.sd) * scale,
+                    (r.error.mean + r.error.sd) * scale,
+                )
+            })
+            .collect();
+        f.series.push(s);
+        f.refs.push(RefLine::horizontal("zero: unbiased", 0.0));
+        panels.push(f);
+    }
+    if panels.is_empty() {
+        return Ok(None);
+    }
+    let h = if panels.len() == 1 { 500 } else { 860 };
+    panels_svg(&panels, h).map(Some)
+}
+
+/// z-score per parameter (estimate − truth over the reported standard error), mean ± 1 sd
+/// over trials, in kinematic order, with the band an honest standard error gives (mean 0,
+/// sd 1: ± 1 and ± 3).
+pub fn z_scores_svg(
+    name: &str,
+    recovery: &std::collections::BTreeMap<String, RecoverySummary>,
+) -> Result<Option<String>, PlotError> {
+    let rows: Vec<RecoveryRow> = recovery_rows(recovery)
+        .into_iter()
+        .filter(|r| r.z.is_some())
+        .collect();
+    if rows.is_empty() {
+        return Ok(None);
+    }
+    let mut f = Figure::new(
+        format!("{name}: z-scores of the recovered parameters"),
+        "parameter",
+        "z = (estimate − truth) / standard error",
+    );
+    f.x_categories = Some(rows.iter().map(|r| r.name.to_string()).collect());
+    let z = |r: &RecoveryRow| *r.z.expect("filtered");
+    let mut s = Series::new(
+        "mean over trials ± 1 sd",
+        rows.iter()
+            .enumerate()
+            .map(|(i, r)| (i as f64, z(r).mean))
+            .collect(),
+        Style::Markers,
+    );
+    s.bars = rows
+        .iter()
+        .map(|r| (z(r).mean - z(r).sd, z(r).mean + z(r).sd))
+        .collect();
+    f.series.push(s);
+    f.refs.push(RefLine::horizontal(
+        "z = ± 3 (honest errors: 99.7 % inside)",
+        3.0,
+    ));
+    f.refs.push(RefLine::horizontal("", -3.0));
+    f.refs.push(RefLine::horizontal("zero", 0.0).colored(1));
+    figure_svg(&f).map(Some)
+}
+
+// ---------------------------------------------------------------------------------------------
+// Sweeps
+// ---------------------------------------------------------------------------------------------
+
+/// A scenario path in words, for axis titles (the path itself if unknown).
+pub fn path_in_words(path: &str) -> String {
+    match path {
+        "identification.lm.damping.mu0" => "μ0 (initial Levenberg–Marquardt damping)".into(),
+        "identification.lm.damping.tau" => "τ (Nielsen's initial damping factor)".into(),
+        "identification.lm.damping" | "identification.lm.damping.kind" => "damping schedule".into(),
+        "identification.lm.column_scaling" => "Jacobian columns".into(),
+        "poses.identification" => "identification poses".into(),
+        "poses.validation" => "validation poses".into(),
+        "tracker.noise_scale" => "tracker noise (× AT960)".into(),
+        "trials" => "trials".into(),
+        other => other.into(),
+    }
+}
+
+/// A metric in words with its unit, for axis titles.
+pub fn metric_in_words(metric: &str) -> String {
+    match metric {
+        "after_mean_mm" => "validation error after compensation (mm)".into(),
+        "after_max_mm" => "max validation error after compensation (mm)".into(),
+        "before_mean_mm" => "validation error before calibration (mm)".into(),
+        "improvement_pct" => "improvement of the mean error (%)".into(),
+        "predicted_error_mm" => "geometry error of the identified model (mm)".into(),
+        "fit_rms_mm" => "RMS residual of the fit (mm)".into(),
+        "lm_iterations" => "Levenberg–Marquardt iterations".into(),
+        "compensation_failures" => "unreachable validation targets per trial".into(),
+        other => other.into(),
+    }
+}
+
+/// One sweep value in words, for legends (`{"kind": "nielsen"}` → `Nielsen`, `false` on the
+/// column-scaling axis → `unscaled (JᵀJ + μI)`).
+pub fn value_in_words(path: &str, v: &serde_json::Value) -> String {
+    use serde_json::Value;
+    let schedule = |s: &str| match s {
+        "levenberg" => "Levenberg".to_string(),
+        "marquardt" => "Marquardt".to_string(),
+        "nielsen" => "Nielsen".to_string(),
+        o => o.to_string(),
+    };
+    match (path, v) {
+        ("identification.lm.column_scaling", Value::Bool(true)) => "column-scaled".into(),
+        ("identification.lm.column_scaling", Value::Bool(false)) => "unscaled (JᵀJ + μI)".into(),
+        (_, Value::String(s)) => schedule(s),
+        (_, Value::Object(m)) => {
+            let mut parts: Vec<String> = Vec::new();
+            if let Some(Value::String(k)) = m.get("kind") {
+                parts.push(schedule(k));
+            }
+            for (k, x) in m {
+                if k != "kind" {
+                    parts.push(format!("{k} {}", value_in_words(k, x)));
                 }
             }
-            if log_y && y <= 0.0 {
-                return Err(PlotError::InvalidValue {
-                    series: name.clone(),
-                    index,
-                    value: y,
-                    reason: "a logarithmic y axis needs positive values",
-                });
-            }
+            parts.join(", ")
         }
-    }
-
-    let all = || series.iter().flat_map(|(_, p)| p.iter());
-    let (xs, ys) = (all().map(|p| p.0), all().map(|p| p.1));
-    let x_lo = xs.clone().fold(f64::INFINITY, f64::min);
-    let x_hi = xs.fold(f64::NEG_INFINITY, f64::max);
-    let (x0, x1) = padded_range(x_lo, x_hi, 0.03, 0.03);
-    let legend_rows = if series.len() > 1 { series.len() } else { 0 };
-    let top = 0.05 + legend_headroom(legend_rows);
-    let y_lo = ys.clone().fold(f64::INFINITY, f64::min);
-    let y_hi = ys.fold(f64::NEG_INFINITY, f64::max);
-
-    if log_y {
-        let (l0, l1) = padded_range(y_lo.log10(), y_hi.log10(), 0.05, top);
-        let y_coord = LogAxis { lo: l0, hi: l1 };
-        render(|root| {
-            let chart = chart_builder(root, title, 50, 70)
-                .build_cartesian_2d(x0..x1, y_coord)
-                .map_err(backend)?;
-            draw_curves(chart, x_label, y_label, series)
-        })
-    } else {
-        let (y0, y1) = padded_range(y_lo, y_hi, 0.05, top);
-        render(|root| {
-            let chart = chart_builder(root, title, 50, 70)
-                .build_cartesian_2d(x0..x1, y0..y1)
-                .map_err(backend)?;
-            draw_curves(chart, x_label, y_label, series)
-        })
+        (_, Value::Number(n)) => n.as_f64().map_or_else(|| n.to_string(), number),
+        (p, Value::Bool(b)) => format!("{}: {}", path_in_words(p), if *b { "yes" } else { "no" }),
+        (_, other) => other.to_string(),
     }
 }
 
-// ---------------------------------------------------------------------------------------------
-// Helpers
-// ---------------------------------------------------------------------------------------------
-
-/// Okabe–Ito colours (colour-blind safe), without yellow and black.
-const PALETTE: [RGBColor; 6] = [
-    RGBColor(0, 114, 178),   // blue
-    RGBColor(213, 94, 0),    // vermillion
-    RGBColor(0, 158, 115),   // bluish green
-    RGBColor(204, 121, 167), // reddish purple
-    RGBColor(230, 159, 0),   // orange
-    RGBColor(86, 180, 233),  // sky blue
-];
-/// Histogram and recovery bars.
-const BAR: RGBColor = RGBColor(86, 150, 200);
-/// Recovery whiskers.
-const WHISKER: RGBColor = RGBColor(40, 40, 40);
-/// Marker radius / size in pixels.
-const MARKER_PX: i32 = 4;
-/// Rough width of one tick-label character in pixels (13 px sans-serif).
-const CHAR_WIDTH_PX: f64 = 6.5;
-
-type Area<'a> = DrawingArea<SVGBackend<'a>, Shift>;
-
-/// A linear `f64` axis with explicitly chosen tick positions (plotters' `WithKeyPoints`
-/// cannot have its labels formatted).
-struct TickedAxis {
-    inner: RangedCoordf64,
-    ticks: Vec<f64>,
+fn summary_of<'a>(p: &'a SweepPoint, metric: &str) -> Option<&'a Summary> {
+    p.metrics.get(metric).and_then(|m| m.as_ref())
 }
 
-impl TickedAxis {
-    fn new(lo: f64, hi: f64, ticks: Vec<f64>) -> Self {
-        Self {
-            inner: (lo..hi).into(),
-            ticks,
-        }
-    }
-}
-
-impl Ranged for TickedAxis {
-    type FormatOption = DefaultFormatting;
-    type ValueType = f64;
-
-    fn map(&self, value: &f64, limit: (i32, i32)) -> i32 {
-        self.inner.map(value, limit)
-    }
-
-    fn key_points<H: KeyPointHint>(&self, hint: H) -> Vec<f64> {
-        if hint.weight().allow_light_points() {
-            Vec::new()
-        } else {
-            self.ticks.clone()
-        }
-    }
-
-    fn range(&self) -> Range<f64> {
-        self.inner.range()
-    }
-}
-
-/// A logarithmic `f64` axis over `[10^lo, 10^hi]` with 1-2-5 ticks (plotters' own log axis
-/// labels only whole decades, so less than a decade would show one tick or none).
-struct LogAxis {
-    lo: f64,
-    hi: f64,
-}
-
-impl Ranged for LogAxis {
-    type FormatOption = NoDefaultFormatting;
-    type ValueType = f64;
-
-    fn map(&self, value: &f64, limit: (i32, i32)) -> i32 {
-        RangedCoordf64::from(self.lo..self.hi).map(&value.log10(), limit)
-    }
-
-    fn key_points<H: KeyPointHint>(&self, hint: H) -> Vec<f64> {
-        if hint.weight().allow_light_points() {
-            Vec::new()
-        } else {
-            log_ticks(self.lo, self.hi)
-        }
-    }
-
-    fn range(&self) -> Range<f64> {
-        10f64.powf(self.lo)..10f64.powf(self.hi)
-    }
-}
-
-impl ValueFormatter<f64> for LogAxis {
-    fn format(value: &f64) -> String {
-        format_number(*value)
-    }
-}
-
-/// Marker shapes for line series.
-#[derive(Clone, Copy)]
-enum Marker {
-    Circle,
-    Triangle,
-}
-
-fn empty(what: &str) -> PlotError {
-    PlotError::Empty { what: what.into() }
-}
-
-fn backend<E: std::fmt::Display>(e: E) -> PlotError {
-    PlotError::Backend(e.to_string())
-}
-
-fn check_finite(
-    series: &str,
-    values: impl IntoIterator<Item = impl std::borrow::Borrow<f64>>,
-) -> Result<(), PlotError> {
-    match values
-        .into_iter()
-        .map(|v| *v.borrow())
-        .enumerate()
-        .find(|(_, v)| !v.is_finite())
-    {
-        Some((index, value)) => Err(PlotError::NonFinite {
-            series: series.into(),
-            index,
-            value,
-        }),
-        None => Ok(()),
-    }
-}
-
-/// Draws into a fresh white [`WIDTH`]×[`HEIGHT`] SVG and returns its text.
-fn render(draw: impl FnOnce(&Area<'_>) -> Result<(), PlotError>) -> Result<String, PlotError> {
-    let mut svg = String::new();
-    {
-        let root = SVGBackend::with_string(&mut svg, (WIDTH, HEIGHT)).into_drawing_area();
-        root.fill(&WHITE).map_err(backend)?;
-        draw(&root)?;
-        root.present().map_err(backend)?;
-    }
-    Ok(svg)
-}
-
-fn title_font() -> TextStyle<'static> {
-    ("sans-serif", 24.8).into_font().into()
-}
-
-fn axis_font() -> TextStyle<'static> {
-    ("sans-serif", 18.6).into_font().into()
-}
-
-fn tick_font() -> TextStyle<'static> {
-    ("sans-serif", 16.12).into_font().into()
-}
-
-fn chart_builder<'a, 'b>(
-    root: &'a Area<'b>,
-    title: &str,
-    x_area: u32,
-    y_area: u32,
-) -> ChartBuilder<'a, 'b, SVGBackend<'b>> {
-    let mut builder = ChartBuilder::on(root);
-    builder
-        .caption(title, title_font())
-        .margin(15)
-        .margin_right(25)
-        .x_label_area_size(x_area)
-        .y_label_area_size(y_area);
-    builder
-}
-
-/// A range `[lo, hi]` widened by `pad_lo` / `pad_hi` of its span below / above; a zero span
-/// is first widened to `± 5 %` of the value (`± 0.5` at zero).
-fn padded_range(lo: f64, hi: f64, pad_lo: f64, pad_hi: f64) -> (f64, f64) {
-    let (lo, hi) = if hi > lo {
-        (lo, hi)
-    } else {
-        let half = if lo == 0.0 { 0.5 } else { lo.abs() * 0.05 };
-        (lo - half, hi + half)
+/// The figure of one sweep plot: `plot.y` (mean ± 1 sd over trials) against the x axis, one
+/// curve per combination of the other axes, legends in words, the x axis logarithmic for
+/// log-spaced values ([`Scale::auto`]) with a tick at every swept value, markers dodged so
+/// that equal curves stay visible, and the paper's value as a line where it has one.
+pub fn sweep_figure(result: &SweepResult, plot: &PlotSpec) -> Result<Figure, String> {
+    let spec = &result.spec;
+    let xi = match &plot.x {
+        Some(x) => spec
+            .axes
+            .iter()
+            .position(|a| &a.path == x)
+            .ok_or_else(|| format!("plot x `{x}` is not an axis"))?,
+        None => 0,
     };
-    let span = hi - lo;
-    (lo - pad_lo * span, hi + pad_hi * span)
-}
-
-/// A y range that starts at zero (or below it, if a value is negative), with 8 % headroom plus
-/// room for a legend of `legend_rows` rows.
-fn zero_based_range(values: impl Iterator<Item = f64>, legend_rows: usize) -> (f64, f64) {
-    let (lo, hi) = values.fold((0.0f64, 0.0f64), |(lo, hi), v| (lo.min(v), hi.max(v)));
-    let pad_lo = if lo < 0.0 { 0.05 } else { 0.0 };
-    if hi > lo {
-        padded_range(lo, hi, pad_lo, 0.08 + legend_headroom(legend_rows))
-    } else {
-        (0.0, 1.0)
-    }
-}
-
-/// Fraction of the data span to add above the data so that a legend of `rows` rows in the
-/// upper-right corner (about 20 px per row plus 20 px of frame, in a plotting area about
-/// 390 px high) does not cover it.
-fn legend_headroom(rows: usize) -> f64 {
-    if rows == 0 {
-        return 0.0;
-    }
-    let f = ((20 + 20 * rows) as f64 / 390.0).min(0.6);
-    f / (1.0 - f)
-}
-
-/// 1-based index ticks: every index if there are at most 20, else the multiples of the
-/// smallest 1-2-5 step that leaves at most 20 ticks (plus index 1 for steps of 5 and more).
-fn index_ticks(n: usize) -> Vec<f64> {
-    let mut step = 1;
-    let mut k = 0;
-    while n / step > 20 {
-        step = [2, 5, 10][k % 3] * 10usize.pow(k as u32 / 3);
-        k += 1;
-    }
-    let first = (step >= 5).then_some(1.0);
-    first
-        .into_iter()
-        .chain((1..=n / step).map(|j| (j * step) as f64))
-        .collect()
-}
-
-/// A number for a tick label: rounded to 10 significant digits (hiding float noise such as
-/// `0.30000000000000004`), plain between 1e-4 and 1e6, scientific outside.
-fn format_number(v: f64) -> String {
-    let r: f64 = format!("{v:.9e}").parse().unwrap_or(v);
-    if r == 0.0 {
-        "0".into()
-    } else if (1e-4..1e6).contains(&r.abs()) {
-        format!("{r}")
-    } else {
-        format!("{r:e}")
-    }
-}
-
-/// `m · 10^k` as the f64 nearest to its decimal value (so that it prints as e.g. `0.2`).
-fn decimal(m: u32, k: i32) -> f64 {
-    format!("{m}e{k}").parse().unwrap_or(f64::NAN)
-}
-
-/// Ticks for a log axis spanning `[10^lo, 10^hi]`: the densest of the mantissa sets 1–9,
-/// {1, 2, 5}, {1} that gives at most 10 ticks, or every n-th power of ten over many decades;
-/// the two ends if no such tick falls inside.
-fn log_ticks(lo: f64, hi: f64) -> Vec<f64> {
-    const MAX_TICKS: usize = 10;
-    let (k0, k1) = (lo.floor() as i32, hi.ceil() as i32);
-    let inside = |v: &f64| (lo..=hi).contains(&v.log10());
-    let all: [&[u32]; 3] = [&[1, 2, 3, 4, 5, 6, 7, 8, 9], &[1, 2, 5], &[1]];
-    for mantissas in all {
-        let ticks: Vec<f64> = (k0..=k1)
-            .flat_map(|k| mantissas.iter().map(move |&m| decimal(m, k)))
-            .filter(inside)
+    let x_axis = &spec.axes[xi];
+    let xs: Vec<f64> = x_axis
+        .values
+        .iter()
+        .map(|v| {
+            v.as_f64()
+                .ok_or_else(|| format!("plot x axis `{}` has a non-numeric value", x_axis.path))
+        })
+        .collect::<Result<_, _>>()?;
+    let x_scale = Scale::auto(xs.iter().copied());
+    let mut curves: Vec<Series> = Vec::new();
+    for p in &result.points {
+        let x = p.values[xi].as_f64().expect("checked above");
+        let name: Vec<String> = spec
+            .axes
+            .iter()
+            .zip(&p.values)
+            .enumerate()
+            .filter(|(i, _)| *i != xi)
+            .map(|(_, (a, v))| value_in_words(&a.path, v))
             .collect();
-        if ticks.len() <= MAX_TICKS {
-            return if ticks.is_empty() {
-                vec![decimal_round(10f64.powf(lo)), decimal_round(10f64.powf(hi))]
-            } else {
-                ticks
-            };
-        }
-    }
-    let decades = (k1 - k0) as usize;
-    let step = decades.div_ceil(MAX_TICKS) as i32;
-    (k0..=k1)
-        .filter(|k| k.rem_euclid(step) == 0)
-        .map(|k| decimal(1, k))
-        .filter(inside)
-        .collect()
-}
-
-/// `v` rounded to 3 significant digits.
-fn decimal_round(v: f64) -> f64 {
-    format!("{v:.2e}").parse().unwrap_or(v)
-}
-
-/// Integer counts print without decimals; the y axis of a histogram may still put ticks at
-/// fractions, which print with one decimal.
-fn format_count(y: f64) -> String {
-    if y.fract() == 0.0 {
-        format!("{y:.0}")
-    } else {
-        format!("{y:.1}")
-    }
-}
-
-/// One series as a polyline plus one marker per point, registered in the legend.
-fn draw_line_with_markers<'a, X, Y>(
-    chart: &mut ChartContext<'a, SVGBackend<'a>, Cartesian2d<X, Y>>,
-    points: &[(f64, f64)],
-    color: RGBColor,
-    marker: Marker,
-    label: String,
-) -> Result<(), PlotError>
-where
-    X: Ranged<ValueType = f64>,
-    Y: Ranged<ValueType = f64>,
-{
-    let line = color.stroke_width(2);
-    let fill = color.filled();
-    chart
-        .draw_series(LineSeries::new(points.iter().copied(), line))
-        .map_err(backend)?;
-    let r = MARKER_PX;
-    let sample = move |x: i32, y: i32| PathElement::new(vec![(x, y), (x + 24, y)], line);
-    match marker {
-        Marker::Circle => {
-            chart
-                .draw_series(points.iter().map(|&p| Circle::new(p, r, fill)))
-                .map_err(backend)?
-                .label(label)
-                .legend(move |(x, y)| {
-                    EmptyElement::at((0, 0)) + sample(x, y) + Circle::new((x + 12, y), r, fill)
-                });
-        }
-        Marker::Triangle => {
-            chart
-                .draw_series(points.iter().map(|&p| TriangleMarker::new(p, r + 1, fill)))
-                .map_err(backend)?
-                .label(label)
-                .legend(move |(x, y)| {
-                    EmptyElement::at((0, 0))
-                        + sample(x, y)
-                        + TriangleMarker::new((x + 12, y), r + 1, fill)
-                });
-        }
-    }
-    Ok(())
-}
-
-fn draw_legend<'a, X, Y>(
-    chart: &mut ChartContext<'a, SVGBackend<'a>, Cartesian2d<X, Y>>,
-) -> Result<(), PlotError>
-where
-    X: Ranged,
-    Y: Ranged,
-{
-    chart
-        .configure_series_labels()
-        .position(SeriesLabelPosition::UpperRight)
-        .background_style(WHITE.mix(0.85))
-        .border_style(RGBColor(160, 160, 160))
-        .label_font(tick_font())
-        .draw()
-        .map_err(backend)
-}
-
-fn draw_curves<'a, Y>(
-    mut chart: ChartContext<'a, SVGBackend<'a>, Cartesian2d<RangedCoordf64, Y>>,
-    x_label: &str,
-    y_label: &str,
-    series: &[(String, Vec<(f64, f64)>)],
-) -> Result<(), PlotError>
-where
-    Y: Ranged<ValueType = f64> + ValueFormatter<f64>,
-{
-    chart
-        .configure_mesh()
-        .x_desc(x_label)
-        .y_desc(y_label)
-        .x_label_formatter(&|x| format_number(*x))
-        .axis_desc_style(axis_font())
-        .label_style(tick_font())
-        .max_light_lines(0)
-        .draw()
-        .map_err(backend)?;
-    for (i, (name, points)) in series.iter().enumerate() {
-        let color = PALETTE[i % PALETTE.len()];
-        let marker = if (i / PALETTE.len()).is_multiple_of(2) {
-            Marker::Circle
+        let name = if name.is_empty() {
+            "mean over trials ± 1 sd".to_string()
         } else {
-            Marker::Triangle
+            name.join(", ")
         };
-        draw_line_with_markers(&mut chart, points, color, marker, name.clone())?;
+        let k = match curves.iter().position(|s| s.name == name) {
+            Some(k) => k,
+            None => {
+                curves.push(Series::new(name, Vec::new(), Style::LineMarkers));
+                curves.len() - 1
+            }
+        };
+        match summary_of(p, &plot.y) {
+            Some(s) if !plot.log_y || s.mean > 0.0 => {
+                curves[k].points.push((x, s.mean));
+                curves[k].bars.push((s.mean - s.sd, s.mean + s.sd));
+            }
+            _ => {}
+        }
     }
-    if series.len() > 1 {
-        draw_legend(&mut chart)?;
+    curves.retain(|s| !s.points.is_empty());
+    let single = curves.len() == 1;
+    let x_words = path_in_words(&x_axis.path);
+    let y_words = metric_in_words(&plot.y);
+    let mut f = Figure::new(
+        format!(
+            "{}: {} against {}",
+            spec.name,
+            short(&y_words),
+            short(&x_words)
+        ),
+        if x_scale == Scale::Log {
+            format!("{x_words}, log scale")
+        } else {
+            x_words
+        },
+        y_words,
+    );
+    f.x_scale = x_scale;
+    f.series = curves;
+    // A log y axis, if the sweep asks for one, only where the values span a decade or more.
+    let log_y = plot.log_y && {
+        let ys = f.series.iter().flat_map(|s| s.points.iter().map(|p| p.1));
+        let (lo, hi) = ys.fold((f64::INFINITY, 0.0f64), |(a, b), y| (a.min(y), b.max(y)));
+        lo > 0.0 && hi >= 10.0 * lo
+    };
+    f.y_scale = if log_y { Scale::Log } else { Scale::Linear };
+    f.y_from_zero = !log_y;
+    if log_y {
+        f.y_title = format!("{}, log scale", f.y_title);
     }
-    Ok(())
+    f.x_ticks = Some(xs);
+    f.dodge = true;
+    if single {
+        f.series[0].name = "mean over trials ± 1 sd".into();
+    }
+    if is_paper_base(result) {
+        let paper = match plot.y.as_str() {
+            "after_mean_mm" => Some(PAPER.after_mean_mm),
+            "after_max_mm" => Some(PAPER.after_max_mm),
+            "before_mean_mm" => Some(PAPER.before_mean_mm),
+            "improvement_pct" => Some(PAPER.improvement_pct),
+            _ => None,
+        };
+        if let Some(v) = paper {
+            let text = if plot.y.ends_with("_pct") {
+                format!("{} %", fmt::pct(v))
+            } else {
+                format!("{} mm", fmt::mm(v))
+            };
+            f.refs
+                .push(RefLine::horizontal(format!("paper (Table 4): {text}"), v));
+        }
+    }
+    Ok(f)
+}
+
+/// A metric's title without its unit and qualifiers, for figure titles.
+fn short(words: &str) -> String {
+    words
+        .split([',', '('])
+        .next()
+        .unwrap_or(words)
+        .trim()
+        .to_string()
+}
+
+fn is_paper_base(result: &SweepResult) -> bool {
+    result
+        .spec
+        .scenario
+        .file_stem()
+        .is_some_and(|s| is_paper(&s.to_string_lossy()))
+}
+
+/// The SVG of one sweep plot ([`sweep_figure`]).
+pub fn sweep_svg(result: &SweepResult, plot: &PlotSpec) -> Result<String, String> {
+    let f = sweep_figure(result, plot)?;
+    plot::figure_svg(&f).map_err(|e| e.to_string())
+}
+
+/// The file name of sweep plot `k` (0-based): `<metric>-<k+1>.svg`.
+pub fn sweep_plot_file(plot: &PlotSpec, k: usize) -> String {
+    format!("{}-{}.svg", plot.y, k + 1)
+}
+
+/// `report.html` of a sweep: `sweep.md` with every plot after the table.
+pub fn sweep_page(result: &SweepResult, svgs: &[(String, String)]) -> String {
+    let pictures: Vec<Picture> = svgs
+        .iter()
+        .zip(&result.spec.plots)
+        .map(|((file, svg), plot)| Picture {
+            after_heading: None,
+            caption: format!(
+                "{} against {}: mean over {} trials per point, bars ± 1 sd; curves that coincide are shifted sideways by a few pixels.",
+                metric_in_words(&plot.y),
+                path_in_words(plot.x.as_deref().unwrap_or(&result.spec.axes[0].path)),
+                result.spec.trials
+            ),
+            file: file.clone(),
+            svg: svg.clone(),
+        })
+        .collect();
+    html::page(
+        &format!("Sweep {}", result.spec.name),
+        &result.to_markdown(),
+        &pictures,
+    )
+}
+
+/// `report.html` of a campaign: `summary.md` with the plots in place.
+pub fn campaign_page(summary: &CampaignSummary, svgs: &[(String, String)]) -> String {
+    let pictures: Vec<Picture> = svgs
+        .iter()
+        .map(|(file, svg)| {
+            let (after, caption) = match file.as_str() {
+                "per-pose-error.svg" => ("Table 4", "3-D error of each validation pose of the lowest-index trial, before calibration and after compensation (the paper's Fig. 7); dashed lines are the means."),
+                "error-cdf.svg" => ("Table 4", "Share of the validation poses of that trial whose 3-D error is below a value, before and after."),
+                "improvement-histogram.svg" => ("Table 4", "Improvement of the mean validation error, over all trials."),
+                "recovery.svg" => ("Parameter recovery", "Recovery error (estimate − truth) per parameter over trials, mean ± 1 sd, lengths in mm and angles in arcseconds, in kinematic order."),
+                "recovery-z.svg" => ("Parameter recovery", "z-score per parameter over trials, mean ± 1 sd: honest standard errors give mean 0 and sd 1."),
+                _ => ("", "plot"),
+            };
+            Picture {
+                after_heading: (!after.is_empty()).then(|| after.to_string()),
+                caption: caption.to_string(),
+                file: file.clone(),
+                svg: svg.clone(),
+            }
+        })
+        .collect();
+    html::page(
+        &format!("Campaign {}", summary.scenario.name),
+        &summary.to_markdown(),
+        &pictures,
+    )
+}
+
+/// A sweep's figures and its `report.html`, as (file name, bytes): one SVG per plot of the
+/// sweep file ([`sweep_plot_file`]) and the page.
+///
+/// # Errors
+/// A plot whose x axis is not a numeric axis, or that cannot be drawn (message names the
+/// plot).
+pub fn sweep_outputs(result: &SweepResult) -> Result<Vec<(String, Vec<u8>)>, String> {
+    let mut svgs = Vec::new();
+    for (k, plot) in result.spec.plots.iter().enumerate() {
+        let svg = sweep_svg(result, plot).map_err(|e| format!("plot {}: {e}", k + 1))?;
+        svgs.push((sweep_plot_file(plot, k), svg));
+    }
+    let mut files = vec![(
+        "report.html".to_string(),
+        sweep_page(result, &svgs).into_bytes(),
+    )];
+    files.extend(svgs.into_iter().map(|(n, s)| (n, s.into_bytes())));
+    Ok(files)
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
 
-    /// The colour as plotters' SVG backend writes it.
-    fn hex(c: RGBColor) -> String {
-        format!("#{:02X}{:02X}{:02X}", c.0, c.1, c.2)
-    }
-
-    /// Checks the document frame and returns the contents of every `<text>` element.
-    fn well_formed(svg: &str) -> Vec<String> {
-        assert!(
-            svg.starts_with("<svg"),
-            "does not start with <svg: {}",
-            &svg[..40]
-        );
-        assert!(
-            svg.trim_end().ends_with("</svg>"),
-            "does not end with </svg>"
-        );
-        assert!(svg.contains(&format!(r#"width="{WIDTH}" height="{HEIGHT}""#)));
-        assert_eq!(svg.matches("<svg").count(), 1);
-        assert_eq!(
-            svg.matches("<text").count(),
-            svg.matches("</text>").count(),
-            "unbalanced <text>"
-        );
-        svg.split("<text")
-            .skip(1)
-            .map(|t| {
-                let body = &t[t.find('>').unwrap() + 1..t.find("</text>").unwrap()];
-                body.trim().to_string()
-            })
-            .collect()
-    }
-
-    /// Number of `tag` elements whose attributes contain `attr`.
-    fn count(svg: &str, tag: &str, attr: &str) -> usize {
-        svg.lines()
-            .filter(|l| l.starts_with(&format!("<{tag} ")) && l.contains(attr))
-            .count()
-    }
-
-    fn has_text(texts: &[String], want: &str) -> bool {
-        texts.iter().any(|t| t == want)
-    }
-
-    fn strings(v: &[&str]) -> Vec<String> {
-        v.iter().map(|s| s.to_string()).collect()
-    }
-
-    // --- Fig. 7 -------------------------------------------------------------------------
-
-    const BEFORE: [f64; 7] = [1.3, 0.9, 1.1, 1.4, 0.8, 1.2, 1.15];
-    const AFTER: [f64; 7] = [0.35, 0.3, 0.4, 0.33, 0.29, 0.38, 0.31];
-
     #[test]
-    fn plots_per_pose_errors_elements() {
-        let svg = per_pose_errors_svg("KR1000 validation", &BEFORE, &AFTER).unwrap();
-        let texts = well_formed(&svg);
-        assert!(has_text(&texts, "KR1000 validation"));
-        assert!(has_text(&texts, "validation pose index"));
-        assert!(has_text(&texts, "3-D position error (mm)"));
-        assert!(has_text(&texts, "before calibration (mean 1.121 mm)"));
-        assert!(has_text(&texts, "after calibration (mean 0.337 mm)"));
-        for i in 1..=7 {
-            assert!(has_text(&texts, &i.to_string()), "missing x tick {i}");
-        }
-        // One marker per pose and series, plus one in each legend entry.
-        assert_eq!(svg.matches("<circle").count(), 7 + 1);
-        assert_eq!(svg.matches("<polygon").count(), 7 + 1);
-        // One line per series plus its legend sample.
-        assert_eq!(count(&svg, "polyline", &hex(PALETTE[1])), 2);
-        assert_eq!(count(&svg, "polyline", &hex(PALETTE[0])), 2);
-        // The before-series line passes through all 7 poses.
-        let line = svg
-            .lines()
-            .find(|l| l.starts_with("<polyline") && l.contains(&hex(PALETTE[1])))
-            .unwrap();
-        let points = line
-            .split("points=\"")
-            .nth(1)
-            .unwrap()
-            .split('"')
-            .next()
-            .unwrap();
-        assert_eq!(points.split_whitespace().count(), 7);
-    }
-
-    #[test]
-    fn plots_per_pose_errors_escapes_title() {
-        let svg = per_pose_errors_svg("a < b & c", &[1.0], &[0.5]).unwrap();
-        assert!(well_formed(&svg).contains(&"a &lt; b &amp; c".to_string()));
-    }
-
-    #[test]
-    fn plots_per_pose_errors_rejects_bad_input() {
-        assert!(matches!(
-            per_pose_errors_svg("t", &[], &[]),
-            Err(PlotError::Empty { .. })
-        ));
-        assert!(matches!(
-            per_pose_errors_svg("t", &[1.0, 2.0], &[1.0]),
-            Err(PlotError::LengthMismatch {
-                expected: 2,
-                got: 1,
-                ..
-            })
-        ));
-        let mut after = AFTER;
-        after[2] = f64::NAN;
-        let err = per_pose_errors_svg("t", &BEFORE, &after).unwrap_err();
-        match &err {
-            PlotError::NonFinite { series, index, .. } => {
-                assert_eq!(series, "after calibration");
-                assert_eq!(*index, 2);
-            }
-            other => panic!("wrong error {other:?}"),
-        }
-        assert!(err.to_string().contains("after calibration"));
-        let mut before = BEFORE;
-        before[0] = f64::INFINITY;
-        assert!(matches!(
-            per_pose_errors_svg("t", &before, &AFTER),
-            Err(PlotError::NonFinite { series, index: 0, .. }) if series == "before calibration"
-        ));
-    }
-
-    #[test]
-    fn plots_index_ticks() {
-        assert_eq!(index_ticks(3), vec![1.0, 2.0, 3.0]);
-        assert_eq!(index_ticks(20).len(), 20);
-        let t = index_ticks(30);
-        assert_eq!(t[..3], [2.0, 4.0, 6.0]);
-        assert_eq!(*t.last().unwrap(), 30.0);
-        let t = index_ticks(1000);
-        assert_eq!(t[..3], [1.0, 50.0, 100.0]);
-        assert!(t.len() <= 21);
-    }
-
-    // --- histogram ----------------------------------------------------------------------
-
-    #[test]
-    fn plots_histogram_elements() {
-        let bins = [
-            (0.0, 0.1, 3),
-            (0.1, 0.2, 0),
-            (0.2, 0.3, 12),
-            (0.3, 0.4, 7),
-            (0.4, 0.5, 1),
+    fn kinematic_order_of_names() {
+        let names = [
+            "tool_x", "a1", "base_dz", "theta2", "alpha1", "beta2", "d2", "theta1", "zzz",
+            "base_rx",
         ];
-        let svg = histogram_svg("Residuals", "mean position error (mm)", &bins).unwrap();
-        let texts = well_formed(&svg);
-        assert!(has_text(&texts, "Residuals"));
-        assert!(has_text(&texts, "mean position error (mm)"));
-        assert!(has_text(&texts, "count"));
-        assert_eq!(count(&svg, "rect", &format!(r#"fill="{}""#, hex(BAR))), 5);
-    }
-
-    #[test]
-    fn plots_histogram_rejects_bad_input() {
-        assert!(matches!(
-            histogram_svg("t", "x (mm)", &[]),
-            Err(PlotError::Empty { .. })
-        ));
-        assert!(matches!(
-            histogram_svg("t", "x (mm)", &[(0.0, 1.0, 1), (1.0, f64::NAN, 2)]),
-            Err(PlotError::NonFinite { index: 1, .. })
-        ));
-        assert!(matches!(
-            histogram_svg("t", "x (mm)", &[(0.0, 1.0, 1), (2.0, 2.0, 2)]),
-            Err(PlotError::InvalidValue { index: 1, .. })
-        ));
-    }
-
-    #[test]
-    fn plots_rebin_equal_width_and_conserves_counts() {
-        let values = [(0.0, 2), (1.0, 1), (2.5, 4), (4.0, 3), (10.0, 5)];
-        let bins = rebin(&values, 5);
-        assert_eq!(bins.len(), 5);
-        assert_eq!(bins[0].0, 0.0);
-        assert_eq!(bins[4].1, 10.0);
-        for w in bins.windows(2) {
-            assert_eq!(w[0].1, w[1].0, "bins must be contiguous");
-        }
-        for b in &bins {
-            assert!((b.1 - b.0 - 2.0).abs() < 1e-12);
-        }
-        // 0 and 1 in [0, 2); 2.5 in [2, 4); 4 on the edge goes up; the maximum goes in the last bin.
-        let counts: Vec<u64> = bins.iter().map(|b| b.2).collect();
-        assert_eq!(counts, vec![3, 4, 3, 0, 5]);
-    }
-
-    #[test]
-    fn plots_rebin_single_value_and_degenerate_input() {
-        let bins = rebin(&[(2.0, 3), (2.0, 4)], 5);
-        assert_eq!(bins.len(), 5);
-        assert!((bins[0].0 - 1.9).abs() < 1e-12 && (bins[4].1 - 2.1).abs() < 1e-12);
         assert_eq!(
-            bins.iter().map(|b| b.2).collect::<Vec<_>>(),
-            vec![0, 0, 7, 0, 0]
-        );
-        let bins = rebin(&[(0.0, 1)], 1);
-        assert_eq!(bins, vec![(-0.5, 0.5, 1)]);
-        assert!(rebin(&[], 4).is_empty());
-        assert!(rebin(&[(1.0, 1)], 0).is_empty());
-        assert!(rebin(&[(f64::NAN, 1)], 3).is_empty());
-        // Non-finite values are skipped, finite ones kept.
-        let bins = rebin(&[(f64::INFINITY, 9), (1.0, 1), (3.0, 1)], 2);
-        assert_eq!(bins.iter().map(|b| b.2).sum::<u64>(), 2);
-    }
-
-    proptest::proptest! {
-        #![proptest_config(proptest::prelude::ProptestConfig::with_cases(64))]
-        #[test]
-        fn plots_rebin_properties(
-            values in proptest::collection::vec((-1e3f64..1e3, 0u64..100), 1..40),
-            n in 1usize..30,
-        ) {
-            let bins = rebin(&values, n);
-            proptest::prop_assert_eq!(bins.len(), n);
-            let total: u64 = values.iter().map(|v| v.1).sum();
-            proptest::prop_assert_eq!(bins.iter().map(|b| b.2).sum::<u64>(), total);
-            for &(v, _) in &values {
-                proptest::prop_assert!(bins[0].0 <= v && v <= bins[n - 1].1);
-            }
-            let mut reversed = values.clone();
-            reversed.reverse();
-            proptest::prop_assert_eq!(rebin(&reversed, n), bins);
-        }
-    }
-
-    // --- recovery -----------------------------------------------------------------------
-
-    #[test]
-    fn plots_recovery_elements_same_unit() {
-        let names = strings(&["a_1", "d_2", "alpha_3", "theta_4"]);
-        let units = strings(&["mm"; 4]);
-        let svg = recovery_svg(
-            "Recovery",
-            &names,
-            &[0.1, 0.2, 0.05, 0.3],
-            &[0.02, 0.1, 0.0, 0.05],
-            &units,
-        )
-        .unwrap();
-        let texts = well_formed(&svg);
-        assert!(has_text(&texts, "Recovery"));
-        assert!(has_text(&texts, "parameter"));
-        assert!(has_text(&texts, "recovery error (mm)"));
-        for name in &names {
-            assert!(has_text(&texts, name), "missing label {name}");
-        }
-        assert!(has_text(&texts, "mean |error|"));
-        assert!(has_text(&texts, "± 1 sd"));
-        // One bar and one whisker per parameter, plus one legend sample each.
-        assert_eq!(
-            count(&svg, "rect", &format!(r#"fill="{}""#, hex(BAR))),
-            4 + 1
-        );
-        assert_eq!(count(&svg, "polyline", &hex(WHISKER)), 4 + 1);
-        // Short labels stay horizontal; only the y-axis title is rotated.
-        assert_eq!(svg.matches("rotate(270").count(), 1);
-    }
-
-    #[test]
-    fn plots_recovery_mixed_units_and_rotated_labels() {
-        let n = 30;
-        let names: Vec<String> = (0..n).map(|i| format!("theta_{i}")).collect();
-        let units: Vec<String> = (0..n)
-            .map(|i| if i % 2 == 0 { "mm" } else { "mdeg" }.to_string())
-            .collect();
-        let m: Vec<f64> = (0..n).map(|i| 0.01 * i as f64).collect();
-        let sd = vec![0.01; n];
-        let svg = recovery_svg("Recovery", &names, &m, &sd, &units).unwrap();
-        let texts = well_formed(&svg);
-        assert!(has_text(&texts, "recovery error (display unit)"));
-        assert!(has_text(&texts, "theta_0 [mm]"));
-        assert!(has_text(&texts, "theta_29 [mdeg]"));
-        assert_eq!(svg.matches("rotate(270").count(), n + 1);
-        assert_eq!(
-            count(&svg, "rect", &format!(r#"fill="{}""#, hex(BAR))),
-            n + 1
-        );
-    }
-
-    #[test]
-    fn plots_recovery_rejects_bad_input() {
-        let names = strings(&["a_1", "d_3"]);
-        let units = strings(&["mm", "mm"]);
-        assert!(matches!(
-            recovery_svg("t", &[], &[], &[], &[]),
-            Err(PlotError::Empty { .. })
-        ));
-        assert!(matches!(
-            recovery_svg("t", &names, &[0.1, 0.2], &[0.1], &units),
-            Err(PlotError::LengthMismatch {
-                expected: 2,
-                got: 1,
-                ..
-            })
-        ));
-        assert!(matches!(
-            recovery_svg("t", &names, &[0.1, 0.2], &[0.1, 0.1], &units[..1]),
-            Err(PlotError::LengthMismatch {
-                expected: 2,
-                got: 1,
-                ..
-            })
-        ));
-        let err = recovery_svg("t", &names, &[0.1, f64::NAN], &[0.1, 0.1], &units).unwrap_err();
-        assert!(
-            matches!(&err, PlotError::NonFinite { series, index: 1, .. } if series.contains("d_3")),
-            "{err:?}"
-        );
-        assert!(matches!(
-            recovery_svg("t", &names, &[0.1, 0.2], &[-0.1, 0.1], &units),
-            Err(PlotError::InvalidValue { index: 0, .. })
-        ));
-    }
-
-    // --- curves -------------------------------------------------------------------------
-
-    fn sweep() -> Vec<(String, Vec<(f64, f64)>)> {
-        let curve = |a: f64, n: usize| (1..=n).map(|k| (10.0 * k as f64, a / k as f64)).collect();
-        vec![
-            ("random".to_string(), curve(2.0, 4)),
-            ("D-optimal".to_string(), curve(1.0, 5)),
-            ("O-optimal".to_string(), curve(0.8, 6)),
-        ]
-    }
-
-    #[test]
-    fn plots_curves_elements() {
-        for log_y in [false, true] {
-            let svg = curves_svg(
-                "Sweep",
-                "pose count",
-                "validation error (mm)",
-                &sweep(),
-                log_y,
-            )
-            .unwrap();
-            let texts = well_formed(&svg);
-            for t in [
-                "Sweep",
-                "pose count",
-                "validation error (mm)",
-                "random",
-                "D-optimal",
-                "O-optimal",
-            ] {
-                assert!(has_text(&texts, t), "missing {t:?} (log_y = {log_y})");
-            }
-            assert_eq!(svg.matches("<circle").count(), 4 + 5 + 6 + 3);
-            for c in &PALETTE[..3] {
-                assert_eq!(count(&svg, "polyline", &hex(*c)), 2, "log_y = {log_y}");
-            }
-            // Integer x ticks print without a trailing ".0".
-            assert!(has_text(&texts, "20"));
-            if log_y {
-                assert!(has_text(&texts, "1") && has_text(&texts, "0.5"));
-            }
-        }
-    }
-
-    #[test]
-    fn plots_curves_single_series_has_no_legend() {
-        let series = vec![("only".to_string(), vec![(1.0, 2.0), (2.0, 3.0), (3.0, 2.5)])];
-        let svg = curves_svg("One", "x (mm)", "y (mm)", &series, false).unwrap();
-        let texts = well_formed(&svg);
-        assert!(!has_text(&texts, "only"));
-        assert_eq!(svg.matches("<circle").count(), 3);
-        assert_eq!(count(&svg, "polyline", &hex(PALETTE[0])), 1);
-    }
-
-    #[test]
-    fn plots_curves_rejects_bad_input() {
-        assert!(matches!(
-            curves_svg("t", "x", "y", &[], false),
-            Err(PlotError::Empty { .. })
-        ));
-        let empty_series = vec![("ghost".to_string(), vec![])];
-        assert!(matches!(
-            curves_svg("t", "x", "y", &empty_series, false),
-            Err(PlotError::Empty { what }) if what.contains("ghost")
-        ));
-        let mut s = sweep();
-        s[1].1[3].1 = f64::NAN;
-        let err = curves_svg("t", "x", "y", &s, false).unwrap_err();
-        assert!(
-            matches!(&err, PlotError::NonFinite { series, index: 3, .. } if series == "D-optimal"),
-            "{err:?}"
-        );
-        assert!(err.to_string().contains("D-optimal"));
-        let mut s = sweep();
-        s[2].1[0].0 = f64::NEG_INFINITY;
-        assert!(matches!(
-            curves_svg("t", "x", "y", &s, false),
-            Err(PlotError::NonFinite { series, index: 0, .. }) if series == "O-optimal"
-        ));
-        let mut s = sweep();
-        s[0].1[1].1 = 0.0;
-        assert!(curves_svg("t", "x", "y", &s, false).is_ok());
-        assert!(matches!(
-            curves_svg("t", "x", "y", &s, true),
-            Err(PlotError::InvalidValue { series, index: 1, .. }) if series == "random"
-        ));
-    }
-
-    #[test]
-    fn plots_log_ticks_and_number_format() {
-        assert_eq!(
-            log_ticks(-3.0, 3.0),
-            vec![0.001, 0.01, 0.1, 1.0, 10.0, 100.0, 1000.0]
-        );
-        assert_eq!(
-            log_ticks(-1.0, 1.0),
-            vec![0.1, 0.2, 0.5, 1.0, 2.0, 5.0, 10.0]
-        );
-        assert_eq!(
-            log_ticks(-0.5, 0.0),
-            vec![0.4, 0.5, 0.6, 0.7, 0.8, 0.9, 1.0]
-        );
-        let wide = log_ticks(-12.0, 12.0);
-        assert!(wide.len() <= 13 && wide.contains(&1.0), "{wide:?}");
-        assert_eq!(log_ticks(0.01, 0.02).len(), 2);
-        assert_eq!(format_number(0.1 + 0.2), "0.3");
-        assert_eq!(format_number(10.0), "10");
-        assert_eq!(format_number(-0.0), "0");
-        assert_eq!(format_number(1e-5), "1e-5");
-        assert_eq!(format_number(2.5e6), "2.5e6");
-    }
-
-    // --- all ----------------------------------------------------------------------------
-
-    #[test]
-    fn plots_are_deterministic() {
-        let names = strings(&["a_1", "d_2"]);
-        let units = strings(&["mm", "mdeg"]);
-        let bins = rebin(&[(0.3, 2), (0.35, 5), (0.5, 1)], 8);
-        let render = || {
+            kinematic_order(names),
             [
-                per_pose_errors_svg("F7", &BEFORE, &AFTER).unwrap(),
-                histogram_svg("H", "error (mm)", &bins).unwrap(),
-                recovery_svg("R", &names, &[0.1, 0.2], &[0.01, 0.02], &units).unwrap(),
-                curves_svg("C", "n", "e (mm)", &sweep(), false).unwrap(),
-                curves_svg("C", "n", "e (mm)", &sweep(), true).unwrap(),
+                "theta1", "a1", "alpha1", "theta2", "d2", "beta2", "base_rx", "base_dz", "tool_x",
+                "zzz"
             ]
-        };
-        assert_eq!(render(), render());
+        );
+    }
+
+    #[test]
+    fn values_in_words() {
+        let v = |s: &str| serde_json::from_str::<serde_json::Value>(s).unwrap();
+        assert_eq!(
+            value_in_words("identification.lm.damping", &v(r#"{"kind":"nielsen"}"#)),
+            "Nielsen"
+        );
+        assert_eq!(
+            value_in_words("identification.lm.damping.kind", &v(r#""levenberg""#)),
+            "Levenberg"
+        );
+        assert_eq!(
+            value_in_words("identification.lm.column_scaling", &v("false")),
+            "unscaled (JᵀJ + μI)"
+        );
+        assert_eq!(
+            value_in_words("identification.lm.damping.mu0", &v("1000000")),
+            "1e6"
+        );
+        assert_eq!(value_in_words("x", &v("1e-9")), "1e-9");
     }
 }

@@ -11,6 +11,7 @@ use crate::plots;
 use crate::run::Aggregate;
 use crate::scenario::Scenario;
 use crate::trial::CampaignError;
+use report::fmt::{self, Quantity};
 
 /// Version of the `summary.json` layout.
 pub const SCHEMA_VERSION: u32 = 1;
@@ -155,58 +156,53 @@ impl CampaignSummary {
         ));
         o.push_str("## Table 4: validation error, ours beside the paper's\n\n");
         o.push_str("| metric | kincal | paper |\n|---|---:|---:|\n");
-        let fmt = |m: Option<&Summary>, d: usize| match m {
-            Some(s) => format!(
-                "{:.d$} ± {:.d$} [{:.d$}, {:.d$}]",
-                s.mean,
-                s.sd,
-                s.p5,
-                s.p95,
-                d = d
-            ),
+        let fmt = |m: Option<&Summary>, q: Quantity| match m {
+            Some(s) => q.mean_sd_range(s.mean, s.sd, s.p5, s.p95),
             None => "n/a".into(),
         };
-        let rows: [(&str, &str, Option<f64>, usize); 10] = [
+        const MM: Quantity = Quantity::LengthMm;
+        const PCT: Quantity = Quantity::Percent;
+        let rows: [(&str, &str, Option<f64>, Quantity); 10] = [
             (
                 "mean 3-D before (mm)",
                 "before_mean_mm",
                 Some(PAPER.before_mean_mm),
-                3,
+                MM,
             ),
             (
                 "mean 3-D after (mm)",
                 "after_mean_mm",
                 Some(PAPER.after_mean_mm),
-                3,
+                MM,
             ),
             (
                 "max 3-D before (mm)",
                 "before_max_mm",
                 Some(PAPER.before_max_mm),
-                3,
+                MM,
             ),
             (
                 "max 3-D after (mm)",
                 "after_max_mm",
                 Some(PAPER.after_max_mm),
-                3,
+                MM,
             ),
             (
                 "improvement of mean (%)",
                 "improvement_pct",
                 Some(PAPER.improvement_pct),
-                1,
+                PCT,
             ),
             (
                 "improvement of max (%)",
                 "improvement_max_pct",
                 Some(61.9),
-                1,
+                PCT,
             ),
-            ("mean \\|x\\| before → after (mm)", "", None, 3),
-            ("mean \\|y\\| before → after (mm)", "", None, 3),
-            ("mean \\|z\\| before → after (mm)", "", None, 3),
-            ("RMS 3-D after (mm)", "after_rms_mm", None, 3),
+            ("mean \\|x\\| before → after (mm)", "", None, MM),
+            ("mean \\|y\\| before → after (mm)", "", None, MM),
+            ("mean \\|z\\| before → after (mm)", "", None, MM),
+            ("RMS 3-D after (mm)", "after_rms_mm", None, MM),
         ];
         let paper_axes = [
             ("x", 0.703, 0.262),
@@ -221,13 +217,17 @@ impl CampaignSummary {
                 let b = self.metric(&format!("before_mean_{a}_mm")).map(|s| s.mean);
                 let af = self.metric(&format!("after_mean_{a}_mm")).map(|s| s.mean);
                 let ours = match (b, af) {
-                    (Some(b), Some(af)) => format!("{b:.3} → {af:.3}"),
+                    (Some(b), Some(af)) => format!("{} → {}", fmt::mm(b), fmt::mm(af)),
                     _ => "n/a".into(),
                 };
-                o.push_str(&format!("| {label} | {ours} | {pb:.3} → {pa:.3} |\n"));
+                o.push_str(&format!(
+                    "| {label} | {ours} | {} → {} |\n",
+                    fmt::mm(pb),
+                    fmt::mm(pa)
+                ));
                 continue;
             }
-            let p = paper.map_or_else(|| "–".to_string(), |v| format!("{v:.d$}", d = d));
+            let p = paper.map_or_else(|| "–".to_string(), |v| d.format(v));
             o.push_str(&format!(
                 "| {label} | {} | {p} |\n",
                 fmt(self.metric(key), d)
@@ -238,70 +238,117 @@ impl CampaignSummary {
             o.push_str(
                 "## ISO 9283 (mean over P1–P5)\n\n| metric | kincal | paper |\n|---|---:|---:|\n",
             );
-            for (label, key, paper) in [
-                ("AP_p before (mm)", "iso_ap_before_mm", "–"),
-                ("AP_p after (mm)", "iso_ap_after_mm", "–"),
-                ("AP_p improvement (%)", "iso_ap_improvement_pct", "≈ 87"),
-                ("RP_l before (mm)", "iso_rp_before_mm", "–"),
-                ("RP_l after (mm)", "iso_rp_after_mm", "–"),
+            for (label, key, paper, q) in [
+                ("AP_p before (mm)", "iso_ap_before_mm", "–", MM),
+                ("AP_p after (mm)", "iso_ap_after_mm", "–", MM),
+                (
+                    "AP_p improvement (%)",
+                    "iso_ap_improvement_pct",
+                    "≈ 87",
+                    PCT,
+                ),
+                ("RP_l before (mm)", "iso_rp_before_mm", "–", MM),
+                ("RP_l after (mm)", "iso_rp_after_mm", "–", MM),
                 (
                     "P1–P5 the identified model could not reach",
                     "iso_compensation_failures",
                     "–",
+                    Quantity::MeanCount,
                 ),
             ] {
                 o.push_str(&format!(
                     "| {label} | {} | {paper} |\n",
-                    fmt(self.metric(key), 3)
+                    fmt(self.metric(key), q)
                 ));
             }
             o.push('\n');
         }
         o.push_str("## Identification\n\n| metric | value |\n|---|---:|\n");
-        for (label, key, d) in [
+        const N: Quantity = Quantity::MeanCount;
+        const IX: Quantity = Quantity::Index;
+        for (label, key, q, scale) in [
             (
                 "geometry error on validation poses (mm)",
                 "predicted_error_mm",
-                3,
+                MM,
+                1.0,
             ),
-            ("fit RMS residual (mm)", "fit_rms_mm", 3),
-            ("LM iterations", "lm_iterations", 3),
+            ("fit RMS residual (mm)", "fit_rms_mm", MM, 1.0),
+            ("LM iterations", "lm_iterations", N, 1.0),
             (
-                "compensation failures per trial",
+                "unreachable validation targets per trial",
                 "compensation_failures",
-                3,
+                N,
+                1.0,
             ),
-            ("rejected candidate poses (share)", "pose_rejection_rate", 3),
-            ("O1 (Borm–Menq), minimal set", "observability_o1", 5),
-            ("O2 = σ_min/σ_max (1/condition)", "observability_o2", 5),
-            ("O3 = σ_min", "observability_o3", 5),
-            ("O4 = σ_min²/σ_max", "observability_o4", 5),
-            ("O5 = (Σ 1/σ_i)⁻¹", "observability_o5", 5),
+            (
+                "rejected candidate poses (%)",
+                "pose_rejection_rate",
+                PCT,
+                100.0,
+            ),
+            ("O1 (Borm–Menq), minimal set", "observability_o1", IX, 1.0),
+            (
+                "O2 = σ_min/σ_max (1/condition)",
+                "observability_o2",
+                IX,
+                1.0,
+            ),
+            ("O3 = σ_min", "observability_o3", IX, 1.0),
+            ("O4 = σ_min²/σ_max", "observability_o4", IX, 1.0),
+            ("O5 = (Σ 1/σ_i)⁻¹", "observability_o5", IX, 1.0),
         ] {
-            o.push_str(&format!("| {label} | {} |\n", fmt(self.metric(key), d)));
+            let cell = match self.metric(key) {
+                Some(s) => {
+                    q.mean_sd_range(s.mean * scale, s.sd * scale, s.p5 * scale, s.p95 * scale)
+                }
+                None => "n/a".into(),
+            };
+            o.push_str(&format!("| {label} | {cell} |\n"));
         }
         for (name, counts) in &self.counts {
-            let list: Vec<String> = counts.iter().map(|(k, v)| format!("{k}: {v}")).collect();
-            o.push_str(&format!("| {name} | {} |\n", list.join(", ")));
+            o.push_str(&format!(
+                "| {} | {} |\n",
+                count_title(name),
+                count_values(name, counts, self.trials)
+            ));
         }
         o.push('\n');
         if !self.recovery.is_empty() {
             o.push_str("## Parameter recovery (minimal identifiable set)\n\n");
+            o.push_str(
+                "Error = estimate − truth, both re-expressed in the minimal identifiable set; \
+                 lengths in mm, angles in arcseconds (″). Parameters in kinematic order.\n\n",
+            );
             o.push_str("| parameter | unit | mean error | sd of error | mean std error | z mean | z sd |\n|---|---|---:|---:|---:|---:|---:|\n");
-            for (name, r) in &self.recovery {
-                let g = |s: &Option<Summary>, f: fn(&Summary) -> f64| {
-                    s.as_ref().map_or("n/a".into(), |s| format!("{:.4}", f(s)))
+            for name in crate::plots::kinematic_order(self.recovery.keys().map(String::as_str)) {
+                let r = &self.recovery[name];
+                let (unit, q) = if r.unit == "deg" {
+                    ("″", Quantity::AngleArcsecFromDeg)
+                } else {
+                    (r.unit.as_str(), MM)
+                };
+                let g = |s: &Option<Summary>, f: fn(&Summary) -> f64, q: Quantity| {
+                    s.as_ref().map_or("n/a".into(), |s| q.format(f(s)))
                 };
                 o.push_str(&format!(
-                    "| {name} | {} | {} | {} | {} | {} | {} |\n",
-                    r.unit,
-                    g(&r.error, |s| s.mean),
-                    g(&r.error, |s| s.sd),
-                    g(&r.std_error, |s| s.mean),
-                    g(&r.z, |s| s.mean),
-                    g(&r.z, |s| s.sd),
+                    "| {name} | {unit} | {} | {} | {} | {} | {} |\n",
+                    g(&r.error, |s| s.mean, q),
+                    g(&r.error, |s| s.sd, q),
+                    g(&r.std_error, |s| s.mean, q),
+                    g(&r.z, |s| s.mean, Quantity::ZScore),
+                    g(&r.z, |s| s.sd, Quantity::ZScore),
                 ));
             }
+            o.push_str(
+                "\nz = (estimate − truth) / the standard error the fit reports. If the residuals \
+                 were tracker noise alone, z would have mean 0 and sd 1 over trials (as in \
+                 `noise-floor`), so |z| > 3 would be rare. Errors outside the identified model \
+                 (joint compliance, gear errors, repeatability, as in `paper-kr1000`) are \
+                 partly absorbed by the geometric parameters: a bias that the standard errors, \
+                 which see only the scatter, do not contain. Large |z| (such as base_dz's) \
+                 therefore measures that absorbed error, not a failure of the solver.\n",
+            );
             o.push('\n');
         }
         if !self.failed_trials.is_empty() {
@@ -313,6 +360,37 @@ impl CampaignSummary {
         }
         o
     }
+}
+
+/// A categorical outcome's name in words.
+fn count_title(name: &str) -> String {
+    match name {
+        "rank" => "numerical rank of the identification Jacobian".into(),
+        "stop_reason" => "LM stop reason".into(),
+        "convergence" => "LM convergence".into(),
+        other => other.replace('_', " "),
+    }
+}
+
+/// A categorical outcome's counts in words: `27: 200 of 200 trials`, zero-padded ranks
+/// printed as numbers, `small_cost_change` as `small cost change`.
+fn count_values(name: &str, counts: &BTreeMap<String, u64>, trials: u64) -> String {
+    let list: Vec<String> = counts
+        .iter()
+        .map(|(k, v)| {
+            let key = if name == "rank" {
+                k.trim_start_matches('0').to_string()
+            } else {
+                k.replace('_', " ")
+            };
+            format!("{key}: {}", fmt::whole(*v as f64))
+        })
+        .collect();
+    format!(
+        "{} (of {} trials)",
+        list.join(", "),
+        fmt::whole(trials as f64)
+    )
 }
 
 /// The Markdown report of one trial (Table 4, ISO table, recovery), in `evaluate`'s layout.
@@ -357,67 +435,54 @@ fn write(path: &Path, bytes: &[u8]) -> Result<(), CampaignError> {
 }
 
 /// Renders every output file of a campaign in memory: `summary.json`, `summary.md`, the
-/// trial report and the SVG plots, as (file name, bytes).
+/// trial report, the SVG plots and `report.html` (the summary with the plots in place), as
+/// (file name, bytes).
 pub fn render_outputs(
     summary: &CampaignSummary,
     agg: &Aggregate,
 ) -> Result<Vec<(String, Vec<u8>)>, CampaignError> {
-    let plot_err = |e: plots::PlotError| CampaignError::Other(format!("plot: {e}"));
+    let plot_err = |e: report::PlotError| CampaignError::Other(format!("plot: {e}"));
     let name = &summary.scenario.name;
+    let paper = plots::is_paper(name);
     let mut files = vec![
         ("summary.json".to_string(), summary.to_json().into_bytes()),
         ("summary.md".to_string(), summary.to_markdown().into_bytes()),
     ];
+    let mut svgs: Vec<(String, String)> = Vec::new();
     if let Some(t) = &agg.typical {
-        let norms = |v: &[[f64; 3]]| -> Vec<f64> {
-            v.iter()
-                .map(|e| (e[0] * e[0] + e[1] * e[1] + e[2] * e[2]).sqrt())
-                .collect()
-        };
-        let svg = plots::per_pose_errors_svg(
-            &format!("{name}: per-pose error, trial {}", t.trial),
-            &norms(&t.before_mm),
-            &norms(&t.after_mm),
-        )
-        .map_err(plot_err)?;
-        files.push(("per-pose-error.svg".into(), svg.into_bytes()));
+        svgs.push((
+            "per-pose-error.svg".into(),
+            plots::per_pose_error_svg(name, t.trial, &t.before_mm, &t.after_mm, paper)
+                .map_err(plot_err)?,
+        ));
+        svgs.push((
+            "error-cdf.svg".into(),
+            plots::error_cdf_svg(name, t.trial, &t.before_mm, &t.after_mm, paper)
+                .map_err(plot_err)?,
+        ));
         let md = evaluate::render_trial_markdown(&trial_report(&summary.scenario, t));
         files.push((format!("trial-{}.md", t.trial), md.into_bytes()));
     }
     if let Some(stat) = agg.metrics.get("improvement_pct")
-        && stat.n > 0
+        && let Some(s) = stat.summary()
     {
         let values: Vec<(f64, u64)> = stat.buckets().collect();
-        let svg = plots::histogram_svg(
-            &format!("{name}: improvement of the mean error over trials"),
-            "improvement of mean 3-D error (%)",
-            &plots::rebin(&values, 20),
-        )
-        .map_err(plot_err)?;
-        files.push(("improvement-histogram.svg".into(), svg.into_bytes()));
+        svgs.push((
+            "improvement-histogram.svg".into(),
+            plots::improvement_histogram_svg(name, &values, &s, paper).map_err(plot_err)?,
+        ));
     }
-    let rec: Vec<(&String, &crate::run::RecoveryStat)> = agg
-        .recovery
-        .iter()
-        .filter(|(_, r)| r.abs_error.n > 0)
-        .collect();
-    if !rec.is_empty() {
-        let names: Vec<String> = rec.iter().map(|(n, _)| (*n).clone()).collect();
-        let units: Vec<String> = rec.iter().map(|(_, r)| r.unit.clone()).collect();
-        let sums: Vec<_> = rec
-            .iter()
-            .map(|(_, r)| r.abs_error.summary().expect("n > 0"))
-            .collect();
-        let svg = plots::recovery_svg(
-            &format!("{name}: parameter recovery (minimal set)"),
-            &names,
-            &sums.iter().map(|s| s.mean).collect::<Vec<_>>(),
-            &sums.iter().map(|s| s.sd).collect::<Vec<_>>(),
-            &units,
-        )
-        .map_err(plot_err)?;
-        files.push(("recovery.svg".into(), svg.into_bytes()));
+    if let Some(svg) = plots::recovery_svg(name, &summary.recovery).map_err(plot_err)? {
+        svgs.push(("recovery.svg".into(), svg));
     }
+    if let Some(svg) = plots::z_scores_svg(name, &summary.recovery).map_err(plot_err)? {
+        svgs.push(("recovery-z.svg".into(), svg));
+    }
+    files.push((
+        "report.html".into(),
+        plots::campaign_page(summary, &svgs).into_bytes(),
+    ));
+    files.extend(svgs.into_iter().map(|(n, s)| (n, s.into_bytes())));
     Ok(files)
 }
 

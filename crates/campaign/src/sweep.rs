@@ -350,9 +350,18 @@ impl SweepResult {
             "| {} | failed | not converged | before (mm) | after (mm) | after max (mm) | improvement (%) | LM iterations |\n",
             labels.join(" | ")
         ));
-        o.push_str(&format!("|{}\n", "---|".repeat(labels.len() + 7)));
+        // Axis values left-aligned, figures right-aligned.
+        o.push_str(&format!(
+            "|{}{}\n",
+            "---|".repeat(labels.len()),
+            "---:|".repeat(7)
+        ));
         for p in &self.points {
-            let vals: Vec<String> = p.values.iter().map(label_of).collect();
+            let vals: Vec<String> = p
+                .values
+                .iter()
+                .map(|v| v.as_f64().map_or_else(|| label_of(v), report::fmt::number))
+                .collect();
             let not_conv = p.not_converged();
             let f = |k: &str, d: usize| {
                 Self::metric_mean(p, k).map_or("–".into(), |v| format!("{v:.d$}"))

@@ -237,3 +237,63 @@ fn trial_report_matches_the_golden_file() {
         golden.display()
     );
 }
+
+/// The campaign's report files: every plot inline in `report.html`, the recovery table in
+/// kinematic order, counts in words, the formatting rules.
+#[test]
+fn report_html_holds_every_plot_and_summary_follows_the_rules() {
+    let loaded = load_edited("noise-floor", |v| v["trials"] = 12.into());
+    let (agg, s) = run(&loaded, 2);
+    let files = campaign::report::render_outputs(&s, &agg).unwrap();
+    let get = |n: &str| {
+        let f = files.iter().find(|f| f.0 == n);
+        String::from_utf8(f.unwrap_or_else(|| panic!("no {n}")).1.clone()).unwrap()
+    };
+    let html = get("report.html");
+    for svg in [
+        "per-pose-error.svg",
+        "error-cdf.svg",
+        "improvement-histogram.svg",
+        "recovery.svg",
+        "recovery-z.svg",
+    ] {
+        let body = get(svg);
+        let inner = &body[body.find("viewBox").unwrap()..];
+        assert!(html.contains(inner), "{svg} is not inline in report.html");
+        assert!(
+            html.contains(&format!("<code>{svg}</code>")),
+            "{svg} has no caption"
+        );
+    }
+    assert!(!html.contains("<script") && !html.contains("https://"));
+    let md = get("summary.md");
+    assert!(
+        md.contains("| numerical rank of the identification Jacobian | 27: 12 (of 12 trials) |"),
+        "{md}"
+    );
+    assert!(!md.contains("027:"));
+    // Recovery rows in kinematic order: θ1 first, the tool last, a joint's θ before its a.
+    let rows: Vec<&str> = md
+        .lines()
+        .skip_while(|l| !l.starts_with("## Parameter recovery"))
+        .filter(|l| l.starts_with("| ") && !l.starts_with("| parameter"))
+        .map(|l| l.split(" | ").next().unwrap().trim_start_matches("| "))
+        .collect();
+    assert_eq!(rows.first(), Some(&"theta1"), "{rows:?}");
+    assert_eq!(rows.last(), Some(&"tool_z"), "{rows:?}");
+    let at = |n: &str| rows.iter().position(|r| *r == n).unwrap();
+    assert!(at("theta2") < at("a2") && at("a2") < at("theta3") && at("beta2") < at("base_rx"));
+    assert!(md.contains("z = (estimate − truth)"));
+    // Percentages with one decimal: "97.3 ± 0.4 [96.6, 97.8]".
+    let improvement = md
+        .lines()
+        .find(|l| l.starts_with("| improvement of mean (%)"))
+        .unwrap();
+    let cell = improvement.split(" | ").nth(1).unwrap();
+    assert!(
+        cell.split([' ', '[', ']', ','])
+            .filter(|t| t.contains('.'))
+            .all(|t| t.split('.').nth(1).unwrap().len() == 1),
+        "{cell}"
+    );
+}

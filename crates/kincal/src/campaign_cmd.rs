@@ -96,9 +96,17 @@ fn progress_bar(total: u64) -> ProgressBar {
     }
     pb.set_style(
         ProgressStyle::with_template(
-            "{bar:40} {pos}/{len} trials  {per_sec}  ETA {eta}  {elapsed_precise}",
+            "{bar:40} {pos}/{len} trials  {trials_per_sec}/s  ETA {eta}  {elapsed_precise}",
         )
-        .expect("valid template"),
+        .expect("valid template")
+        // A whole number of trials per second, thousands separated (not indicatif's
+        // `1,834.4204/s`).
+        .with_key(
+            "trials_per_sec",
+            |state: &indicatif::ProgressState, w: &mut dyn std::fmt::Write| {
+                let _ = w.write_str(&report::fmt::rate(state.per_sec()));
+            },
+        ),
     );
     pb
 }
@@ -347,21 +355,8 @@ pub fn run_sweep_to(
     w("sweep.json", json.as_bytes())?;
     w("sweep.csv", result.to_csv().as_bytes())?;
     w("sweep.md", result.to_markdown().as_bytes())?;
-    for (k, plot) in spec.plots.iter().enumerate() {
-        let series = result.curves(plot)?;
-        let x_label = plot
-            .x
-            .clone()
-            .unwrap_or_else(|| spec.axes[0].label().to_string());
-        let svg = campaign::plots::curves_svg(
-            &format!("{}: {} vs {}", spec.name, plot.y, x_label),
-            &x_label,
-            &plot.y,
-            &series,
-            plot.log_y,
-        )
-        .map_err(|e| anyhow::anyhow!("plot {k}: {e}"))?;
-        w(&format!("{}-{}.svg", plot.y, k + 1), svg.as_bytes())?;
+    for (name, bytes) in campaign::plots::sweep_outputs(&result).map_err(anyhow::Error::msg)? {
+        w(&name, &bytes)?;
     }
     if !quiet {
         println!("{}", result.to_markdown());

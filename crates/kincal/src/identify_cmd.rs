@@ -5,8 +5,8 @@ use std::path::PathBuf;
 
 use anyhow::{Context, Result};
 use calibrate::{
-    IdentifyRequest, PARAMETERS_FILE, REGISTERED_FILE, REPORT_FILE, ROBOT_FILE, RedundantArg,
-    Registration, Schedule, Split,
+    IdentifyRequest, PARAMETERS_FILE, REGISTERED_FILE, REPORT_FILE, REPORT_HTML_FILE, ROBOT_FILE,
+    RedundantArg, Registration, Schedule, Split,
 };
 use clap::Args;
 
@@ -95,14 +95,14 @@ pub fn run(args: &IdentifyArgs) -> Result<()> {
     for notice in &cal.notices {
         eprintln!("note: {notice}");
     }
-    cal.render()
+    cal.render()?
         .write_to(&args.out)
         .with_context(|| format!("writing the outputs into {}", args.out.display()))?;
     print!("{}", cal.summary());
     println!(
         "→ {}: {ROBOT_FILE} (the calibrated robot), {REGISTERED_FILE} (the nominal robot in \
          the same frame: compensation targets), {PARAMETERS_FILE} (parameter table), \
-         {REPORT_FILE}",
+         {REPORT_FILE} and {REPORT_HTML_FILE} (the report, with its plots)",
         args.out.display(),
     );
     Ok(())
