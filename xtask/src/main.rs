@@ -8,6 +8,7 @@ mod bench;
 mod calibrate;
 mod campaign_cmd;
 mod check_cmd;
+mod design_cmd;
 mod identifiability;
 mod identify_cmd;
 
@@ -64,6 +65,9 @@ enum Cmd {
     /// Run the criterion benchmarks (kinematics, identification, one campaign trial) and
     /// write results/bench.json with the machine's CPU, SIMD features and cores.
     Bench(bench::BenchArgs),
+    /// Choose which poses to measure: N of a candidate pool by a design criterion → plan.csv
+    /// and a report against random sets of the same size.
+    Design(design_cmd::DesignArgs),
 }
 
 fn main() -> Result<()> {
@@ -81,6 +85,7 @@ fn main() -> Result<()> {
         Cmd::Predict(args) => calibrate::predict(&args),
         Cmd::Compensate(args) => calibrate::compensate_cmd(&args),
         Cmd::Bench(args) => bench::run(args),
+        Cmd::Design(args) => design_cmd::run(&args),
     }
 }
 

@@ -35,6 +35,15 @@ pub enum CampaignError {
         #[source]
         source: identify::IdentifyError,
     },
+    /// The design of the identification poses failed.
+    #[error("trial {trial}: design: {source}")]
+    Design {
+        /// Trial index.
+        trial: u64,
+        /// Cause.
+        #[source]
+        source: design::DesignError,
+    },
     /// Evaluation failed (e.g. no validation pose could be measured).
     #[error("trial {trial}: evaluation: {source}")]
     Evaluate {
@@ -85,13 +94,15 @@ pub struct Context {
     pub minimal_free: Vec<usize>,
     /// The ISO plan when the test is on.
     pub iso: Option<IsoPlan>,
+    /// A designed pose selection: criterion, poses to choose and column scale.
+    pub design: Option<(design::Criterion, usize, design::Scale)>,
 }
 
 impl Context {
     /// Builds the shared state: validates the virtual robot, resolves the minimal set,
     /// finds the ISO cube.
     pub fn new(loaded: LoadedScenario) -> Result<Context, CampaignError> {
-        let vr = loaded.virtual_robot();
+        let vr = loaded.trial_virtual_robot();
         let seed = loaded.scenario.seed;
         let setup = Setup::new(&loaded.nominal, &vr, seed)
             .map_err(|source| CampaignError::Sim { trial: 0, source })?;
@@ -112,7 +123,15 @@ impl Context {
         } else {
             None
         };
+        let design = match (
+            loaded.scenario.pose_selection.method.criterion(),
+            &loaded.scenario.poses.identification,
+        ) {
+            (Some(c), virtual_robot::PoseSet::Count(n)) => Some((c, *n, loaded.design_scale())),
+            _ => None,
+        };
         Ok(Context {
+            design,
             id_options: id.options(),
             loaded,
             setup,
@@ -308,7 +327,23 @@ pub fn run_trial(ctx: &Context, trial: u64) -> Result<TrialResult, CampaignError
     let mut unmeasurable = 0;
     let mut id_poses = Vec::with_capacity(world.identification_poses_rad().len());
     let mut id_points = Vec::with_capacity(id_poses.capacity() / n.max(1));
-    let all_id: Vec<f64> = world.identification_poses_rad().to_vec();
+    let all_id: Vec<f64> = match &ctx.design {
+        None => world.identification_poses_rad().to_vec(),
+        Some((criterion, count, scale)) => {
+            // Designed on the nominal model from the sampled pool, before any measurement.
+            let pool = world.identification_poses_rad();
+            let des = |source| CampaignError::Design { trial, source };
+            let model = design::InfoModel::new(nominal, pool, None, Some(&ctx.minimal_free), scale)
+                .map_err(des)?;
+            let chosen = design::select(&model, &design::DesignOptions::new(*criterion, *count))
+                .map_err(des)?;
+            chosen
+                .selected
+                .iter()
+                .flat_map(|&i| pool[i * n..(i + 1) * n].iter().copied())
+                .collect()
+        }
+    };
     for q in all_id.chunks_exact(n) {
         match world.measure(q) {
             Ok(p) => {
