@@ -8,6 +8,7 @@ use design::{Candidates, Criterion, DesignOptions, design_plan};
 use kinematics::Robot;
 
 /// Arguments of `design`.
+#[allow(rustdoc::broken_intra_doc_links, rustdoc::invalid_html_tags)] // clap help text
 #[derive(Args, Debug)]
 #[command(group(ArgGroup::new("pool").required(true).args(["candidates", "scenario"])))]
 pub struct DesignArgs {

@@ -1,5 +1,5 @@
 //! Design criteria on the information matrix, and their straightforward dense evaluation
-//! (the reference the fast rank-3 scoring of [`crate::select`] is tested against).
+//! (the reference the fast rank-3 scoring of [`mod@crate::select`] is tested against).
 //!
 //! With `B_i` the 3 × p block of pose i (the identification Jacobian of the minimal set,
 //! column k multiplied by the physical scale `s_k`, see [`crate::Scale`]) and the design's

@@ -14,8 +14,8 @@
 //!   and the workspace matrix W of the I criterion.
 //! * [`Criterion`]: D, A, E, I, O1, O3, O5 on `M = Σ B_iᵀB_i` (formulas in
 //!   [`criterion`]); [`dense_value`] is the straightforward reference.
-//! * [`select`]: greedy forward selection with rank-3 updates, then exchange until no swap
-//!   improves the criterion, optional seeded restarts (see [`select()`]'s module for the
+//! * [`select()`]: greedy forward selection with rank-3 updates, then exchange until no swap
+//!   improves the criterion, optional seeded restarts (see the [`mod@select`] module for the
 //!   algebra). Deterministic.
 //! * [`report()`]: the design's criterion, condition number and O1–O5 beside the medians of
 //!   random sets of the same size.
