@@ -121,48 +121,64 @@ pub struct Design {
 
 type M3 = Matrix3<f64>;
 
-/// `a (3×p row-major) · u (p×3 row-major)`.
+/// `b (3×p row-major) · u (p×3 row-major)`: nine independent sums, each over k in order.
 #[inline]
 fn mul_bu(b: &[f64], u: &[f64], p: usize) -> M3 {
-    let mut c = [[0.0; 3]; 3];
-    for r in 0..3 {
-        let row = &b[r * p..(r + 1) * p];
-        let (mut s0, mut s1, mut s2) = (0.0, 0.0, 0.0);
-        for (k, &x) in row.iter().enumerate() {
-            s0 += x * u[3 * k];
-            s1 += x * u[3 * k + 1];
-            s2 += x * u[3 * k + 2];
-        }
-        c[r] = [s0, s1, s2];
+    let (r0, r1, r2) = (&b[..p], &b[p..2 * p], &b[2 * p..3 * p]);
+    let u = &u[..3 * p];
+    let mut c = [0.0; 9];
+    for k in 0..p {
+        let (b0, b1, b2) = (r0[k], r1[k], r2[k]);
+        let (u0, u1, u2) = (u[3 * k], u[3 * k + 1], u[3 * k + 2]);
+        c[0] += b0 * u0;
+        c[1] += b0 * u1;
+        c[2] += b0 * u2;
+        c[3] += b1 * u0;
+        c[4] += b1 * u1;
+        c[5] += b1 * u2;
+        c[6] += b2 * u0;
+        c[7] += b2 * u1;
+        c[8] += b2 * u2;
     }
-    M3::new(
-        c[0][0], c[0][1], c[0][2], c[1][0], c[1][1], c[1][2], c[2][0], c[2][1], c[2][2],
-    )
+    M3::new(c[0], c[1], c[2], c[3], c[4], c[5], c[6], c[7], c[8])
 }
 
-/// `a · Bᵀ` for a p×p matrix and a 3×p block: p×3 row-major.
-fn mul_mbt(a: &DMatrix<f64>, b: &[f64], p: usize) -> Vec<f64> {
+/// `a · Bᵀ` for a p×p matrix given as its transpose `at` (column k of `at` is row k of
+/// `a`, contiguous) and a 3×p block: p×3 row-major; each entry a sum over l in order.
+fn mul_mbt(at: &DMatrix<f64>, b: &[f64], p: usize) -> Vec<f64> {
     let mut u = vec![0.0; 3 * p];
-    for k in 0..p {
-        for r in 0..3 {
-            let mut s = 0.0;
-            for l in 0..p {
-                s += a[(k, l)] * b[r * p + l];
-            }
-            u[3 * k + r] = s;
-        }
-    }
+    mul_mbt_into(at, b, p, &mut u);
     u
 }
 
-/// `a · u` for p×p and p×3 row-major.
-fn mul_mu(a: &DMatrix<f64>, u: &[f64], p: usize) -> Vec<f64> {
+/// [`mul_mbt`] into `u`.
+fn mul_mbt_into(at: &DMatrix<f64>, b: &[f64], p: usize, u: &mut [f64]) {
+    let (r0, r1, r2) = (&b[..p], &b[p..2 * p], &b[2 * p..3 * p]);
+    let data = at.as_slice();
+    for k in 0..p {
+        let row = &data[k * p..(k + 1) * p];
+        let (mut s0, mut s1, mut s2) = (0.0, 0.0, 0.0);
+        for l in 0..p {
+            s0 += row[l] * r0[l];
+            s1 += row[l] * r1[l];
+            s2 += row[l] * r2[l];
+        }
+        u[3 * k] = s0;
+        u[3 * k + 1] = s1;
+        u[3 * k + 2] = s2;
+    }
+}
+
+/// `a · u` for p×p (given as its transpose, see [`mul_mbt`]) and p×3 row-major.
+fn mul_mu(at: &DMatrix<f64>, u: &[f64], p: usize) -> Vec<f64> {
+    let data = at.as_slice();
     let mut v = vec![0.0; 3 * p];
     for k in 0..p {
+        let row = &data[k * p..(k + 1) * p];
         for c in 0..3 {
             let mut s = 0.0;
             for l in 0..p {
-                s += a[(k, l)] * u[3 * l + c];
+                s += row[l] * u[3 * l + c];
             }
             v[3 * k + c] = s;
         }
@@ -202,6 +218,9 @@ struct State<'a> {
     w: Option<DMatrix<f64>>,
     trw: f64,
     g: Vec<M3>,
+    /// Per candidate: `(I₃ + G_i)⁻¹` and `log det(I₃ + G_i)` (None when singular), kept
+    /// with G.
+    s_cache: Vec<Option<(M3, f64)>>,
     h: Vec<M3>,
     /// Σ_r B_i[r,k]² per candidate (O1).
     colsq: Vec<f64>,
@@ -230,6 +249,7 @@ impl<'a> State<'a> {
             w,
             trw: 0.0,
             g: Vec::new(),
+            s_cache: Vec::new(),
             h: Vec::new(),
             colsq,
             set: Vec::new(),
@@ -292,16 +312,30 @@ impl<'a> State<'a> {
         if uses_h {
             self.h.resize(k, M3::zeros());
         }
-        let mw = self.w.as_ref().map(|w| &self.minv * w * &self.minv);
+        let mw_t = self
+            .w
+            .as_ref()
+            .map(|w| (&self.minv * w * &self.minv).transpose());
+        let minv_t = self.minv.transpose();
+        let mut u = vec![0.0; 3 * p];
         for i in 0..k {
             let b = self.model.block(i);
-            let u = mul_mbt(&self.minv, b, p);
+            mul_mbt_into(&minv_t, b, p, &mut u);
             self.g[i] = mul_bu(b, &u, p);
-            if uses_h && let Some(mw) = &mw {
-                let v = mul_mbt(mw, b, p);
-                self.h[i] = mul_bu(b, &v, p);
+            if uses_h && let Some(mw_t) = &mw_t {
+                mul_mbt_into(mw_t, b, p, &mut u);
+                self.h[i] = mul_bu(b, &u, p);
             }
         }
+        self.update_s_cache();
+    }
+
+    fn update_s_cache(&mut self) {
+        self.s_cache.clear();
+        self.s_cache.extend(self.g.iter().map(|g| {
+            let sm = M3::identity() + g;
+            sm.try_inverse().map(|inv| (inv, ln_det3(&sm)))
+        }));
     }
 
     fn diag_term(&self, i: Option<usize>, sign_i: f64, j: Option<usize>) -> f64 {
@@ -355,15 +389,16 @@ impl<'a> State<'a> {
         let p = self.p;
         let b = self.model.block(s);
         if self.active().is_fast() && !self.g.is_empty() {
-            let u = mul_mbt(&self.minv, b, p);
+            let minv_t = self.minv.transpose();
+            let u = mul_mbt(&minv_t, b, p);
             let sm = M3::identity() * sign + mul_bu(b, &u, p);
             let r = sm
                 .try_inverse()
                 .ok_or_else(|| DesignError::Numerical("singular rank-3 update".into()))?;
             let hv = if self.uses_h() {
                 let w = self.w.as_ref().expect("W for A and I");
-                let wu = mul_mu(w, &u, p);
-                let v = mul_mu(&self.minv, &wu, p);
+                let wu = mul_mu(&w.transpose(), &u, p);
+                let v = mul_mu(&minv_t, &wu, p);
                 let q = mul_utv(&u, &wu, p);
                 Some((v, q))
             } else {
@@ -380,6 +415,7 @@ impl<'a> State<'a> {
                 }
                 self.g[i] -= cr * c.transpose();
             }
+            self.update_s_cache();
         }
         add_outer(&mut self.m, b, p, sign);
         if sign > 0.0 {
@@ -446,13 +482,14 @@ impl<'a> State<'a> {
         }
         // Add i first, then remove j (see the module docs): M + B_iᵀB_i is never closer to
         // singular than M, so no inverse of (I − G_j) is formed.
-        let u = mul_mbt(&self.minv, bj, p);
+        let minv_t = self.minv.transpose();
+        let u = mul_mbt(&minv_t, bj, p);
         let crit = self.active();
         let lin = matches!(crit, Criterion::A | Criterion::I);
         let v = if lin {
             let w = self.w.as_ref().expect("W for A and I");
-            let wu = mul_mu(w, &u, p);
-            Some(mul_mu(&self.minv, &wu, p))
+            let wu = mul_mu(&w.transpose(), &u, p);
+            Some(mul_mu(&minv_t, &wu, p))
         } else {
             None
         };
@@ -465,21 +502,20 @@ impl<'a> State<'a> {
                 continue;
             }
             let bi = self.model.block(i);
-            let sm = M3::identity() + self.g[i];
-            let Some(s_inv) = sm.try_inverse() else {
+            let Some((s_inv, ld_s)) = self.s_cache[i] else {
                 continue;
             };
             let x = mul_bu(bi, &u, p);
             let xt_s = x.transpose() * s_inv;
             let rem = M3::identity() - gj + xt_s * x;
             let val = match crit {
-                Criterion::D => self.logdet + ln_det3(&sm) + ln_det3(&rem),
+                Criterion::D => self.logdet + ld_s + ln_det3(&rem),
                 Criterion::O1 => {
                     let mut s = 0.0;
                     for (k, d) in diag_j.iter().enumerate() {
                         s += (d + self.colsq[i * p + k]).ln();
                     }
-                    (self.logdet + ln_det3(&sm) + ln_det3(&rem) - s) / (2.0 * p as f64)
+                    (self.logdet + ld_s + ln_det3(&rem) - s) / (2.0 * p as f64)
                 }
                 _ => {
                     let y = mul_bu(bi, v.as_ref().expect("linear criterion"), p);
