@@ -143,6 +143,43 @@ fn mul_bu(b: &[f64], u: &[f64], p: usize) -> M3 {
     M3::new(c[0], c[1], c[2], c[3], c[4], c[5], c[6], c[7], c[8])
 }
 
+/// `(b·u, b·v)` in one pass over the block: the same eighteen sums as two [`mul_bu`] calls,
+/// each in the same order (same bits).
+#[inline]
+fn mul_bu2(b: &[f64], u: &[f64], v: &[f64], p: usize) -> (M3, M3) {
+    let (r0, r1, r2) = (&b[..p], &b[p..2 * p], &b[2 * p..3 * p]);
+    let (u, v) = (&u[..3 * p], &v[..3 * p]);
+    let mut c = [0.0; 9];
+    let mut e = [0.0; 9];
+    for k in 0..p {
+        let (b0, b1, b2) = (r0[k], r1[k], r2[k]);
+        let (u0, u1, u2) = (u[3 * k], u[3 * k + 1], u[3 * k + 2]);
+        let (v0, v1, v2) = (v[3 * k], v[3 * k + 1], v[3 * k + 2]);
+        c[0] += b0 * u0;
+        c[1] += b0 * u1;
+        c[2] += b0 * u2;
+        c[3] += b1 * u0;
+        c[4] += b1 * u1;
+        c[5] += b1 * u2;
+        c[6] += b2 * u0;
+        c[7] += b2 * u1;
+        c[8] += b2 * u2;
+        e[0] += b0 * v0;
+        e[1] += b0 * v1;
+        e[2] += b0 * v2;
+        e[3] += b1 * v0;
+        e[4] += b1 * v1;
+        e[5] += b1 * v2;
+        e[6] += b2 * v0;
+        e[7] += b2 * v1;
+        e[8] += b2 * v2;
+    }
+    (
+        M3::new(c[0], c[1], c[2], c[3], c[4], c[5], c[6], c[7], c[8]),
+        M3::new(e[0], e[1], e[2], e[3], e[4], e[5], e[6], e[7], e[8]),
+    )
+}
+
 /// `a · Bᵀ` for a p×p matrix given as its transpose `at` (column k of `at` is row k of
 /// `a`, contiguous) and a 3×p block: p×3 row-major; each entry a sum over l in order.
 fn mul_mbt(at: &DMatrix<f64>, b: &[f64], p: usize) -> Vec<f64> {
@@ -406,10 +443,15 @@ impl<'a> State<'a> {
             };
             for i in 0..self.model.n_candidates {
                 let bi = self.model.block(i);
-                let c = mul_bu(bi, &u, p);
+                let (c, e) = match &hv {
+                    Some((v, _)) => {
+                        let (c, e) = mul_bu2(bi, &u, v, p);
+                        (c, Some(e))
+                    }
+                    None => (mul_bu(bi, &u, p), None),
+                };
                 let cr = c * r;
-                if let Some((v, q)) = &hv {
-                    let e = mul_bu(bi, v, p);
+                if let (Some((_, q)), Some(e)) = (&hv, e) {
                     let er = e * r;
                     self.h[i] += -cr * e.transpose() - er * c.transpose() + cr * q * cr.transpose();
                 }
@@ -505,7 +547,13 @@ impl<'a> State<'a> {
             let Some((s_inv, ld_s)) = self.s_cache[i] else {
                 continue;
             };
-            let x = mul_bu(bi, &u, p);
+            let (x, y) = match &v {
+                Some(v) => {
+                    let (x, y) = mul_bu2(bi, &u, v, p);
+                    (x, Some(y))
+                }
+                None => (mul_bu(bi, &u, p), None),
+            };
             let xt_s = x.transpose() * s_inv;
             let rem = M3::identity() - gj + xt_s * x;
             let val = match crit {
@@ -518,7 +566,7 @@ impl<'a> State<'a> {
                     (self.logdet + ld_s + ln_det3(&rem) - s) / (2.0 * p as f64)
                 }
                 _ => {
-                    let y = mul_bu(bi, v.as_ref().expect("linear criterion"), p);
+                    let y = y.expect("linear criterion");
                     let hi = self.h[i];
                     let trw_i = self.trw - (s_inv * hi).trace();
                     let hj_i =
