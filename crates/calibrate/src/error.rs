@@ -52,6 +52,15 @@ pub enum CalibrateError {
         #[source]
         source: evaluate::EvalError,
     },
+    /// The design of `--select` failed (too few rows, a rank-deficient pool, bad joints).
+    #[error("{context}")]
+    Design {
+        /// What was being chosen.
+        context: String,
+        /// Why.
+        #[source]
+        source: design::DesignError,
+    },
     /// A plot of the report could not be drawn (non-finite errors).
     #[error("drawing {what}")]
     Plot {

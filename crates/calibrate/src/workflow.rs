@@ -89,6 +89,16 @@ pub enum Split {
         /// First identification row, below `every`.
         offset: usize,
     },
+    /// Identify on `poses` rows chosen by design (`design::select_rows`: greedy selection then
+    /// exchange by `criterion`, on the nominal model's minimal identifiable set, using only the
+    /// rows' joints) and validate on all the others: what `poses` well-chosen poses of the
+    /// recording would have given.
+    Select {
+        /// Rows to choose; 3·poses must cover the free parameters.
+        poses: usize,
+        /// Design criterion.
+        criterion: design::Criterion,
+    },
 }
 
 /// What to calibrate and how. Every field is an option of `kincal identify`.
@@ -344,6 +354,15 @@ pub fn run(request: &IdentifyRequest) -> Result<Calibration> {
             ));
         }
     }
+    if let Split::Select { .. } = args.split
+        && args.validate.is_some()
+    {
+        return Err(CalibrateError::Refused(
+            "--validate and --select exclude each other: --select validates on the rows it \
+             does not identify on"
+                .into(),
+        ));
+    }
     let nominal = LoadedRobot::load(&args.robot, "robot")?;
     let nom = &nominal.robot;
     let id_opts = IdentifiabilityOptions::default();
@@ -403,6 +422,54 @@ pub fn run(request: &IdentifyRequest) -> Result<Calibration> {
                     rest,
                 )
             });
+            (sel, val, text)
+        }
+        Split::Select {
+            poses: n,
+            criterion,
+        } => {
+            let n_rows = data.rows.len();
+            if n < min_rows {
+                return Err(CalibrateError::Refused(format!("--select {n}: {why}")));
+            }
+            if n >= n_rows {
+                return Err(CalibrateError::Refused(format!(
+                    "--select {n}: {} has {n_rows} rows; choose fewer so that the others \
+                     validate",
+                    data.source
+                )));
+            }
+            let q_deg: Vec<f64> = data.rows.iter().flat_map(|r| r.q_deg.clone()).collect();
+            let chosen =
+                design::select_rows(nom, &q_deg, n, criterion, None).map_err(|source| {
+                    CalibrateError::Design {
+                        context: format!(
+                            "--select {n} --criterion {}: choosing rows of {}",
+                            criterion.as_str(),
+                            data.source
+                        ),
+                        source,
+                    }
+                })?;
+            let (mut sel, mut rest) = (Vec::new(), Vec::new());
+            for (i, r) in data.rows.iter().enumerate() {
+                if chosen.binary_search(&i).is_ok() {
+                    sel.push(r.clone());
+                } else {
+                    rest.push(r.clone());
+                }
+            }
+            let lines: Vec<String> = sel.iter().take(3).map(|r| r.line.to_string()).collect();
+            let text = format!(
+                "{} of {n_rows} rows chosen by the {} criterion on their joints (lines {}, …)",
+                sel.len(),
+                criterion.as_str().to_uppercase(),
+                lines.join(", "),
+            );
+            let val = Some((
+                format!("{} (the {} other rows)", data.source, rest.len()),
+                rest,
+            ));
             (sel, val, text)
         }
         Split::All => {

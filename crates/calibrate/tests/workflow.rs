@@ -115,3 +115,49 @@ fn a_failed_write_leaves_no_directory() {
     assert!(e.to_string().contains("a-file"), "{e}");
     assert_eq!(std::fs::read_to_string(&file).unwrap(), "x");
 }
+
+/// `--select N --criterion C`: identify on the rows `design::select_rows` chooses from the
+/// joints alone, validate on every other row.
+#[test]
+fn select_identifies_on_the_designed_rows_and_validates_on_the_rest() {
+    let mut r = ur10_request();
+    r.split = Split::Select {
+        poses: 20,
+        criterion: design::Criterion::D,
+    };
+    let cal = calibrate::run(&r).unwrap();
+    assert_eq!(cal.used.len(), 20);
+    let v = cal.validation.as_ref().unwrap();
+    assert_eq!(v.rows.len(), 1495 - 20);
+    let mut lines: Vec<usize> = cal.used.iter().chain(&v.rows).map(|m| m.line).collect();
+    lines.sort_unstable();
+    lines.dedup();
+    assert_eq!(lines.len(), 1495, "every row identifies or validates, none both");
+    // The same rows as the design crate chooses on the nominal model.
+    let robot = kinematics::Robot::from_file(&r.robot).unwrap();
+    let mut rows: Vec<_> = cal.used.iter().chain(&v.rows).cloned().collect();
+    rows.sort_by_key(|m| m.line);
+    let q_deg: Vec<f64> = rows.iter().flat_map(|m| m.q_deg.clone()).collect();
+    let chosen = design::select_rows(&robot, &q_deg, 20, design::Criterion::D, None).unwrap();
+    let chosen_lines: Vec<usize> = chosen.iter().map(|&i| rows[i].line).collect();
+    let used_lines: Vec<usize> = cal.used.iter().map(|m| m.line).collect();
+    assert_eq!(used_lines, chosen_lines);
+    // 20 designed rows validate about as well as 100 rows every 15th (0.452 mm): geometry
+    // plus what the UR10's compliance leaves.
+    let after = &v.table.after.norm;
+    assert!(after.mean_mm < 0.5, "{}", after.mean_mm);
+    assert!(cal.summary().contains("chosen by the D criterion"));
+}
+
+#[test]
+fn select_refuses_too_few_or_too_many_rows() {
+    for (n, says) in [(5, "need at least"), (1495, "choose fewer")] {
+        let mut r = ur10_request();
+        r.split = Split::Select {
+            poses: n,
+            criterion: design::Criterion::I,
+        };
+        let e = calibrate::run(&r).unwrap_err().to_string();
+        assert!(e.contains(&format!("--select {n}")) && e.contains(says), "{e}");
+    }
+}

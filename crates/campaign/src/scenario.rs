@@ -187,6 +187,78 @@ impl Default for RecoveryConfig {
     }
 }
 
+/// How the identification poses are chosen (`pose_selection`).
+///
+/// `random` \[default\]: `poses.identification` poses drawn by the sampler, as always.
+/// A criterion (`d`, `a`, `e`, `i`, `o1`, `o3`, `o5`, see the `design` crate): the sampler
+/// draws `candidates` poses instead (the same stream, so the first N of them are the random
+/// set), and the design chooses `poses.identification` of them on the nominal model, before
+/// anything is measured.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct PoseSelection {
+    /// `"random"` or a design criterion.
+    pub method: SelectionMethod,
+    /// Candidate pool size for a criterion \[1000\].
+    pub candidates: usize,
+}
+
+/// `random` or a design criterion.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum SelectionMethod {
+    /// The sampler's poses.
+    Random,
+    /// D-optimal.
+    D,
+    /// A-optimal.
+    A,
+    /// E-optimal.
+    E,
+    /// I-optimal (workspace: the candidate pool).
+    I,
+    /// O1.
+    O1,
+    /// O3.
+    O3,
+    /// O5.
+    O5,
+}
+
+impl SelectionMethod {
+    /// The design criterion (`None` for random).
+    pub fn criterion(self) -> Option<design::Criterion> {
+        use design::Criterion as C;
+        match self {
+            SelectionMethod::Random => None,
+            SelectionMethod::D => Some(C::D),
+            SelectionMethod::A => Some(C::A),
+            SelectionMethod::E => Some(C::E),
+            SelectionMethod::I => Some(C::I),
+            SelectionMethod::O1 => Some(C::O1),
+            SelectionMethod::O3 => Some(C::O3),
+            SelectionMethod::O5 => Some(C::O5),
+        }
+    }
+}
+
+impl Default for PoseSelection {
+    fn default() -> Self {
+        PoseSelection {
+            method: SelectionMethod::Random,
+            candidates: 1000,
+        }
+    }
+}
+
+impl PoseSelection {
+    /// The default (random) selection: not written into summaries, so that scenarios
+    /// without the field give the same bytes as before it existed.
+    pub fn is_default(&self) -> bool {
+        *self == PoseSelection::default()
+    }
+}
+
 /// A scenario file.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -230,6 +302,9 @@ pub struct Scenario {
     /// Recovery scoring.
     #[serde(default)]
     pub recovery: RecoveryConfig,
+    /// How the identification poses are chosen (random or designed).
+    #[serde(default, skip_serializing_if = "PoseSelection::is_default")]
+    pub pose_selection: PoseSelection,
 }
 
 /// A parsed scenario with its robot loaded and everything validated.
@@ -252,6 +327,33 @@ impl LoadedScenario {
             tracker: s.tracker.clone(),
             unmodelled: s.unmodelled.clone(),
             poses: s.poses.clone(),
+        }
+    }
+
+    /// The virtual robot the trials run: with a designed selection, the sampler draws the
+    /// candidate pool as the identification set (see [`PoseSelection`]).
+    pub fn trial_virtual_robot(&self) -> VirtualRobotConfig {
+        let mut vr = self.virtual_robot();
+        if self.scenario.pose_selection.method.criterion().is_some() {
+            vr.poses.identification =
+                virtual_robot::PoseSet::Count(self.scenario.pose_selection.candidates);
+        }
+        vr
+    }
+
+    /// The physical scale of the design's columns: the scenario's per-class error budget
+    /// (`truth.random` σ's), or the design crate's default when there is no random draw.
+    pub fn design_scale(&self) -> design::Scale {
+        match &self.scenario.truth.random {
+            Some(r) => design::Scale::from_classes(
+                &self.nominal,
+                r.joint_angle_sigma_deg,
+                r.length_sigma_mm,
+                r.base_rotation_sigma_deg,
+                r.base_translation_sigma_mm,
+                r.tool_sigma_mm,
+            ),
+            None => design::Scale::default(),
         }
     }
 }
@@ -355,6 +457,26 @@ impl Scenario {
                 .layout()
                 .select(names)
                 .map_err(|e| invalid("identification.params", e.to_string()))?;
+        }
+        if self.pose_selection.method.criterion().is_some() {
+            match &self.poses.identification {
+                virtual_robot::PoseSet::Count(n) if *n <= self.pose_selection.candidates => {}
+                virtual_robot::PoseSet::Count(n) => {
+                    return Err(invalid(
+                        "pose_selection.candidates",
+                        format!(
+                            "{} candidates cannot give {n} distinct identification poses",
+                            self.pose_selection.candidates
+                        ),
+                    ));
+                }
+                virtual_robot::PoseSet::ListDeg(_) => {
+                    return Err(invalid(
+                        "pose_selection.method",
+                        "a designed selection needs `poses.identification` as a count".into(),
+                    ));
+                }
+            }
         }
         let loaded = LoadedScenario {
             source: source.to_string(),

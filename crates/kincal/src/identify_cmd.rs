@@ -17,7 +17,10 @@ use clap::Args;
     after_help = "Example (the real UR10 of data/ur10-ipa, from the repository root):
   kincal identify --robot scenarios/robots/ur10.json \\
       --data data/ur10-ipa/series-b-joint-configurations.csv --every 15 --out ur10-cal
-  → ur10-cal/identified.json, registered-nominal.json, parameters.json, report.md"
+  → ur10-cal/identified.json, registered-nominal.json, parameters.json, report.md, report.html
+  kincal identify --robot scenarios/robots/ur10.json \\
+      --data data/ur10-ipa/series-b-joint-configurations.csv --select 30 --criterion i --out ur10-i30
+  → 30 rows chosen by the I criterion identify, the other 1465 validate"
 )]
 pub struct IdentifyArgs {
     /// Nominal robot model file (JSON); its joint limits check the data.
@@ -37,6 +40,15 @@ pub struct IdentifyArgs {
     /// First identification row of --every.
     #[arg(long, default_value_t = 0, requires = "every")]
     offset: usize,
+    /// Identify on N rows of --data chosen by design (their joints only; the nominal
+    /// model's minimal identifiable set) and validate on all the others: what N well-chosen
+    /// poses of the recording would have given.
+    #[arg(long, value_name = "N", conflicts_with_all = ["every", "validate"])]
+    select: Option<usize>,
+    /// Design criterion of --select: d (log det M), a (trace M⁻¹), e (λ_min), i (mean
+    /// predicted variance on the data's poses), o1, o3, o5 (docs/design.md).
+    #[arg(long, default_value = "d", requires = "select")]
+    criterion: design::Criterion,
     /// Parameters to identify: `paper` (all, redundant ones included), `minimal` (the
     /// identifiable set at the registered nominal model), or comma-separated names.
     #[arg(long, default_value = "paper")]
@@ -70,12 +82,16 @@ impl IdentifyArgs {
     fn request(&self) -> IdentifyRequest {
         IdentifyRequest {
             validate: self.validate.clone(),
-            split: match self.every {
-                Some(every) => Split::Every {
+            split: match (self.every, self.select) {
+                (Some(every), _) => Split::Every {
                     every,
                     offset: self.offset,
                 },
-                None => Split::All,
+                (None, Some(poses)) => Split::Select {
+                    poses,
+                    criterion: self.criterion,
+                },
+                (None, None) => Split::All,
             },
             params: self.params.clone(),
             schedule: self.schedule,

@@ -7,6 +7,7 @@
 // types allow the two rustdoc lints.
 
 pub mod campaign_cmd;
+pub mod design_cmd;
 pub mod identifiability;
 pub mod identify_cmd;
 pub mod joints_cmd;
@@ -40,6 +41,9 @@ pub enum Command {
     /// Identifiability of a robot's parameters on a pose set: rank, redundant parameters and
     /// what they are confounded with, condition number, observability indices O1–O5.
     Identifiability(identifiability::IdentifiabilityArgs),
+    /// Choose which poses to measure: N of a candidate pool by a design criterion (D, A, E,
+    /// I, O1, O3, O5) → plan.csv, and a report against random sets of the same size.
+    Design(design_cmd::DesignArgs),
 }
 
 /// Runs a user command.
@@ -53,6 +57,7 @@ pub fn run(cmd: Command) -> Result<()> {
         Command::Predict(args) => joints_cmd::predict(&args),
         Command::Compensate(args) => joints_cmd::compensate(&args),
         Command::Identifiability(args) => identifiability::run(&args),
+        Command::Design(args) => design_cmd::run(&args),
     }
 }
 

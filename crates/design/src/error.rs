@@ -1,0 +1,81 @@
+//! Why a design cannot be made.
+
+/// Every way a design request can fail; each names what is wrong.
+#[derive(Debug, thiserror::Error)]
+pub enum DesignError {
+    /// Fewer equations than identifiable parameters: 3N < rank.
+    #[error(
+        "{poses} poses give {} equations, fewer than the {rank} identifiable parameters \
+         (need at least {} poses)",
+        3 * poses,
+        rank.div_ceil(3)
+    )]
+    TooFewPoses {
+        /// Poses asked for.
+        poses: usize,
+        /// Size of the minimal identifiable set.
+        rank: usize,
+    },
+    /// The pool is smaller than the design.
+    #[error("{candidates} candidates cannot give a design of {poses} distinct poses")]
+    TooFewCandidates {
+        /// Candidates available.
+        candidates: usize,
+        /// Poses asked for.
+        poses: usize,
+    },
+    /// A candidate (or workspace) pose is unusable.
+    #[error("{what} {index}{id}: {message}", id = id.as_deref().map(|s| format!(" (id {s})")).unwrap_or_default())]
+    BadPose {
+        /// `candidate` or `workspace pose`.
+        what: &'static str,
+        /// 0-based index in its set.
+        index: usize,
+        /// Its id, when it has one.
+        id: Option<String>,
+        /// What is wrong (NaN, outside the limits of joint k, wrong joint count).
+        message: String,
+    },
+    /// No candidate (no combination of candidates) can observe these parameters: the pool's
+    /// information matrix is singular on them.
+    #[error(
+        "the candidate pool cannot observe {}: on these {candidates} candidates they are \
+         redundant ({}); add candidates that move these parameters or leave them out with --params",
+        names.join(", "),
+        detail
+    )]
+    RankDeficientPool {
+        /// The parameters of the minimal set the pool leaves unobservable.
+        names: Vec<String>,
+        /// What they are confounded with on the pool (words).
+        detail: String,
+        /// Number of candidates.
+        candidates: usize,
+    },
+    /// An option is out of range.
+    #[error("option `{name}`: {message}")]
+    InvalidOption {
+        /// The option.
+        name: &'static str,
+        /// What is wrong.
+        message: String,
+    },
+    /// The identifiability analysis failed.
+    #[error("identifiability: {0}")]
+    Identify(#[from] identify::IdentifyError),
+    /// A parameter name is unknown.
+    #[error("parameters: {0}")]
+    Model(#[from] kinematics::ModelError),
+    /// A candidate or workspace file is bad (names file, line and column).
+    #[error(transparent)]
+    Measurements(#[from] measurements::MeasurementError),
+    /// The virtual robot's sampler failed.
+    #[error("pose sampler: {0}")]
+    Sampler(#[from] virtual_robot::SimError),
+    /// The virtual robot's configuration does not fit the robot.
+    #[error("pose sampler: {0}")]
+    SamplerConfig(#[from] virtual_robot::ConfigError),
+    /// A numerical failure (a matrix that should be positive definite is not).
+    #[error("numerical failure: {0}")]
+    Numerical(String),
+}

@@ -1,0 +1,122 @@
+//! Experiment design: which poses to measure.
+//!
+//! ```text
+//! candidates ─► design (criterion, N) ─► plan.csv ─► measure / simulate ─► identify ─► evaluate
+//! ```
+//!
+//! * [`Candidates`]: a pool of joint configurations — from the virtual robot's pose sampler
+//!   (joint limits, floor, tracker window, singularity distance), from a joint CSV (ids
+//!   kept) or from the joints of a measurement file; files are read by `measurements`, so a
+//!   bad value is reported with its file, line and column.
+//! * [`InfoModel`]: each candidate's 3 × p identification-Jacobian block on the minimal
+//!   identifiable set (`identify`'s rank decision, `kinematics::Robot`'s analytic Jacobian),
+//!   columns multiplied by a physical [`Scale`] (the expected size of each parameter's error),
+//!   and the workspace matrix W of the I criterion.
+//! * [`Criterion`]: D, A, E, I, O1, O3, O5 on `M = Σ B_iᵀB_i` (formulas in
+//!   [`criterion`]); [`dense_value`] is the straightforward reference.
+//! * [`select()`]: greedy forward selection with rank-3 updates, then exchange until no swap
+//!   improves the criterion, optional seeded restarts (see the [`mod@select`] module for the
+//!   algebra). Deterministic.
+//! * [`report()`]: the design's criterion, condition number and O1–O5 beside the medians of
+//!   random sets of the same size.
+//! * [`select_rows`]: the real-data entry point (rows of a recording chosen by their joints).
+//!
+//! ```
+//! use design::{Candidates, Criterion, DesignOptions, InfoModel, Scale, select};
+//! use kinematics::Robot;
+//!
+//! let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+//!     .join("../../scenarios/robots/kr1000-titan.json");
+//! let robot = Robot::from_file(&path)?;
+//! let pool = identify::random_poses(&robot, 200, 1)?;
+//! let model = InfoModel::new(&robot, &pool, None, None, &Scale::default())?;
+//! assert_eq!(model.p, 27); // the KR1000's minimal set
+//! let design = select(&model, &DesignOptions::new(Criterion::D, 15))?;
+//! assert_eq!(design.selected.len(), 15);
+//! assert!(design.value >= design.greedy_value);
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+
+#![warn(missing_docs)]
+
+pub mod candidates;
+pub mod criterion;
+mod error;
+pub mod model;
+pub mod report;
+pub mod select;
+
+pub use candidates::Candidates;
+pub use criterion::{Criterion, condition_number, dense_value, observability};
+pub use error::DesignError;
+pub use model::{InfoModel, Scale};
+pub use report::{DesignReport, SetFigures, report};
+pub use select::{Design, DesignOptions, select};
+
+use kinematics::Robot;
+
+/// Real data: chooses `n` of the rows whose joints (degrees, flat, stride N) are `q_deg`,
+/// by `criterion` on the minimal identifiable set (or `params`), with the default
+/// [`Scale`]. Returns the chosen row indices, ascending. The robot should be the model the
+/// data will be identified with (e.g. the nominal model registered in the tracker frame);
+/// only the joints are used.
+pub fn select_rows(
+    robot: &Robot,
+    q_deg: &[f64],
+    n: usize,
+    criterion: Criterion,
+    params: Option<&[usize]>,
+) -> Result<Vec<usize>, DesignError> {
+    let q_rad: Vec<f64> = q_deg.iter().map(|d| d.to_radians()).collect();
+    let model = InfoModel::new(robot, &q_rad, None, params, &Scale::default())?;
+    Ok(select(&model, &DesignOptions::new(criterion, n))?.selected)
+}
+
+/// The design of a plan file: chooses `opts.poses` of `candidates` for the parameters
+/// `params` (names; `None`: the minimal identifiable set), with the I criterion's workspace
+/// `workspace` (`None`: the candidates), and compares with `random_sets` random sets of the
+/// same size. Returns the plan (joints-only measurement set, candidate ids kept, in pool
+/// order) and the report. Nothing is written.
+pub fn design_plan(
+    robot: &Robot,
+    candidates: &Candidates,
+    workspace: Option<&Candidates>,
+    params: Option<&[String]>,
+    opts: &DesignOptions,
+    random_sets: usize,
+) -> Result<(measurements::MeasurementSet, DesignReport), DesignError> {
+    let params = params.map(|p| robot.layout().select(p)).transpose()?;
+    let model = InfoModel::new(
+        robot,
+        &candidates.q_rad,
+        workspace.map(|w| w.q_rad.as_slice()),
+        params.as_deref(),
+        &Scale::default(),
+    )
+    .map_err(|e| with_ids(e, candidates))?;
+    let d = select(&model, opts)?;
+    let rep = report(&model, &d, random_sets, opts.seed);
+    Ok((candidates.plan(&d.selected, &candidates.source), rep))
+}
+
+/// Adds the candidate's id and source line to a bad-pose error.
+fn with_ids(e: DesignError, c: &Candidates) -> DesignError {
+    match e {
+        DesignError::BadPose {
+            what: "candidate",
+            index,
+            id: None,
+            message,
+        } if index < c.len() => DesignError::BadPose {
+            what: "candidate",
+            index,
+            id: c.ids[index].clone(),
+            message: if c.lines[index] > 0 {
+                format!("{}:{}: {message}", c.source, c.lines[index])
+            } else {
+                message
+            },
+        },
+        other => other,
+    }
+}

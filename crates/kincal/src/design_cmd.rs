@@ -1,0 +1,102 @@
+//! `kincal design`: choose which poses to measure (all logic in the `design` crate).
+
+use std::path::PathBuf;
+
+use anyhow::{Context, Result, bail};
+use clap::{ArgGroup, Args};
+use design::{Candidates, Criterion, DesignOptions, design_plan};
+use kinematics::Robot;
+
+/// Arguments of `design`.
+#[allow(rustdoc::broken_intra_doc_links, rustdoc::invalid_html_tags)] // clap help text
+#[derive(Args, Debug)]
+#[command(after_help = "Examples:
+  kincal design --robot scenarios/robots/ur10.json \\
+      --candidates data/ur10-ipa/series-b-joint-configurations.csv --poses 20 --criterion i
+  kincal design --robot scenarios/robots/kr1000-titan.json \\
+      --scenario scenarios/paper-kr1000.json --random 500 --poses 30 --out plan.csv
+  Writes the plan (joints-only measurement file, candidate ids kept) and prints the criterion,
+  condition number and O1–O5 beside the median of 100 random sets of the same size.")]
+#[command(group(ArgGroup::new("pool").required(true).args(["candidates", "scenario"])))]
+pub struct DesignArgs {
+    /// Robot model file (JSON): the model the design is computed on.
+    #[arg(long)]
+    robot: PathBuf,
+    /// Candidate poses: a joint CSV or a measurement file (q1…qN in degrees, optional id;
+    /// points ignored).
+    #[arg(long)]
+    candidates: Option<PathBuf>,
+    /// Scenario file: draw the candidates with its pose sampler (joint limits, floor,
+    /// tracker window, wrist and condition limits), seed of the scenario, trial 0.
+    #[arg(long, requires = "random")]
+    scenario: Option<PathBuf>,
+    /// Number of candidates to draw with --scenario.
+    #[arg(long, value_name = "N")]
+    random: Option<usize>,
+    /// Number of poses to choose.
+    #[arg(long)]
+    poses: usize,
+    /// Criterion: d, a, e, i, o1, o3, o5.
+    #[arg(long, default_value = "d")]
+    criterion: String,
+    /// Workspace poses of the I criterion (joint CSV) [the candidates].
+    #[arg(long)]
+    workspace: Option<PathBuf>,
+    /// Parameters: `minimal` (the minimal identifiable set) or comma-separated names.
+    #[arg(long, default_value = "minimal")]
+    params: String,
+    /// Output plan (joints-only measurement file, candidate ids kept) [plan.csv].
+    #[arg(long, default_value = "plan.csv")]
+    out: PathBuf,
+    /// Seed of restarts and of the random sets the report compares with.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Exchange restarts from random starting sets.
+    #[arg(long, default_value_t = 0)]
+    restarts: usize,
+}
+
+/// Runs `design`.
+pub fn run(args: &DesignArgs) -> Result<()> {
+    let robot = Robot::from_file(&args.robot)
+        .with_context(|| format!("loading {}", args.robot.display()))?;
+    let criterion: Criterion = args
+        .criterion
+        .parse()
+        .map_err(|e: String| anyhow::anyhow!(e))?;
+    let pool = match (&args.candidates, &args.scenario, args.random) {
+        (Some(path), _, _) => Candidates::from_file(&robot, path)?,
+        (None, Some(path), Some(n)) => {
+            let loaded = campaign::Scenario::from_file(path)
+                .with_context(|| format!("loading {}", path.display()))?;
+            Candidates::from_sampler(&robot, &loaded.virtual_robot(), loaded.scenario.seed, 0, n)
+                .with_context(|| format!("sampling candidates of {}", path.display()))?
+        }
+        _ => bail!("give --candidates FILE, or --scenario FILE with --random N"),
+    };
+    let workspace = args
+        .workspace
+        .as_ref()
+        .map(|p| Candidates::from_file(&robot, p))
+        .transpose()?;
+    let params: Option<Vec<String>> = match args.params.trim() {
+        "minimal" => None,
+        list => Some(list.split(',').map(|s| s.trim().to_string()).collect()),
+    };
+    let mut opts = DesignOptions::new(criterion, args.poses);
+    opts.seed = args.seed;
+    opts.restarts = args.restarts;
+    let (plan, report) = design_plan(
+        &robot,
+        &pool,
+        workspace.as_ref(),
+        params.as_deref(),
+        &opts,
+        100,
+    )?;
+    measurements::write_file(&args.out, &plan, Some("kincal design plan"))
+        .with_context(|| format!("writing {}", args.out.display()))?;
+    print!("{}", report.to_text());
+    println!("plan: {} poses → {}", plan.rows.len(), args.out.display());
+    Ok(())
+}
