@@ -10,6 +10,7 @@ mod campaign_cmd;
 mod check_cmd;
 mod identifiability;
 mod identify_cmd;
+mod urdf_cmd;
 
 use std::path::PathBuf;
 
@@ -64,6 +65,9 @@ enum Cmd {
     /// Run the criterion benchmarks (kinematics, identification, one campaign trial) and
     /// write results/bench.json with the machine's CPU, SIMD features and cores.
     Bench(bench::BenchArgs),
+    /// URDF in and out: `urdf import` a chain of a URDF as a robot file, `urdf export` a
+    /// robot file (e.g. identified.json) as a URDF.
+    Urdf(urdf_cmd::UrdfArgs),
 }
 
 fn main() -> Result<()> {
@@ -81,6 +85,7 @@ fn main() -> Result<()> {
         Cmd::Predict(args) => calibrate::predict(&args),
         Cmd::Compensate(args) => calibrate::compensate_cmd(&args),
         Cmd::Bench(args) => bench::run(args),
+        Cmd::Urdf(args) => urdf_cmd::run(&args),
     }
 }
 
