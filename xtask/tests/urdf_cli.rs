@@ -81,7 +81,8 @@ fn ur10_urdf_import_calibrates_series_b_like_the_hand_written_model() {
     assert_eq!(v, validation_line(&hand));
     assert!(from_urdf.contains("35 free parameters") && from_urdf.contains("rank 27 of 35"));
 
-    // The calibrated robot goes back out as URDF, with the joint names and offsets.
+    // The calibrated robot goes back out as URDF, with the URDF's joint names (carried by
+    // the robot files' `joint_names` through identify) and the offsets.
     let identified = tmp.path().join("cal-urdf/identified.json");
     let urdf_out = tmp.path().join("ur10-calibrated.urdf");
     let offsets = tmp.path().join("offsets.json");
@@ -95,8 +96,6 @@ fn ur10_urdf_import_calibrates_series_b_like_the_hand_written_model() {
         s(&offsets),
         "--nominal",
         s(&tmp.path().join("cal-urdf/registered-nominal.json")),
-        "--joint-names",
-        "shoulder_pan_joint,shoulder_lift_joint,elbow_joint,wrist_1_joint,wrist_2_joint,wrist_3_joint",
     ]));
     let text = std::fs::read_to_string(&urdf_out).unwrap();
     assert!(text.contains("<joint name=\"wrist_3_joint\" type=\"revolute\">"));

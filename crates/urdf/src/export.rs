@@ -11,7 +11,8 @@ use crate::rot::rpy_of;
 /// Names of the exported URDF's elements.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct ExportOptions {
-    /// The revolute joints' names, base to tip (default `joint_1` … `joint_N`).
+    /// The revolute joints' names, base to tip (default: the robot file's `joint_names`,
+    /// else `joint_1` … `joint_N`).
     pub joint_names: Option<Vec<String>>,
     /// `<robot name>` (default: the robot file's name).
     pub robot_name: Option<String>,
@@ -34,7 +35,7 @@ fn link_name(i: usize) -> String {
 /// The joint names to use, checked.
 fn joint_names(spec: &RobotSpec, opts: &ExportOptions) -> Result<Vec<String>, UrdfError> {
     let n = spec.joints.len();
-    match &opts.joint_names {
+    match opts.joint_names.as_ref().or(spec.joint_names.as_ref()) {
         None => Ok((1..=n).map(|i| format!("joint_{i}")).collect()),
         Some(names) if names.len() != n => Err(UrdfError::Options(format!(
             "{} joint names given for a robot with {n} joints",
@@ -62,6 +63,7 @@ fn link_transform(j: &JointSpec) -> Result<Frame, UrdfError> {
         joints: vec![j.clone()],
         base: BaseSpec::default(),
         tool_mm: [0.0; 3],
+        joint_names: None,
     };
     Ok(Robot::from_spec(&one)?.flange_reference(&[0.0]))
 }

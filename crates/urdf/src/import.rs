@@ -248,6 +248,7 @@ pub fn import_str(
         joints: Vec::with_capacity(n),
         base: base_spec,
         tool_mm: [0.0; 3],
+        joint_names: None,
     };
 
     // Joints 1..N−1: frame i has z along axis i+1 and its origin on it; each frame is the
@@ -276,6 +277,7 @@ pub fn import_str(
     let tip_in_flange = flange.inverse().compose(&tip_frame);
     let tool = tip_in_flange.transform_point(&Vector3::from(opts.tool_in_tip_mm));
     spec.tool_mm = tool.map(|v| if v.abs() < 1e-10 { 0.0 } else { v }).into();
+    spec.joint_names = Some(joint_names.clone());
     spec.validate(source_name)?;
     Ok(Imported {
         spec,

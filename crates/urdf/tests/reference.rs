@@ -8,6 +8,7 @@
 
 mod common;
 
+use std::io::Write as _;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -92,7 +93,9 @@ fn compare(py: &Path, dir: &Path, c: &Case<'_>, seed: u64) -> f64 {
 #[test]
 fn independent_urdf_consumer_agrees_to_1e_9_mm() {
     let Some(py) = python() else {
-        eprintln!(
+        // Written past the test harness's output capture, so that it shows in every run.
+        let _ = writeln!(
+            std::io::stderr(),
             "\n\n*** SKIPPED independent_urdf_consumer_agrees_to_1e_9_mm: no Python environment \
              with yourdfpy (set KINCAL_URDF_PYTHON or create target/urdf-venv, see \
              docs/urdf.md) ***\n"

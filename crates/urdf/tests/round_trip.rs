@@ -102,6 +102,28 @@ fn export_is_deterministic_and_names_what_it_is_given() {
 }
 
 #[test]
+fn joint_names_survive_the_robot_file_and_the_robot() {
+    let mut spec = repo_robot("ur10.json");
+    assert_eq!(spec.joint_names, None);
+    let names: Vec<String> = (1..=6).map(|i| format!("axis {i}")).collect();
+    spec.joint_names = Some(names.clone());
+    let text = spec.to_json_string();
+    let back = RobotSpec::from_json_str(&text, "t").unwrap();
+    assert_eq!(Robot::from_spec(&back).unwrap().to_spec(), spec);
+    let urdf_text = export(&spec, &ExportOptions::default()).unwrap();
+    assert!(urdf_text.contains("<joint name=\"axis 6\" type=\"revolute\">"));
+    // A file without names reads and writes as before; a wrong count is refused.
+    let plain = repo_robot("kr1000-titan.json");
+    assert!(!plain.to_json_string().contains("joint_names"));
+    let bad = text.replace("\"axis 6\"", "\"axis 5\"");
+    let e = RobotSpec::from_json_str(&bad, "t").unwrap_err().to_string();
+    assert!(
+        e.contains("joint_names[5]") && e.contains("repeated"),
+        "{e}"
+    );
+}
+
+#[test]
 fn offsets_file_lists_theta_and_its_change() {
     let nominal = repo_robot("ur10.json");
     let mut cal = nominal.clone();
