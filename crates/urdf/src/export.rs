@@ -71,7 +71,9 @@ fn link_transform(j: &JointSpec) -> Result<Frame, UrdfError> {
 /// A number as URDF text: the shortest decimal that reads back to the same `f64`.
 fn num(v: f64) -> String {
     let a = v.abs();
-    if a == 0.0 || (1e-4..1e7).contains(&a) {
+    if a == 0.0 {
+        "0".to_string()
+    } else if (1e-4..1e7).contains(&a) {
         format!("{v}")
     } else {
         format!("{v:e}")
