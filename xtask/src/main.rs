@@ -45,8 +45,11 @@ enum Cmd {
     User(kincal::Command),
 }
 
-fn main() -> Result<()> {
-    let cli = Cli::parse();
+fn main() {
+    kincal::exit_on_error(run(Cli::parse()));
+}
+
+fn run(cli: Cli) -> Result<()> {
     match cli.cmd {
         Cmd::Poses { robot } => poses(&robot),
         Cmd::Regenerate(args) => regenerate::regenerate(args),

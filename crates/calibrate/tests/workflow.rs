@@ -132,7 +132,11 @@ fn select_identifies_on_the_designed_rows_and_validates_on_the_rest() {
     let mut lines: Vec<usize> = cal.used.iter().chain(&v.rows).map(|m| m.line).collect();
     lines.sort_unstable();
     lines.dedup();
-    assert_eq!(lines.len(), 1495, "every row identifies or validates, none both");
+    assert_eq!(
+        lines.len(),
+        1495,
+        "every row identifies or validates, none both"
+    );
     // The same rows as the design crate chooses on the nominal model.
     let robot = kinematics::Robot::from_file(&r.robot).unwrap();
     let mut rows: Vec<_> = cal.used.iter().chain(&v.rows).cloned().collect();
@@ -158,6 +162,9 @@ fn select_refuses_too_few_or_too_many_rows() {
             criterion: design::Criterion::I,
         };
         let e = calibrate::run(&r).unwrap_err().to_string();
-        assert!(e.contains(&format!("--select {n}")) && e.contains(says), "{e}");
+        assert!(
+            e.contains(&format!("--select {n}")) && e.contains(says),
+            "{e}"
+        );
     }
 }

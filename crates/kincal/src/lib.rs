@@ -11,6 +11,7 @@ pub mod design_cmd;
 pub mod identifiability;
 pub mod identify_cmd;
 pub mod joints_cmd;
+pub mod urdf_cmd;
 
 use anyhow::Result;
 use clap::Subcommand;
@@ -44,6 +45,9 @@ pub enum Command {
     /// Choose which poses to measure: N of a candidate pool by a design criterion (D, A, E,
     /// I, O1, O3, O5) → plan.csv, and a report against random sets of the same size.
     Design(design_cmd::DesignArgs),
+    /// URDF in and out: `urdf import` a chain of a URDF as a robot file, `urdf export` a
+    /// robot file (e.g. identified.json) as a URDF.
+    Urdf(urdf_cmd::UrdfArgs),
 }
 
 /// Runs a user command.
@@ -58,6 +62,26 @@ pub fn run(cmd: Command) -> Result<()> {
         Command::Compensate(args) => joints_cmd::compensate(&args),
         Command::Identifiability(args) => identifiability::run(&args),
         Command::Design(args) => design_cmd::run(&args),
+        Command::Urdf(args) => urdf_cmd::run(&args),
+    }
+}
+
+/// Ends a front end's `main`: on an error, prints it and what caused it, one line each
+/// (`error: …` then `  caused by: …`, outermost first) to stderr and exits with status 1.
+/// A cause that the message before it already quotes is left out. No backtrace, whatever
+/// `RUST_BACKTRACE` says: every error names its file, line or option.
+pub fn exit_on_error(result: Result<()>) {
+    if let Err(e) = result {
+        eprintln!("error: {e}");
+        let mut shown = e.to_string();
+        for cause in e.chain().skip(1).map(|c| c.to_string()) {
+            // A message that already quotes its cause (`file: No such file…`) is not repeated.
+            if !shown.contains(&cause) {
+                eprintln!("  caused by: {cause}");
+            }
+            shown = cause;
+        }
+        std::process::exit(1);
     }
 }
 

@@ -1,6 +1,5 @@
 //! `kincal`: kinematic calibration of industrial robots from the command line.
 
-use anyhow::Result;
 use clap::Parser;
 
 #[derive(Parser)]
@@ -21,6 +20,6 @@ struct Cli {
     cmd: kincal::Command,
 }
 
-fn main() -> Result<()> {
-    kincal::run(Cli::parse().cmd)
+fn main() {
+    kincal::exit_on_error(kincal::run(Cli::parse().cmd));
 }

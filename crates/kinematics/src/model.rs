@@ -75,6 +75,11 @@ pub struct RobotSpec {
     pub base: BaseSpec,
     /// Measured point (tracker ball, probe) in the flange frame, mm.
     pub tool_mm: [f64; 3],
+    /// Optional names of the joints, base to flange (e.g. a URDF's joint names, kept
+    /// through calibration so that `urdf export` writes them back). Absent from files that
+    /// have none, so those read and write as before.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub joint_names: Option<Vec<String>>,
 }
 
 impl RobotSpec {
@@ -170,6 +175,22 @@ impl RobotSpec {
         }
         for (k, v) in self.tool_mm.iter().enumerate() {
             finite(format!("tool_mm[{k}]"), *v)?;
+        }
+        if let Some(names) = &self.joint_names {
+            if names.len() != self.joints.len() {
+                return Err(invalid(
+                    "joint_names".into(),
+                    format!("{} names for {} joints", names.len(), self.joints.len()),
+                ));
+            }
+            for (k, n) in names.iter().enumerate() {
+                if n.is_empty() || names[..k].contains(n) {
+                    return Err(invalid(
+                        format!("joint_names[{k}]"),
+                        format!("{n:?} is empty or repeated"),
+                    ));
+                }
+            }
         }
         Ok(())
     }

@@ -157,6 +157,8 @@ pub struct Robot {
     /// [`Base::axes`] of `base`, cached.
     base_axes: [Vector3<f64>; 3],
     tool_mm: Vector3<f64>,
+    /// The model file's optional joint names, carried to [`Robot::to_spec`].
+    joint_names: Option<Vec<String>>,
     layout: ParamLayout,
     /// Parameter index of β for each joint (`None` where β is not a parameter).
     beta_index: [Option<usize>; MAX_JOINTS],
@@ -212,6 +214,7 @@ impl Robot {
             base_frame: base.frame(),
             base_axes: base.axes(),
             tool_mm: Vector3::from(spec.tool_mm),
+            joint_names: spec.joint_names.clone(),
             layout,
             beta_index,
             base_index,
@@ -248,6 +251,7 @@ impl Robot {
                 dz_mm: self.base.d_mm[2],
             },
             tool_mm: self.tool_mm.into(),
+            joint_names: self.joint_names.clone(),
         }
     }
 
