@@ -6,6 +6,7 @@
 //! `report.md` in memory ([`Calibration::render`]) → write them atomically into the output
 //! directory, which is created only then ([`Rendered::write_to`]).
 
+use report::fmt::mm;
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -934,15 +935,19 @@ fn render_report(o: &Calibration) -> String {
         let rms = (v.iter().map(|x| x * x).sum::<f64>() / v.len() as f64).sqrt();
         let _ = writeln!(
             s,
-            "| {name} | {} | {rms:.4} | {mean:.4} | {max:.4} |",
-            v.len()
+            "| {name} | {} | {} | {} | {} |",
+            v.len(),
+            mm(rms),
+            mm(mean),
+            mm(max)
         );
     }
     match o.fit.sigma_hat {
         Some(sh) => {
             let _ = writeln!(
                 s,
-                "\nσ̂ = √(RSS / dof) = {sh:.4} mm per axis (dof = {}).",
+                "\nσ̂ = √(RSS / dof) = {} mm per axis (dof = {}).",
+                mm(sh),
                 o.fit.dof
             );
         }
@@ -1036,9 +1041,12 @@ fn render_report(o: &Calibration) -> String {
         Some(sc) => {
             let _ = writeln!(
                 s,
-                "Screened after the first fit: ‖e‖ > k·σ̂₃ = {} × {:.4} = {:.4} mm (σ̂₃ = √3·σ̂, \
-                 first-fit RMS {:.4} mm).",
-                sc.k, sc.sigma_3d_mm, sc.threshold_mm, o.first.rms_mm
+                "Screened after the first fit: ‖e‖ > k·σ̂₃ = {} × {} = {} mm (σ̂₃ = √3·σ̂, \
+                 first-fit RMS {} mm).",
+                sc.k,
+                mm(sc.sigma_3d_mm),
+                mm(sc.threshold_mm),
+                mm(o.first.rms_mm)
             );
             if sc.outliers.is_empty() {
                 s.push_str("\nNone.\n");
@@ -1049,8 +1057,9 @@ fn render_report(o: &Calibration) -> String {
                     sc.outliers.len(),
                     if o.rejected {
                         format!(
-                            "excluded and refitted (RMS {:.4} → {:.4} mm)",
-                            o.first.rms_mm, o.fit.rms_mm
+                            "excluded and refitted (RMS {} → {} mm)",
+                            mm(o.first.rms_mm),
+                            mm(o.fit.rms_mm)
                         )
                     } else {
                         "kept (use `--reject-outliers` to exclude them and refit)".to_string()
@@ -1061,10 +1070,10 @@ fn render_report(o: &Calibration) -> String {
                     let r = &o.screened_rows[ol.index];
                     let _ = writeln!(
                         s,
-                        "| {} | {} | {:.4} | {:.2} |",
+                        "| {} | {} | {} | {:.2} |",
                         r.id.as_deref().unwrap_or("–"),
                         r.line,
-                        ol.norm_mm,
+                        mm(ol.norm_mm),
                         ol.ratio
                     );
                 }
@@ -1132,14 +1141,12 @@ fn summary_text(o: &Calibration) -> String {
     let (_, fit_max) = mean_max(&norms(&residuals(&o.fit.robot, &o.used)));
     let _ = writeln!(
         out,
-        "fit: RMS {:.4} mm, max {:.4} mm on {} poses; σ̂ {} mm/axis; rank {} of {}; {} after {} \
+        "fit: RMS {} mm, max {} mm on {} poses; σ̂ {} mm/axis; rank {} of {}; {} after {} \
          iterations; {:.1} ms",
-        o.fit.rms_mm,
-        fit_max,
+        mm(o.fit.rms_mm),
+        mm(fit_max),
         o.used.len(),
-        o.fit
-            .sigma_hat
-            .map_or_else(|| "n/a".into(), |v| format!("{v:.4}")),
+        o.fit.sigma_hat.map_or_else(|| "n/a".into(), mm),
         o.analysis.rank,
         o.free.len(),
         o.fit.stop,
@@ -1167,8 +1174,9 @@ fn summary_text(o: &Calibration) -> String {
         if sc.outliers.is_empty() {
             let _ = writeln!(
                 out,
-                "outliers (‖e‖ > {} σ̂₃ = {:.4} mm): none",
-                sc.k, sc.threshold_mm
+                "outliers (‖e‖ > {} σ̂₃ = {} mm): none",
+                sc.k,
+                mm(sc.threshold_mm)
             );
         } else {
             let list: Vec<String> = sc
@@ -1177,24 +1185,25 @@ fn summary_text(o: &Calibration) -> String {
                 .take(10)
                 .map(|ol| {
                     format!(
-                        "{} {:.3} mm",
+                        "{} {} mm",
                         row_label(&o.screened_rows[ol.index]),
-                        ol.norm_mm
+                        mm(ol.norm_mm)
                     )
                 })
                 .collect();
             let _ = writeln!(
                 out,
-                "outliers (‖e‖ > {} σ̂₃ = {:.4} mm): {} — {}{}; {}",
+                "outliers (‖e‖ > {} σ̂₃ = {} mm): {} — {}{}; {}",
                 sc.k,
-                sc.threshold_mm,
+                mm(sc.threshold_mm),
                 sc.outliers.len(),
                 list.join(", "),
                 if sc.outliers.len() > 10 { ", …" } else { "" },
                 if o.rejected {
                     format!(
-                        "excluded, refitted: RMS {:.4} → {:.4} mm",
-                        o.first.rms_mm, o.fit.rms_mm
+                        "excluded, refitted: RMS {} → {} mm",
+                        mm(o.first.rms_mm),
+                        mm(o.fit.rms_mm)
                     )
                 } else {
                     "kept (--reject-outliers to exclude)".to_string()

@@ -54,9 +54,10 @@ pub fn predict(args: &PredictArgs) -> Result<()> {
     emit(args.out.as_deref(), &p.csv)?;
     match p.file_error_mm {
         Some((mean, max)) => eprintln!(
-            "{} rows; the file has points x, y, z: |file − predicted| mean {mean:.4} mm, max \
-             {max:.4} mm",
-            p.rows
+            "{} rows; the file has points x, y, z: |file − predicted| mean {} mm, max {} mm",
+            p.rows,
+            report::fmt::mm(mean),
+            report::fmt::mm(max)
         ),
         None => eprintln!("{} rows", p.rows),
     }
