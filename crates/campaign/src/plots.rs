@@ -8,6 +8,7 @@
 use report::fmt::{self, number};
 use report::html::{self, Picture};
 use report::plot::{self, cdf_figure, figure_svg, histogram_svg, panels_svg, rebin};
+use report::plot::{mean, norms};
 use report::{Figure, PlotError, RefLine, Scale, Series, Style};
 
 use crate::aggregate::Summary;
@@ -24,16 +25,6 @@ pub fn kinematic_order<'a>(names: impl IntoIterator<Item = &'a str>) -> Vec<&'a 
     let mut v: Vec<&str> = names.into_iter().collect();
     v.sort_by_key(|n| (layout.index_of(n).unwrap_or(usize::MAX), *n));
     v
-}
-
-fn norms(v: &[[f64; 3]]) -> Vec<f64> {
-    v.iter()
-        .map(|e| (e[0] * e[0] + e[1] * e[1] + e[2] * e[2]).sqrt())
-        .collect()
-}
-
-fn mean(v: &[f64]) -> f64 {
-    v.iter().sum::<f64>() / v.len().max(1) as f64
 }
 
 /// Whether a campaign reproduces the paper (its Table 4 is the reference).

@@ -11,6 +11,7 @@ use crate::html::{self, Picture};
 use crate::plot::{
     Figure, HEIGHT, PlotError, RefLine, Scale, Series, Style, cdf_figure, figure_svg, panels_svg,
 };
+use crate::plot::{mean, norms};
 
 /// What [`identify_plots`] draws from. Every error is measured − model, in mm, one per row.
 #[derive(Clone, Copy, Debug)]
@@ -41,16 +42,6 @@ pub const IDENTIFY_PLOT_FILES: [&str; 4] = [
     "residuals-per-axis.svg",
     "outliers.svg",
 ];
-
-fn norms(v: &[[f64; 3]]) -> Vec<f64> {
-    v.iter()
-        .map(|e| (e[0] * e[0] + e[1] * e[1] + e[2] * e[2]).sqrt())
-        .collect()
-}
-
-fn mean(v: &[f64]) -> f64 {
-    v.iter().sum::<f64>() / v.len().max(1) as f64
-}
 
 fn indexed(v: &[f64]) -> Vec<(f64, f64)> {
     v.iter()

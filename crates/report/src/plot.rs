@@ -41,6 +41,19 @@ pub const WIDTH: u32 = 800;
 /// Height of a single-panel figure, in pixels.
 pub const HEIGHT: u32 = 500;
 
+/// The 3-D norms ‖e‖ = √(x² + y² + z²) of error vectors, in their order (what the error plots
+/// draw).
+pub fn norms(v: &[[f64; 3]]) -> Vec<f64> {
+    v.iter()
+        .map(|e| (e[0] * e[0] + e[1] * e[1] + e[2] * e[2]).sqrt())
+        .collect()
+}
+
+/// The mean of `v`, summed in order (0 for an empty slice): the reference lines of the plots.
+pub fn mean(v: &[f64]) -> f64 {
+    v.iter().sum::<f64>() / v.len().max(1) as f64
+}
+
 /// Why a plot could not be drawn.
 #[derive(Debug, Clone, thiserror::Error)]
 pub enum PlotError {
