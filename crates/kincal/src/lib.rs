@@ -33,7 +33,8 @@ pub enum Command {
     /// files) and truth.json.
     Simulate(campaign_cmd::SimulateArgs),
     /// Calibrate a robot from measurements: register, identify, screen outliers, validate;
-    /// writes identified.json, registered-nominal.json, parameters.json and report.md.
+    /// writes identified.json, registered-nominal.json, parameters.json, report.md and
+    /// report.html with its plots.
     Identify(identify_cmd::IdentifyArgs),
     /// Predicted x, y, z of a robot model for each row of a joint file.
     Predict(joints_cmd::PredictArgs),
