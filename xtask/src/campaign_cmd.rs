@@ -35,6 +35,13 @@ pub struct CampaignArgs {
     /// Switch the scenario's ISO 9283 test off (e.g. to time the trials alone).
     #[arg(long)]
     pub no_iso: bool,
+    /// Continue an interrupted run from the checkpoint in the output directory (a fresh
+    /// start if there is none; refused if it belongs to another run, saying what differs).
+    #[arg(long)]
+    pub resume: bool,
+    /// Checkpoint every N trials (default: every 10 s, in chunks of 64 trials per thread).
+    #[arg(long, value_name = "N")]
+    pub checkpoint_every: Option<u64>,
 }
 
 /// Arguments of `merge`.
@@ -124,7 +131,32 @@ pub fn campaign(args: CampaignArgs) -> Result<()> {
         args.shard.as_deref(),
         args.quiet,
         args.no_iso,
+        Some(Checkpointing {
+            resume: args.resume,
+            every: args.checkpoint_every,
+        }),
     )
+}
+
+/// `--resume` and `--checkpoint-every`.
+#[derive(Clone, Copy)]
+struct Checkpointing {
+    resume: bool,
+    every: Option<u64>,
+}
+
+impl Checkpointing {
+    /// The library's configuration for the checkpoint at `path` (on the current pool).
+    fn config(self, path: PathBuf) -> Result<campaign::CheckpointConfig> {
+        let mut cfg = campaign::CheckpointConfig::new(path, self.resume, campaign::code_version());
+        if let Some(k) = self.every {
+            if k == 0 {
+                bail!("--checkpoint-every must be at least 1");
+            }
+            cfg.every_trials = k;
+        }
+        Ok(cfg)
+    }
 }
 
 fn threads_or_all(threads: Option<usize>) -> usize {
@@ -140,6 +172,7 @@ fn run_campaign(
     shard: Option<&str>,
     quiet: bool,
     no_iso: bool,
+    checkpointing: Option<Checkpointing>,
 ) -> Result<()> {
     let mut loaded = Scenario::from_file(scenario_path)
         .with_context(|| format!("loading scenario {}", scenario_path.display()))?;
@@ -170,17 +203,40 @@ fn run_campaign(
     let ctx = Context::new(loaded).context("preparing the campaign")?;
     let pb = progress_bar(range.end - range.start);
     let done = AtomicU64::new(0);
-    let agg: Aggregate = pool.install(|| {
-        run_range(&ctx, range.clone(), &|k| {
-            let d = done.fetch_add(k, Ordering::Relaxed) + k;
-            if d.is_multiple_of(16) {
-                pb.set_position(d);
+    std::fs::create_dir_all(&out).with_context(|| format!("creating {}", out.display()))?;
+    let checkpoint = match (checkpointing, shard) {
+        (None, _) => None,
+        (Some(c), Some((k, n))) => {
+            Some(c.config(out.join(format!("shard-{k}-of-{n}.checkpoint.json")))?)
+        }
+        (Some(c), None) => Some(c.config(out.join("checkpoint.json"))?),
+    };
+    let what = match shard {
+        Some((k, n)) => format!("shard {k}/{n}"),
+        None => "campaign".to_string(),
+    };
+    let progress = |k: u64| {
+        let d = done.fetch_add(k, Ordering::Relaxed) + k;
+        if d.is_multiple_of(16) {
+            pb.set_position(d);
+        }
+    };
+    let agg: Aggregate = pool.install(|| -> Result<Aggregate> {
+        Ok(match &checkpoint {
+            None => run_range(&ctx, range.clone(), &progress),
+            Some(cfg) => {
+                campaign::run_range_checkpointed(&ctx, &what, range.clone(), cfg, &progress)?
             }
         })
-    });
+    })?;
     pb.finish_and_clear();
     let seconds = started.elapsed().as_secs_f64();
-    std::fs::create_dir_all(&out).with_context(|| format!("creating {}", out.display()))?;
+    let finish = || -> Result<()> {
+        if let Some(cfg) = &checkpoint {
+            campaign::checkpoint::finish(&cfg.path)?;
+        }
+        Ok(())
+    };
     if let Some((k, n)) = shard {
         let file = ShardFile {
             manifest: ShardManifest {
@@ -197,6 +253,7 @@ fn run_campaign(
         let text = serde_json::to_string(&file).context("serialising the shard")?;
         measurements::write_atomically(&path, text.as_bytes())
             .with_context(|| format!("writing {}", path.display()))?;
+        finish()?;
         eprintln!(
             "shard {k}/{n}: trials {}..{} in {seconds:.2} s → {}",
             range.start,
@@ -208,6 +265,7 @@ fn run_campaign(
     let summary = CampaignSummary::new(&scenario, &agg);
     write_outputs(&out, &summary, &agg).with_context(|| format!("writing {}", out.display()))?;
     write_timing(&out, scenario.trials, threads, seconds)?;
+    finish()?;
     if !quiet {
         println!("{}", summary.to_markdown());
     }
@@ -290,11 +348,28 @@ pub struct SweepArgs {
     /// Output directory [results/<sweep name>].
     #[arg(long)]
     pub out: Option<PathBuf>,
+    /// Continue an interrupted run from the checkpoint in the output directory (a fresh
+    /// start if there is none; refused if it belongs to another run, saying what differs).
+    #[arg(long)]
+    pub resume: bool,
+    /// Checkpoint every N trials (default: every 10 s, in chunks of 64 trials per thread).
+    #[arg(long, value_name = "N")]
+    pub checkpoint_every: Option<u64>,
 }
 
 /// `cargo xtask sweep`.
 pub fn sweep(args: SweepArgs) -> Result<()> {
-    run_sweep_to(&args.sweep, args.trials, args.threads, args.out, false)
+    run_sweep_to(
+        &args.sweep,
+        args.trials,
+        args.threads,
+        args.out,
+        false,
+        Some(Checkpointing {
+            resume: args.resume,
+            every: args.checkpoint_every,
+        }),
+    )
 }
 
 fn run_sweep_to(
@@ -303,6 +378,7 @@ fn run_sweep_to(
     threads: Option<usize>,
     out: Option<PathBuf>,
     quiet: bool,
+    checkpointing: Option<Checkpointing>,
 ) -> Result<()> {
     let mut spec = campaign::SweepSpec::from_file(sweep_path)
         .with_context(|| format!("loading sweep {}", sweep_path.display()))?;
@@ -318,15 +394,23 @@ fn run_sweep_to(
         .context("building the thread pool")?;
     let dir = sweep_path.parent().unwrap_or(Path::new("."));
     let started = Instant::now();
-    let result = pool.install(|| {
-        campaign::run_sweep(&spec, dir, &|i, n| {
-            if !quiet {
-                eprintln!("point {}/{n}", i + 1)
-            }
-        })
-    })?;
     let out = out.unwrap_or_else(|| default_out(&spec.name));
     std::fs::create_dir_all(&out).with_context(|| format!("creating {}", out.display()))?;
+    let result = pool.install(|| -> Result<campaign::SweepResult> {
+        let checkpoint = checkpointing
+            .map(|c| c.config(out.join("sweep-checkpoint.json")))
+            .transpose()?;
+        Ok(campaign::run_sweep_checkpointed(
+            &spec,
+            dir,
+            checkpoint.as_ref(),
+            &|i, n| {
+                if !quiet {
+                    eprintln!("point {}/{n}", i + 1)
+                }
+            },
+        )?)
+    })?;
     let w = |name: &str, bytes: &[u8]| -> Result<()> {
         let path = out.join(name);
         measurements::write_atomically(&path, bytes)
@@ -352,6 +436,9 @@ fn run_sweep_to(
         )
         .map_err(|e| anyhow::anyhow!("plot {k}: {e}"))?;
         w(&format!("{}-{}.svg", plot.y, k + 1), svg.as_bytes())?;
+    }
+    if checkpointing.is_some() {
+        campaign::checkpoint::finish(&out.join("sweep-checkpoint.json"))?;
     }
     if !quiet {
         println!("{}", result.to_markdown());
@@ -410,12 +497,13 @@ pub fn regenerate(args: RegenerateArgs) -> Result<()> {
             None,
             true,
             false,
+            None,
         )?;
         names.push(name);
     }
     for path in list("scenarios/sweeps")? {
         let name = campaign::SweepSpec::from_file(&path)?.name;
-        run_sweep_to(&path, None, None, Some(target.join(&name)), true)?;
+        run_sweep_to(&path, None, None, Some(target.join(&name)), true, None)?;
         names.push(name);
     }
     if !args.check {
