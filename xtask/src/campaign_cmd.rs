@@ -231,9 +231,9 @@ fn run_campaign(
     })?;
     pb.finish_and_clear();
     let seconds = started.elapsed().as_secs_f64();
-    let finish = || -> Result<()> {
+    let finish = |outputs: &[String]| -> Result<()> {
         if let Some(cfg) = &checkpoint {
-            campaign::checkpoint::finish(&cfg.path)?;
+            campaign::checkpoint::finish(&cfg.path, outputs)?;
         }
         Ok(())
     };
@@ -253,7 +253,7 @@ fn run_campaign(
         let text = serde_json::to_string(&file).context("serialising the shard")?;
         measurements::write_atomically(&path, text.as_bytes())
             .with_context(|| format!("writing {}", path.display()))?;
-        finish()?;
+        finish(&[format!("shard-{k}-of-{n}.json")])?;
         eprintln!(
             "shard {k}/{n}: trials {}..{} in {seconds:.2} s → {}",
             range.start,
@@ -265,7 +265,7 @@ fn run_campaign(
     let summary = CampaignSummary::new(&scenario, &agg);
     write_outputs(&out, &summary, &agg).with_context(|| format!("writing {}", out.display()))?;
     write_timing(&out, scenario.trials, threads, seconds)?;
-    finish()?;
+    finish(&visible_files(&out))?;
     if !quiet {
         println!("{}", summary.to_markdown());
     }
@@ -275,6 +275,18 @@ fn run_campaign(
         out.display()
     );
     Ok(())
+}
+
+/// The names of the files in `dir` that are not hidden (the outputs just written).
+fn visible_files(dir: &Path) -> Vec<String> {
+    std::fs::read_dir(dir)
+        .map(|d| {
+            d.flatten()
+                .map(|e| e.file_name().to_string_lossy().into_owned())
+                .filter(|n| !n.starts_with('.'))
+                .collect()
+        })
+        .unwrap_or_default()
 }
 
 /// `cargo xtask merge`.
@@ -438,7 +450,7 @@ fn run_sweep_to(
         w(&format!("{}-{}.svg", plot.y, k + 1), svg.as_bytes())?;
     }
     if checkpointing.is_some() {
-        campaign::checkpoint::finish(&out.join("sweep-checkpoint.json"))?;
+        campaign::checkpoint::finish(&out.join("sweep-checkpoint.json"), &visible_files(&out))?;
     }
     if !quiet {
         println!("{}", result.to_markdown());

@@ -327,9 +327,11 @@ pub fn run_range_checkpointed(
     })
 }
 
-/// After the outputs are written: removes the checkpoint and any temporary file a killed
-/// checkpoint write left beside it.
-pub fn finish(path: &Path) -> Result<(), CampaignError> {
+/// After the outputs are written: removes the checkpoint and any temporary file that a
+/// killed write of the checkpoint or of one of `outputs` (file names in the checkpoint's
+/// directory) left there. Other files' temporaries are left alone: in a directory shared by
+/// the shards of a job array they may belong to a run still writing.
+pub fn finish(path: &Path, outputs: &[String]) -> Result<(), CampaignError> {
     match std::fs::remove_file(path) {
         Ok(()) => {}
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
@@ -349,12 +351,24 @@ pub fn finish(path: &Path) -> Result<(), CampaignError> {
         dir
     };
     // write_atomically's temporaries: `.<name>.<pid>.<n>.tmp`.
-    let prefix = format!(".{}.", name.to_string_lossy());
+    let prefixes: Vec<String> = std::iter::once(name.to_string_lossy().into_owned())
+        .chain(outputs.iter().cloned())
+        .map(|n| format!(".{n}."))
+        .collect();
     if let Ok(entries) = std::fs::read_dir(dir) {
         for e in entries.flatten() {
             let f = e.file_name();
             let f = f.to_string_lossy();
-            if f.starts_with(&prefix) && f.ends_with(".tmp") {
+            let ours = prefixes.iter().any(|p| {
+                f.strip_prefix(p.as_str())
+                    .and_then(|rest| rest.strip_suffix(".tmp"))
+                    .is_some_and(|mid| {
+                        let mut parts = mid.split('.');
+                        parts.clone().count() == 2
+                            && parts.all(|x| !x.is_empty() && x.bytes().all(|b| b.is_ascii_digit()))
+                    })
+            });
+            if ours {
                 let _ = std::fs::remove_file(e.path());
             }
         }
@@ -369,6 +383,21 @@ pub fn fnv1a(bytes: &[u8]) -> u64 {
     })
 }
 
+/// A fast 64-bit fingerprint of a large byte string (an executable): FNV-1a over 8-byte
+/// little-endian words, then the tail and the length; stable across platforms.
+pub fn fingerprint(bytes: &[u8]) -> u64 {
+    const PRIME: u64 = 0x0000_0100_0000_01b3;
+    let mut words = bytes.chunks_exact(8);
+    let mut h = words.by_ref().fold(0xcbf2_9ce4_8422_2325u64, |h, w| {
+        (h ^ u64::from_le_bytes(w.try_into().expect("8 bytes"))).wrapping_mul(PRIME)
+    });
+    h = words
+        .remainder()
+        .iter()
+        .fold(h, |h, b| (h ^ u64::from(*b)).wrapping_mul(PRIME));
+    (h ^ bytes.len() as u64).wrapping_mul(PRIME)
+}
+
 /// The code version a checkpoint is tied to: the crate version and a fingerprint of the
 /// running executable, so that a rebuilt binary (which might compute other bits) does not
 /// resume an old run's checkpoint. Falls back to the crate version alone when the
@@ -376,7 +405,7 @@ pub fn fnv1a(bytes: &[u8]) -> u64 {
 pub fn code_version() -> String {
     let version = env!("CARGO_PKG_VERSION");
     match std::env::current_exe().and_then(std::fs::read) {
-        Ok(bytes) => format!("{version} (executable {:016x})", fnv1a(&bytes)),
+        Ok(bytes) => format!("{version} (executable {:016x})", fingerprint(&bytes)),
         Err(_) => version.to_string(),
     }
 }
