@@ -295,12 +295,7 @@ pub fn merge(args: MergeArgs) -> Result<()> {
     let files = args
         .shards
         .iter()
-        .map(|p| {
-            let text =
-                std::fs::read_to_string(p).with_context(|| format!("reading {}", p.display()))?;
-            serde_json::from_str::<ShardFile>(&text)
-                .with_context(|| format!("{}: not a shard file", p.display()))
-        })
+        .map(|p| Ok(ShardFile::from_file(p)?))
         .collect::<Result<Vec<_>>>()?;
     let (scenario, agg) = merge_shards(&files).context("merging shards")?;
     let out = args.out.unwrap_or_else(|| default_out(&scenario.name));

@@ -53,9 +53,11 @@ fn mutated_robot_files_are_read_or_refused_clearly() {
         .run(&(0..seeds.len(), mutations()), |(k, muts)| {
             let input = apply(&seeds[k], &muts);
             let (i, d) = (input.clone(), dir.path());
-            tally
-                .borrow_mut()
-                .case(&input, move || read(&i, d), |m| names_file_and_place(m, &file))
+            tally.borrow_mut().case(
+                &input,
+                move || read(&i, d),
+                |m| names_file_and_place(m, &file),
+            )
         })
         .unwrap();
     let t = tally.into_inner();

@@ -48,7 +48,11 @@ fn read(bytes: &[u8], dir: &std::path::Path, opts: &ReadOptions) -> Result<(), S
     match result {
         Ok(set) => {
             // Whatever is accepted is finite.
-            assert!(set.rows.iter().all(|r| r.q_deg.iter().all(|v| v.is_finite())));
+            assert!(
+                set.rows
+                    .iter()
+                    .all(|r| r.q_deg.iter().all(|v| v.is_finite()))
+            );
             Ok(())
         }
         Err(e) => {
