@@ -20,13 +20,16 @@ fn scenarios() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenarios")
 }
 
+/// A reader under test: the bytes and the file it names.
+type Reader = dyn Fn(&[u8], &Path) -> Result<(), String>;
+
 /// Runs `cases` mutations of `seed` through `read` (which gets the bytes and the file to
 /// name); returns the tally.
 fn fuzz(
     what: &str,
     seed: &[u8],
     cases: u32,
-    read: &dyn Fn(&[u8], &Path) -> Result<(), String>,
+    read: &Reader,
 ) -> Tally {
     let dir = tempfile::tempdir().unwrap();
     let file = dir.path().join(format!("{what}.json"));
