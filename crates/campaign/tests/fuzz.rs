@@ -21,7 +21,7 @@ fn scenarios() -> PathBuf {
 }
 
 /// A reader under test: the bytes and the file it names.
-type Reader = dyn Fn(&[u8], &Path) -> Result<(), String>;
+type Reader<'a> = dyn Fn(&[u8], &Path) -> Result<(), String> + 'a;
 
 /// Runs `cases` mutations of `seed` through `read` (which gets the bytes and the file to
 /// name); returns the tally.
@@ -29,7 +29,7 @@ fn fuzz(
     what: &str,
     seed: &[u8],
     cases: u32,
-    read: &Reader,
+    read: &Reader<'_>,
 ) -> Tally {
     let dir = tempfile::tempdir().unwrap();
     let file = dir.path().join(format!("{what}.json"));
