@@ -50,12 +50,13 @@ pub fn regenerate(args: RegenerateArgs) -> Result<()> {
             None,
             true,
             false,
+            None,
         )?;
         names.push(name);
     }
     for path in list("scenarios/sweeps")? {
         let name = campaign::SweepSpec::from_file(&path)?.name;
-        run_sweep_to(&path, None, None, Some(target.join(&name)), true)?;
+        run_sweep_to(&path, None, None, Some(target.join(&name)), true, None)?;
         names.push(name);
     }
     if !args.check {

@@ -2,6 +2,7 @@
 
 pub mod aggregate;
 pub mod check;
+pub mod checkpoint;
 pub mod plots;
 pub mod report;
 pub mod run;
@@ -10,10 +11,13 @@ pub mod sweep;
 pub mod trial;
 
 pub use check::{Baseline, CheckFile, CheckSpec, Comparison, Figures, compare, run_check};
+pub use checkpoint::{
+    Checkpoint, CheckpointConfig, CheckpointManifest, code_version, run_range_checkpointed,
+};
 pub use report::{
     CampaignSummary, ShardFile, ShardManifest, merge_shards, shard_range, write_outputs,
 };
 pub use run::{Aggregate, run_range};
 pub use scenario::{LoadedScenario, Scenario, ScenarioError};
-pub use sweep::{SweepResult, SweepSpec, run_sweep};
+pub use sweep::{SweepResult, SweepSpec, run_sweep, run_sweep_checkpointed};
 pub use trial::{CampaignError, Context, TrialResult, run_trial};

@@ -533,9 +533,9 @@ pub struct ShardFile {
 /// The trial range of shard `k` of `shards` over `trials` trials (contiguous, sizes differ by
 /// at most one).
 pub fn shard_range(trials: u64, k: u64, shards: u64) -> std::ops::Range<u64> {
-    let start = trials * k / shards;
-    let end = trials * (k + 1) / shards;
-    start..end
+    // In u128: no overflow for any trial count; for k < shards the bounds fit in u64.
+    let at = |k: u64| (u128::from(trials) * u128::from(k) / u128::from(shards.max(1))) as u64;
+    at(k)..at(k.saturating_add(1))
 }
 
 /// Merges shard files: checks they belong to one campaign and cover every trial exactly
@@ -545,6 +545,15 @@ pub fn merge_shards(files: &[ShardFile]) -> Result<(Scenario, Aggregate), Campai
         .first()
         .ok_or_else(|| CampaignError::Other("no shard files to merge".into()))?;
     let m0 = &first.manifest;
+    // Every shard must be there, once: more shards than files means some are missing (and
+    // a shard count read from a file must not size an allocation).
+    if m0.shards == 0 || m0.shards > files.len() as u64 {
+        return Err(CampaignError::Other(format!(
+            "{} shard file(s) given for a campaign of {} shards",
+            files.len(),
+            m0.shards
+        )));
+    }
     let mut seen = vec![false; m0.shards as usize];
     let mut agg = Aggregate::default();
     for f in files {

@@ -23,8 +23,11 @@ use std::path::{Path, PathBuf};
 use serde::{Deserialize, Serialize};
 
 use crate::aggregate::Summary;
+use crate::checkpoint::{
+    CHECKPOINT_FORMAT, Checkpoint, CheckpointConfig, CheckpointManifest, run_chunks,
+};
 use crate::report::CampaignSummary;
-use crate::run::run_range;
+use crate::run::{Aggregate, run_range};
 use crate::scenario::{Scenario, ScenarioError};
 use crate::trial::{CampaignError, Context};
 
@@ -235,12 +238,111 @@ pub fn run_sweep(
     sweep_dir: &Path,
     progress: &dyn Fn(usize, usize),
 ) -> Result<SweepResult, CampaignError> {
+    run_sweep_checkpointed(spec, sweep_dir, None, progress)
+}
+
+/// A sweep's checkpoint: the finished points and the current point's progress.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct SweepCheckpoint {
+    /// Checkpoint format ([`crate::checkpoint::CHECKPOINT_FORMAT`]).
+    pub format: u32,
+    /// The sweep as run (trial count included).
+    pub spec: SweepSpec,
+    /// Code version ([`crate::checkpoint::code_version`]).
+    pub code: String,
+    /// The finished points, in order.
+    pub points: Vec<SweepPoint>,
+    /// The next point's progress, if it had started.
+    pub current: Option<Checkpoint>,
+}
+
+impl SweepCheckpoint {
+    fn read(path: &Path) -> Result<Option<SweepCheckpoint>, CampaignError> {
+        let text = match std::fs::read(path) {
+            Ok(t) => t,
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
+            Err(source) => {
+                return Err(CampaignError::Io {
+                    path: path.display().to_string(),
+                    source,
+                });
+            }
+        };
+        serde_json::from_slice(&text).map(Some).map_err(|e| {
+            CampaignError::Other(format!(
+                "{}: not a sweep checkpoint (line {}, column {}: {e}); delete it to start afresh",
+                path.display(),
+                e.line(),
+                e.column()
+            ))
+        })
+    }
+}
+
+/// [`run_sweep`] with checkpoints (see [`crate::checkpoint`]): with `cfg`, the finished
+/// points and the current point's aggregate are saved to `cfg.path` as the trials run, and
+/// with `cfg.resume` an interrupted sweep continues where it stopped. The caller writes the
+/// outputs, then calls [`crate::checkpoint::finish`] with their names.
+pub fn run_sweep_checkpointed(
+    spec: &SweepSpec,
+    sweep_dir: &Path,
+    cfg: Option<&CheckpointConfig>,
+    progress: &dyn Fn(usize, usize),
+) -> Result<SweepResult, CampaignError> {
     let scenario_path = sweep_dir.join(&spec.scenario);
     let base = scenario_json_with(&scenario_path, &spec.overrides, spec.trials, "sweep")?;
     let scenario_dir = scenario_path.parent().unwrap_or(Path::new("."));
     let combos = spec.combinations();
-    let mut points = Vec::with_capacity(combos.len());
-    for (i, combo) in combos.iter().enumerate() {
+    let mut state = SweepCheckpoint {
+        format: CHECKPOINT_FORMAT,
+        spec: spec.clone(),
+        code: cfg.map(|c| c.code.clone()).unwrap_or_default(),
+        points: Vec::with_capacity(combos.len()),
+        current: None,
+    };
+    if let Some(cfg) = cfg {
+        if !cfg.resume && cfg.path.exists() {
+            return Err(CampaignError::Other(format!(
+                "{}: a checkpoint of an unfinished sweep is there; pass --resume to continue \
+                 it, or delete it to start afresh",
+                cfg.path.display()
+            )));
+        }
+        if cfg.resume
+            && let Some(saved) = SweepCheckpoint::read(&cfg.path)?
+        {
+            let mut diff = Vec::new();
+            if saved.format != state.format {
+                diff.push(format!("format {} vs {}", saved.format, state.format));
+            }
+            if saved.code != state.code {
+                diff.push(format!(
+                    "code version: checkpoint has {}, this run {}",
+                    saved.code, state.code
+                ));
+            }
+            if saved.spec != state.spec {
+                diff.push("the sweep file (axes, trials, overrides or scenario)".into());
+            }
+            if saved.points.len() > combos.len() {
+                diff.push(format!(
+                    "{} points done of {}",
+                    saved.points.len(),
+                    combos.len()
+                ));
+            }
+            if !diff.is_empty() {
+                return Err(CampaignError::Other(format!(
+                    "{}: cannot resume, the checkpoint belongs to another sweep: {}; delete it \
+                     to start afresh",
+                    cfg.path.display(),
+                    diff.join("; ")
+                )));
+            }
+            state = saved;
+        }
+    }
+    for (i, combo) in combos.iter().enumerate().skip(state.points.len()) {
         progress(i, combos.len());
         let mut v = base.clone();
         for (axis, value) in spec.axes.iter().zip(combo) {
@@ -251,10 +353,78 @@ pub fn run_sweep(
         let loaded = Scenario::from_value(v, &label)?.load(scenario_dir, &label)?;
         let scenario = loaded.scenario.clone();
         let ctx = Context::new(loaded)?;
-        let agg = run_range(&ctx, 0..scenario.trials, &|_| {});
-        let s = CampaignSummary::new(&scenario, &agg);
-        points.push(SweepPoint {
-            values: combo.clone(),
+        let agg = match cfg {
+            None => run_range(&ctx, 0..scenario.trials, &|_| {}),
+            Some(cfg) => {
+                let manifest = CheckpointManifest::new(
+                    &format!("sweep {} point {i}", spec.name),
+                    &ctx,
+                    0..scenario.trials,
+                    &cfg.code,
+                );
+                let (next, agg) = match state.current.take() {
+                    Some(c) => {
+                        let diff = c.manifest.differences(&manifest);
+                        if !diff.is_empty() {
+                            return Err(CampaignError::Other(format!(
+                                "{}: cannot resume point {i}: {}; delete it to start afresh",
+                                cfg.path.display(),
+                                diff.join("; ")
+                            )));
+                        }
+                        c.aggregate.check().map_err(|e| {
+                            CampaignError::Other(format!(
+                                "{}: point {i}: field `current.aggregate`: {e}",
+                                cfg.path.display()
+                            ))
+                        })?;
+                        (c.next_trial, c.aggregate)
+                    }
+                    None => (0, Aggregate::default()),
+                };
+                let mut save = |n: u64, a: &Aggregate| {
+                    state.current = Some(Checkpoint {
+                        manifest: manifest.clone(),
+                        next_trial: n,
+                        aggregate: a.clone(),
+                    });
+                    write_sweep_checkpoint(&cfg.path, &state)
+                };
+                let agg = run_chunks(&ctx, next, scenario.trials, agg, cfg, &|_| {}, &mut save)?;
+                state.current = None;
+                agg
+            }
+        };
+        state
+            .points
+            .push(SweepPoint::new(combo.clone(), &scenario, &agg));
+        if let Some(cfg) = cfg
+            && state.points.len() < combos.len()
+        {
+            write_sweep_checkpoint(&cfg.path, &state)?;
+        }
+    }
+    Ok(SweepResult {
+        spec: spec.clone(),
+        points: state.points,
+    })
+}
+
+fn write_sweep_checkpoint(path: &Path, state: &SweepCheckpoint) -> Result<(), CampaignError> {
+    let text = serde_json::to_vec(state)
+        .map_err(|e| CampaignError::Other(format!("{}: serialising: {e}", path.display())))?;
+    measurements::write_atomically(path, &text).map_err(|source| CampaignError::Io {
+        path: path.display().to_string(),
+        source,
+    })
+}
+
+impl SweepPoint {
+    /// The point at axis values `values` from its campaign's aggregate.
+    pub fn new(values: Vec<serde_json::Value>, scenario: &Scenario, agg: &Aggregate) -> SweepPoint {
+        let s = CampaignSummary::new(scenario, agg);
+        SweepPoint {
+            values,
             trials: s.trials,
             failed: s.failed_trials.values().sum(),
             failures: s.failed_trials.keys().cloned().collect(),
@@ -266,15 +436,9 @@ pub fn run_sweep(
                 .and_then(|c| c.get("stalled"))
                 .copied()
                 .unwrap_or(0),
-        });
+        }
     }
-    Ok(SweepResult {
-        spec: spec.clone(),
-        points,
-    })
-}
 
-impl SweepPoint {
     /// Trials whose LM stopped on a cap (iterations or rejections) or stalled short of the
     /// minimum instead of converging.
     pub fn not_converged(&self) -> u64 {

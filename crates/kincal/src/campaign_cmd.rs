@@ -39,6 +39,13 @@ pub struct CampaignArgs {
     /// Switch the scenario's ISO 9283 test off (e.g. to time the trials alone).
     #[arg(long)]
     pub no_iso: bool,
+    /// Continue an interrupted run from the checkpoint in the output directory (a fresh
+    /// start if there is none; refused if it belongs to another run, saying what differs).
+    #[arg(long)]
+    pub resume: bool,
+    /// Checkpoint every N trials (default: every 10 s, in chunks of 64 trials per thread).
+    #[arg(long, value_name = "N")]
+    pub checkpoint_every: Option<u64>,
 }
 
 /// Arguments of `merge`.
@@ -140,7 +147,34 @@ pub fn campaign(args: CampaignArgs) -> Result<()> {
         args.shard.as_deref(),
         args.quiet,
         args.no_iso,
+        Some(Checkpointing {
+            resume: args.resume,
+            every: args.checkpoint_every,
+        }),
     )
+}
+
+/// `--resume` and `--checkpoint-every`.
+#[derive(Clone, Copy)]
+pub struct Checkpointing {
+    /// Continue from the checkpoint in the output directory.
+    pub resume: bool,
+    /// Checkpoint every N trials (`None`: by time).
+    pub every: Option<u64>,
+}
+
+impl Checkpointing {
+    /// The library's configuration for the checkpoint at `path` (on the current pool).
+    fn config(self, path: PathBuf) -> Result<campaign::CheckpointConfig> {
+        let mut cfg = campaign::CheckpointConfig::new(path, self.resume, campaign::code_version());
+        if let Some(k) = self.every {
+            if k == 0 {
+                bail!("--checkpoint-every must be at least 1");
+            }
+            cfg.every_trials = k;
+        }
+        Ok(cfg)
+    }
 }
 
 fn threads_or_all(threads: Option<usize>) -> usize {
@@ -148,6 +182,7 @@ fn threads_or_all(threads: Option<usize>) -> usize {
 }
 
 /// Runs a campaign (or one shard of it) and writes its outputs; returns the output directory.
+#[allow(clippy::too_many_arguments)] // one argument per command-line option
 pub fn run_campaign(
     scenario_path: &Path,
     trials: Option<u64>,
@@ -156,6 +191,7 @@ pub fn run_campaign(
     shard: Option<&str>,
     quiet: bool,
     no_iso: bool,
+    checkpointing: Option<Checkpointing>,
 ) -> Result<()> {
     let mut loaded = Scenario::from_file(scenario_path)
         .with_context(|| format!("loading scenario {}", scenario_path.display()))?;
@@ -186,17 +222,52 @@ pub fn run_campaign(
     let ctx = Context::new(loaded).context("preparing the campaign")?;
     let pb = progress_bar(range.end - range.start);
     let done = AtomicU64::new(0);
-    let agg: Aggregate = pool.install(|| {
-        run_range(&ctx, range.clone(), &|k| {
-            let d = done.fetch_add(k, Ordering::Relaxed) + k;
-            if d.is_multiple_of(16) {
-                pb.set_position(d);
+    std::fs::create_dir_all(&out).with_context(|| format!("creating {}", out.display()))?;
+    let checkpoint = match (checkpointing, shard) {
+        (None, _) => None,
+        (Some(c), Some((k, n))) => {
+            Some(c.config(out.join(format!("shard-{k}-of-{n}.checkpoint.json")))?)
+        }
+        (Some(c), None) => Some(c.config(out.join("checkpoint.json"))?),
+    };
+    if let Some(cfg) = checkpoint.as_ref().filter(|c| c.resume)
+        && let Ok(Some(c)) = campaign::Checkpoint::read(&cfg.path)
+    {
+        eprintln!(
+            "resuming from {}: trials {}..{} of {}..{} done",
+            cfg.path.display(),
+            c.manifest.first_trial,
+            c.next_trial,
+            c.manifest.first_trial,
+            c.manifest.end_trial
+        );
+    }
+    let what = match shard {
+        Some((k, n)) => format!("shard {k}/{n}"),
+        None => "campaign".to_string(),
+    };
+    let progress = |k: u64| {
+        let d = done.fetch_add(k, Ordering::Relaxed) + k;
+        if d.is_multiple_of(16) {
+            pb.set_position(d);
+        }
+    };
+    let agg: Aggregate = pool.install(|| -> Result<Aggregate> {
+        Ok(match &checkpoint {
+            None => run_range(&ctx, range.clone(), &progress),
+            Some(cfg) => {
+                campaign::run_range_checkpointed(&ctx, &what, range.clone(), cfg, &progress)?
             }
         })
-    });
+    })?;
     pb.finish_and_clear();
     let seconds = started.elapsed().as_secs_f64();
-    std::fs::create_dir_all(&out).with_context(|| format!("creating {}", out.display()))?;
+    let finish = |outputs: &[String]| -> Result<()> {
+        if let Some(cfg) = &checkpoint {
+            campaign::checkpoint::finish(&cfg.path, outputs)?;
+        }
+        Ok(())
+    };
     if let Some((k, n)) = shard {
         let file = ShardFile {
             manifest: ShardManifest {
@@ -213,6 +284,7 @@ pub fn run_campaign(
         let text = serde_json::to_string(&file).context("serialising the shard")?;
         measurements::write_atomically(&path, text.as_bytes())
             .with_context(|| format!("writing {}", path.display()))?;
+        finish(&[format!("shard-{k}-of-{n}.json")])?;
         eprintln!(
             "shard {k}/{n}: trials {}..{} in {seconds:.2} s → {}",
             range.start,
@@ -224,6 +296,7 @@ pub fn run_campaign(
     let summary = CampaignSummary::new(&scenario, &agg);
     write_outputs(&out, &summary, &agg).with_context(|| format!("writing {}", out.display()))?;
     write_timing(&out, scenario.trials, threads, seconds)?;
+    finish(&visible_files(&out))?;
     if !quiet {
         println!("{}", summary.to_markdown());
     }
@@ -235,17 +308,24 @@ pub fn run_campaign(
     Ok(())
 }
 
+/// The names of the files in `dir` that are not hidden (the outputs just written).
+fn visible_files(dir: &Path) -> Vec<String> {
+    std::fs::read_dir(dir)
+        .map(|d| {
+            d.flatten()
+                .map(|e| e.file_name().to_string_lossy().into_owned())
+                .filter(|n| !n.starts_with('.'))
+                .collect()
+        })
+        .unwrap_or_default()
+}
+
 /// `kincal merge`.
 pub fn merge(args: MergeArgs) -> Result<()> {
     let files = args
         .shards
         .iter()
-        .map(|p| {
-            let text =
-                std::fs::read_to_string(p).with_context(|| format!("reading {}", p.display()))?;
-            serde_json::from_str::<ShardFile>(&text)
-                .with_context(|| format!("{}: not a shard file", p.display()))
-        })
+        .map(|p| Ok(ShardFile::from_file(p)?))
         .collect::<Result<Vec<_>>>()?;
     let (scenario, agg) = merge_shards(&files).context("merging shards")?;
     let out = args.out.unwrap_or_else(|| default_out(&scenario.name));
@@ -308,11 +388,28 @@ pub struct SweepArgs {
     /// Output directory [results/<sweep name>].
     #[arg(long)]
     pub out: Option<PathBuf>,
+    /// Continue an interrupted run from the checkpoint in the output directory (a fresh
+    /// start if there is none; refused if it belongs to another run, saying what differs).
+    #[arg(long)]
+    pub resume: bool,
+    /// Checkpoint every N trials (default: every 10 s, in chunks of 64 trials per thread).
+    #[arg(long, value_name = "N")]
+    pub checkpoint_every: Option<u64>,
 }
 
 /// `kincal sweep`.
 pub fn sweep(args: SweepArgs) -> Result<()> {
-    run_sweep_to(&args.sweep, args.trials, args.threads, args.out, false)
+    run_sweep_to(
+        &args.sweep,
+        args.trials,
+        args.threads,
+        args.out,
+        false,
+        Some(Checkpointing {
+            resume: args.resume,
+            every: args.checkpoint_every,
+        }),
+    )
 }
 
 pub fn run_sweep_to(
@@ -321,6 +418,7 @@ pub fn run_sweep_to(
     threads: Option<usize>,
     out: Option<PathBuf>,
     quiet: bool,
+    checkpointing: Option<Checkpointing>,
 ) -> Result<()> {
     let mut spec = campaign::SweepSpec::from_file(sweep_path)
         .with_context(|| format!("loading sweep {}", sweep_path.display()))?;
@@ -336,15 +434,23 @@ pub fn run_sweep_to(
         .context("building the thread pool")?;
     let dir = sweep_path.parent().unwrap_or(Path::new("."));
     let started = Instant::now();
-    let result = pool.install(|| {
-        campaign::run_sweep(&spec, dir, &|i, n| {
-            if !quiet {
-                eprintln!("point {}/{n}", i + 1)
-            }
-        })
-    })?;
     let out = out.unwrap_or_else(|| default_out(&spec.name));
     std::fs::create_dir_all(&out).with_context(|| format!("creating {}", out.display()))?;
+    let result = pool.install(|| -> Result<campaign::SweepResult> {
+        let checkpoint = checkpointing
+            .map(|c| c.config(out.join("sweep-checkpoint.json")))
+            .transpose()?;
+        Ok(campaign::run_sweep_checkpointed(
+            &spec,
+            dir,
+            checkpoint.as_ref(),
+            &|i, n| {
+                if !quiet {
+                    eprintln!("point {}/{n}", i + 1)
+                }
+            },
+        )?)
+    })?;
     let w = |name: &str, bytes: &[u8]| -> Result<()> {
         let path = out.join(name);
         measurements::write_atomically(&path, bytes)
@@ -357,6 +463,9 @@ pub fn run_sweep_to(
     w("sweep.md", result.to_markdown().as_bytes())?;
     for (name, bytes) in campaign::plots::sweep_outputs(&result).map_err(anyhow::Error::msg)? {
         w(&name, &bytes)?;
+    }
+    if checkpointing.is_some() {
+        campaign::checkpoint::finish(&out.join("sweep-checkpoint.json"), &visible_files(&out))?;
     }
     if !quiet {
         println!("{}", result.to_markdown());

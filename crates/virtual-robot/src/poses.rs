@@ -155,7 +155,7 @@ impl PoseSampling {
         if self.min_abs_q5_deg >= 180.0 {
             return Err(ConfigError::invalid(
                 "poses.min_abs_q5_deg",
-                format!("must be below 180°, got {}", self.min_abs_q5_deg),
+                format!("must be below 180°, got {:?}", self.min_abs_q5_deg),
             ));
         }
         if let Some(c) = self.max_condition {
@@ -163,7 +163,7 @@ impl PoseSampling {
             if c < 1.0 {
                 return Err(ConfigError::invalid(
                     "poses.max_condition",
-                    format!("a condition number is at least 1, got {c}"),
+                    format!("a condition number is at least 1, got {c:?}"),
                 ));
             }
         }

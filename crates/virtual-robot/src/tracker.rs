@@ -187,7 +187,7 @@ impl TrackerConfig {
             return Err(ConfigError::invalid(
                 "tracker.sigma_fraction",
                 format!(
-                    "σ is a fraction of the MPE in (0, 1] (0.5 or 1/3), got {}",
+                    "σ is a fraction of the MPE in (0, 1] (0.5 or 1/3), got {:?}",
                     self.sigma_fraction
                 ),
             ));
@@ -198,7 +198,7 @@ impl TrackerConfig {
             return Err(ConfigError::invalid(
                 "tracker.elevation_limit_deg",
                 format!(
-                    "the elevation window's half-width must lie in (0, 90)°, got {}",
+                    "the elevation window's half-width must lie in (0, 90)°, got {:?}",
                     self.elevation_limit_deg
                 ),
             ));

@@ -169,7 +169,7 @@ impl InjectedErrors {
             if s.mean_error_mm <= 0.0 {
                 return Err(ConfigError::invalid(
                     f,
-                    format!("the target must be positive, got {}", s.mean_error_mm),
+                    format!("the target must be positive, got {:?}", s.mean_error_mm),
                 ));
             }
             if s.poses == 0 {

@@ -143,7 +143,7 @@ impl ComplianceConfig {
             if !(0.0..=1.0).contains(c) {
                 return Err(ConfigError::invalid(
                     field,
-                    format!("a fraction must lie in [0, 1], got {c}"),
+                    format!("a fraction must lie in [0, 1], got {c:?}"),
                 ));
             }
         }

@@ -8,7 +8,7 @@ pub(crate) fn finite(field: &str, v: f64) -> Result<(), ConfigError> {
     } else {
         Err(ConfigError::invalid(
             field,
-            format!("{v} is not a finite number"),
+            format!("{v:?} is not a finite number"),
         ))
     }
 }
@@ -18,7 +18,7 @@ pub(crate) fn non_negative(field: &str, v: f64) -> Result<(), ConfigError> {
     if v < 0.0 {
         Err(ConfigError::invalid(
             field,
-            format!("must not be negative, got {v}"),
+            format!("must not be negative, got {v:?}"),
         ))
     } else {
         Ok(())
@@ -30,7 +30,7 @@ pub(crate) fn positive(field: &str, v: f64) -> Result<(), ConfigError> {
     if v <= 0.0 {
         Err(ConfigError::invalid(
             field,
-            format!("must be positive, got {v}"),
+            format!("must be positive, got {v:?}"),
         ))
     } else {
         Ok(())
