@@ -4,7 +4,7 @@
 use nalgebra::{DMatrix, Matrix3, Matrix6, Rotation3, Vector3, Vector6};
 
 use crate::error::ModelError;
-use crate::model::{BaseSpec, JointSpec, MAX_JOINTS, RobotSpec};
+use crate::model::{BaseSpec, JointSpec, MAX_JOINTS, MassModelSpec, RobotSpec};
 use crate::params::{ParamKind, ParamLayout};
 
 mod fast;
@@ -162,6 +162,8 @@ pub struct Robot {
     beta_index: [Option<usize>; MAX_JOINTS],
     /// Index of `base_rx` (base and tool parameters follow in order).
     base_index: usize,
+    /// The model file's optional mass model, kept as given (see [`MassModelSpec`]).
+    mass_model: Option<MassModelSpec>,
 }
 
 impl Robot {
@@ -215,6 +217,7 @@ impl Robot {
             layout,
             beta_index,
             base_index,
+            mass_model: spec.mass_model.clone(),
         })
     }
 
@@ -248,7 +251,14 @@ impl Robot {
                 dz_mm: self.base.d_mm[2],
             },
             tool_mm: self.tool_mm.into(),
+            mass_model: self.mass_model.clone(),
         }
+    }
+
+    /// The mass model of the robot file, if it has one (link masses, centres of mass, payload;
+    /// see [`MassModelSpec`]).
+    pub fn mass_model(&self) -> Option<&MassModelSpec> {
+        self.mass_model.as_ref()
     }
 
     /// The robot's name.

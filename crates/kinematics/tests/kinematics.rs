@@ -102,6 +102,7 @@ fn random_chain(u: &[f64]) -> Robot {
             dz_mm: 500.0 * u[47],
         },
         tool_mm: [200.0 * u[48] - 100.0, 200.0 * u[49] - 100.0, 300.0 * u[50]],
+        mass_model: None,
     };
     Robot::from_spec(&spec).unwrap()
 }
