@@ -12,8 +12,20 @@
 //! }
 //! ```
 //!
-//! Every field is required and unknown fields are errors. Values are in the interface units
-//! (degrees, millimetres); [`crate::Robot`] converts to radians inside.
+//! Every field is required and unknown fields are errors, except the optional `mass_model`
+//! section (see [`MassModelSpec`] and `docs/extended-model.md`): link masses and centres of
+//! mass plus a payload, for the gravity-torque (joint compliance) parameter families:
+//!
+//! ```json
+//!   "mass_model": {
+//!     "gravity_m_per_s2": 9.80665,
+//!     "links": [ { "mass_kg": 1650, "com_mm": [-350, 400, 0] } ],
+//!     "payload_kg": 0, "payload_com_mm": [0, 0, 250]
+//!   }
+//! ```
+//!
+//! Values are in the interface units (degrees, millimetres, kilograms); [`crate::Robot`]
+//! converts to radians inside.
 
 use std::path::Path;
 
@@ -63,6 +75,43 @@ pub struct BaseSpec {
     pub dz_mm: f64,
 }
 
+/// Mass and centre of mass of one link (the body moved by joint i), in the link frame after
+/// joint i (frame i of the chain, the frame [`JointSpec`] i ends in).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LinkMassSpec {
+    /// Link mass, kg (≥ 0).
+    pub mass_kg: f64,
+    /// Centre of mass in the link frame, mm.
+    pub com_mm: [f64; 3],
+}
+
+fn default_gravity() -> f64 {
+    9.80665
+}
+
+fn default_payload_com() -> [f64; 3] {
+    [0.0, 0.0, 250.0]
+}
+
+/// Optional mass model of the robot file: what the gravity torque τ_j(q) about every joint
+/// is computed from (joint compliance families). Gravity points along −z of the robot base.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MassModelSpec {
+    /// Gravitational acceleration, m/s² (default 9.80665).
+    #[serde(default = "default_gravity")]
+    pub gravity_m_per_s2: f64,
+    /// One entry per joint, base to flange.
+    pub links: Vec<LinkMassSpec>,
+    /// Payload mass, kg (default 0).
+    #[serde(default)]
+    pub payload_kg: f64,
+    /// Payload centre of mass in the flange frame, mm (default (0, 0, 250)).
+    #[serde(default = "default_payload_com")]
+    pub payload_com_mm: [f64; 3],
+}
+
 /// The robot model file.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -80,6 +129,10 @@ pub struct RobotSpec {
     /// have none, so those read and write as before.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub joint_names: Option<Vec<String>>,
+    /// Optional mass model (link masses, centres of mass, payload) for the gravity-torque
+    /// parameter families; absent from files and output when not given.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub mass_model: Option<MassModelSpec>,
 }
 
 impl RobotSpec {
@@ -150,7 +203,7 @@ impl RobotSpec {
                 return Err(invalid(
                     f("limits_deg"),
                     format!(
-                        "minimum {} must be below maximum {}",
+                        "minimum {:?} must be below maximum {:?}",
                         j.limits_deg[0], j.limits_deg[1]
                     ),
                 ));
@@ -158,7 +211,7 @@ impl RobotSpec {
             if j.beta_deg.abs() >= 90.0 {
                 return Err(invalid(
                     f("beta_deg"),
-                    format!("{} is not a small Hayati angle (|β| < 90°)", j.beta_deg),
+                    format!("{:?} is not a small Hayati angle (|β| < 90°)", j.beta_deg),
                 ));
             }
         }
@@ -190,6 +243,36 @@ impl RobotSpec {
                         format!("{n:?} is empty or repeated"),
                     ));
                 }
+            }
+        }
+        if let Some(m) = &self.mass_model {
+            let non_negative = |field: String, v: f64| {
+                if v.is_finite() && v >= 0.0 {
+                    Ok(())
+                } else {
+                    Err(invalid(field, format!("{v:?} must be a finite number ≥ 0")))
+                }
+            };
+            non_negative("mass_model.gravity_m_per_s2".into(), m.gravity_m_per_s2)?;
+            if m.links.len() != self.joints.len() {
+                return Err(invalid(
+                    "mass_model.links".into(),
+                    format!(
+                        "needs one entry per joint ({}), has {}",
+                        self.joints.len(),
+                        m.links.len()
+                    ),
+                ));
+            }
+            for (i, l) in m.links.iter().enumerate() {
+                non_negative(format!("mass_model.links[{i}].mass_kg"), l.mass_kg)?;
+                for (k, v) in l.com_mm.iter().enumerate() {
+                    finite(format!("mass_model.links[{i}].com_mm[{k}]"), *v)?;
+                }
+            }
+            non_negative("mass_model.payload_kg".into(), m.payload_kg)?;
+            for (k, v) in m.payload_com_mm.iter().enumerate() {
+                finite(format!("mass_model.payload_com_mm[{k}]"), *v)?;
             }
         }
         Ok(())

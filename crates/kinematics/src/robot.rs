@@ -4,7 +4,7 @@
 use nalgebra::{DMatrix, Matrix3, Matrix6, Rotation3, Vector3, Vector6};
 
 use crate::error::ModelError;
-use crate::model::{BaseSpec, JointSpec, MAX_JOINTS, RobotSpec};
+use crate::model::{BaseSpec, JointSpec, MAX_JOINTS, MassModelSpec, RobotSpec};
 use crate::params::{ParamKind, ParamLayout};
 
 mod fast;
@@ -164,6 +164,8 @@ pub struct Robot {
     beta_index: [Option<usize>; MAX_JOINTS],
     /// Index of `base_rx` (base and tool parameters follow in order).
     base_index: usize,
+    /// The model file's optional mass model, kept as given (see [`MassModelSpec`]).
+    mass_model: Option<MassModelSpec>,
 }
 
 impl Robot {
@@ -218,6 +220,7 @@ impl Robot {
             layout,
             beta_index,
             base_index,
+            mass_model: spec.mass_model.clone(),
         })
     }
 
@@ -252,7 +255,14 @@ impl Robot {
             },
             tool_mm: self.tool_mm.into(),
             joint_names: self.joint_names.clone(),
+            mass_model: self.mass_model.clone(),
         }
+    }
+
+    /// The mass model of the robot file, if it has one (link masses, centres of mass, payload;
+    /// see [`MassModelSpec`]).
+    pub fn mass_model(&self) -> Option<&MassModelSpec> {
+        self.mass_model.as_ref()
     }
 
     /// The robot's name.

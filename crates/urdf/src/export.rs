@@ -64,6 +64,7 @@ fn link_transform(j: &JointSpec) -> Result<Frame, UrdfError> {
         base: BaseSpec::default(),
         tool_mm: [0.0; 3],
         joint_names: None,
+        mass_model: None,
     };
     Ok(Robot::from_spec(&one)?.flange_reference(&[0.0]))
 }

@@ -249,6 +249,7 @@ pub fn import_str(
         base: base_spec,
         tool_mm: [0.0; 3],
         joint_names: None,
+        mass_model: None,
     };
 
     // Joints 1..N−1: frame i has z along axis i+1 and its origin on it; each frame is the
