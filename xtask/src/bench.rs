@@ -52,7 +52,7 @@ const TARGETS: &[(&str, f64, &str)] = &[
 /// The workspace the command runs in: the nearest directory at or above the current one
 /// whose `Cargo.toml` has a `[workspace]` table (`cargo xtask` runs in the workspace root),
 /// so the benchmarks measure the tree the user is in, not the one this binary was built from.
-fn workspace_root() -> Result<PathBuf> {
+pub(crate) fn workspace_root() -> Result<PathBuf> {
     let cwd = std::env::current_dir().context("reading the current directory")?;
     cwd.ancestors()
         .find(|d| {

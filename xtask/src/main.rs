@@ -6,6 +6,7 @@
 mod bench;
 mod check_cmd;
 mod regenerate;
+mod slurm_cmd;
 
 use anyhow::{Context, Result};
 use clap::{Parser, Subcommand};
@@ -15,7 +16,7 @@ use kinematics::Robot;
 #[command(
     name = "xtask",
     version,
-    about = "kincal's repository automation (regenerate, check, bench) and its user commands"
+    about = "kincal's repository automation (regenerate, check, bench, slurm-smoke) and its user commands"
 )]
 struct Cli {
     #[command(subcommand)]
@@ -41,6 +42,10 @@ enum Cmd {
     /// current tree and write results/bench.json with the machine's CPU, SIMD features and
     /// cores.
     Bench(bench::BenchArgs),
+    /// A real Slurm run: a one-node cluster in a temporary directory, the campaign as a job
+    /// array of shards plus a dependent merge, one shard requeued and resumed; the merged
+    /// summary.json must equal a single run's (installs slurm-wlm and munge if missing).
+    SlurmSmoke(slurm_cmd::SlurmSmokeArgs),
     #[command(flatten)]
     User(kincal::Command),
 }
@@ -55,6 +60,7 @@ fn run(cli: Cli) -> Result<()> {
         Cmd::Regenerate(args) => regenerate::regenerate(args),
         Cmd::Check(args) => check_cmd::run(&args),
         Cmd::Bench(args) => bench::run(args),
+        Cmd::SlurmSmoke(args) => slurm_cmd::run(&args),
         Cmd::User(cmd) => kincal::run(cmd),
     }
 }

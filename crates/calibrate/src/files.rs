@@ -60,7 +60,7 @@ impl LoadedRobot {
         if !require_points {
             opts = opts.joints_only();
         }
-        read_file(path, &opts).map_err(|source| {
+        let mut set = read_file(path, &opts).map_err(|source| {
             let too_few = matches!(source, MeasurementError::TooFewRows { .. });
             let err = CalibrateError::Read {
                 context: format!(
@@ -75,8 +75,35 @@ impl LoadedRobot {
                 Some(why) if too_few => err.context(why),
                 _ => err,
             }
-        })
+        })?;
+        if let Some(note) = radians_notice(&set, &self.limits_deg()) {
+            set.notices.push(note);
+        }
+        Ok(set)
     }
+}
+
+/// A notice when the joint values of a file read as degrees look like radians: at least 3
+/// rows, every |q| ≤ 2π (joints such as a UR's turn beyond ±π), and a robot whose limits
+/// reach beyond ±90° on some joint (degrees data of such a robot that never leave ±6.3° on
+/// any joint would be a strange calibration set). `None` otherwise.
+pub fn radians_notice(set: &MeasurementSet, limits_deg: &[[f64; 2]]) -> Option<String> {
+    let largest = set
+        .rows
+        .iter()
+        .flat_map(|r| r.q_deg.iter())
+        .fold(0.0_f64, |m, q| m.max(q.abs()));
+    let widest = limits_deg
+        .iter()
+        .fold(0.0_f64, |m, l| m.max(l[0].abs()).max(l[1].abs()));
+    (set.rows.len() >= 3 && largest <= std::f64::consts::TAU && widest > 90.0).then(|| {
+        format!(
+            "{}: every joint value is within ±2π (largest |q| = {largest:.4}) although the \
+             robot's limits reach ±{widest:.0}°: are these radians? Joint columns are read in \
+             degrees (convert with q·180/π)",
+            set.source
+        )
+    })
 }
 
 /// The joint values of `rows`, radians, flat.

@@ -19,7 +19,7 @@ mod joints;
 mod workflow;
 
 pub use error::{CalibrateError, Result};
-pub use files::{LoadedRobot, file_name, points_mm, poses_rad, row_label};
+pub use files::{LoadedRobot, file_name, points_mm, poses_rad, radians_notice, row_label};
 pub use joints::{Compensation, Prediction, SAME_FRAME_MM, compensate_targets, predict};
 pub use workflow::{
     Calibration, IdentifyRequest, PARAMETERS_FILE, REGISTERED_FILE, REPORT_FILE, REPORT_HTML_FILE,

@@ -168,3 +168,50 @@ fn select_refuses_too_few_or_too_many_rows() {
         );
     }
 }
+
+/// Joint values in radians in a file read as degrees are flagged (a notice the CLI prints),
+/// and data in degrees are not.
+#[test]
+fn joints_that_look_like_radians_are_flagged() {
+    let robot =
+        calibrate::LoadedRobot::load(&root().join("scenarios/robots/ur10.json"), "robot").unwrap();
+    let data = root().join("data/ur10-ipa/series-b-joint-configurations.csv");
+    let degrees = robot.read_set(&data, true, (1, None), "data").unwrap();
+    assert!(
+        degrees.notices.iter().all(|n| !n.contains("radians")),
+        "{:?}",
+        degrees.notices
+    );
+    let text = std::fs::read_to_string(&data).unwrap();
+    let mut out = String::new();
+    for (i, line) in text
+        .lines()
+        .filter(|l| !l.starts_with('#'))
+        .take(20)
+        .enumerate()
+    {
+        if i == 0 {
+            out += line;
+        } else {
+            let v: Vec<&str> = line.split(',').collect();
+            let q: Vec<String> = v[..6]
+                .iter()
+                .map(|x| format!("{}", x.parse::<f64>().unwrap().to_radians()))
+                .collect();
+            out += &format!("{},{}", q.join(","), v[6..].join(","));
+        }
+        out += "\n";
+    }
+    let tmp = tempfile::tempdir().unwrap();
+    let file = tmp.path().join("rad.csv");
+    std::fs::write(&file, out).unwrap();
+    let radians = robot.read_set(&file, true, (1, None), "data").unwrap();
+    assert!(
+        radians
+            .notices
+            .iter()
+            .any(|n| n.contains("are these radians?") && n.contains("rad.csv")),
+        "{:?}",
+        radians.notices
+    );
+}

@@ -181,6 +181,19 @@ fn threads_or_all(threads: Option<usize>) -> usize {
     threads.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()))
 }
 
+/// Creates the output directory `--out` (and its parents); a file of that name is refused
+/// with the option named, not as a bare "File exists".
+fn create_out_dir(out: &Path) -> Result<()> {
+    if out.exists() && !out.is_dir() {
+        bail!(
+            "--out {}: a file of that name exists; --out names a directory",
+            out.display()
+        );
+    }
+    std::fs::create_dir_all(out)
+        .with_context(|| format!("--out {}: creating the directory", out.display()))
+}
+
 /// Runs a campaign (or one shard of it) and writes its outputs; returns the output directory.
 #[allow(clippy::too_many_arguments)] // one argument per command-line option
 pub fn run_campaign(
@@ -222,7 +235,7 @@ pub fn run_campaign(
     let ctx = Context::new(loaded).context("preparing the campaign")?;
     let pb = progress_bar(range.end - range.start);
     let done = AtomicU64::new(0);
-    std::fs::create_dir_all(&out).with_context(|| format!("creating {}", out.display()))?;
+    create_out_dir(&out)?;
     let checkpoint = match (checkpointing, shard) {
         (None, _) => None,
         (Some(c), Some((k, n))) => {
@@ -347,8 +360,7 @@ pub fn simulate(args: SimulateArgs) -> Result<()> {
         args.trial,
     )
     .context("simulating")?;
-    std::fs::create_dir_all(&args.out)
-        .with_context(|| format!("creating {}", args.out.display()))?;
+    create_out_dir(&args.out)?;
     sim.write(&args.out)
         .with_context(|| format!("writing into {}", args.out.display()))?;
     let t = sim.truth.sampling.total();
@@ -435,7 +447,7 @@ pub fn run_sweep_to(
     let dir = sweep_path.parent().unwrap_or(Path::new("."));
     let started = Instant::now();
     let out = out.unwrap_or_else(|| default_out(&spec.name));
-    std::fs::create_dir_all(&out).with_context(|| format!("creating {}", out.display()))?;
+    create_out_dir(&out)?;
     let result = pool.install(|| -> Result<campaign::SweepResult> {
         let checkpoint = checkpointing
             .map(|c| c.config(out.join("sweep-checkpoint.json")))

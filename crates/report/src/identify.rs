@@ -43,11 +43,35 @@ pub const IDENTIFY_PLOT_FILES: [&str; 4] = [
     "outliers.svg",
 ];
 
+/// Most poses a per-pose plot draws: above it, every k-th pose is drawn (the means and the
+/// CDF still use all of them), so a file of 10⁶ rows gives a plot of kilobytes, not 160 MB.
+pub const MAX_POSE_POINTS: usize = 2500;
+
+/// Every how many poses a per-pose plot of `n` poses draws one.
+fn stride(n: usize) -> usize {
+    n.div_ceil(MAX_POSE_POINTS).max(1)
+}
+
+/// `(row number from 1, value)` of the drawn poses: all of them, or every k-th.
 fn indexed(v: &[f64]) -> Vec<(f64, f64)> {
     v.iter()
         .enumerate()
+        .step_by(stride(v.len()))
         .map(|(i, &e)| ((i + 1) as f64, e))
         .collect()
+}
+
+/// The x-axis title of a per-pose plot: `rows (row order)`, saying when only every k-th
+/// pose is drawn.
+fn rows_title(rows: &str, n: usize) -> String {
+    match stride(n) {
+        1 => format!("{rows} (row order)"),
+        k => format!(
+            "{rows} (row order; every {}th of {} drawn)",
+            fmt::whole(k as f64),
+            fmt::whole(n as f64)
+        ),
+    }
 }
 
 fn check_len(what: &str, a: &[[f64; 3]], b: &[[f64; 3]]) -> Result<(), PlotError> {
@@ -68,7 +92,7 @@ fn check_len(what: &str, a: &[[f64; 3]], b: &[[f64; 3]]) -> Result<(), PlotError
 fn before_after_panel(title: &str, rows: &str, before: &[f64], after: &[f64]) -> Figure {
     let mut f = Figure::new(
         title,
-        format!("{rows} (row order)"),
+        rows_title(rows, before.len()),
         "3-D position error (mm)",
     );
     f.y_from_zero = true;
@@ -169,7 +193,7 @@ pub fn identify_plots(d: &IdentifyPlotData<'_>) -> Result<Vec<(String, String)>,
             };
             let mut f = Figure::new(
                 title,
-                "identification pose (row order)",
+                rows_title("identification pose", ia.len()),
                 format!("{name} residual (mm)"),
             );
             let pts: Vec<f64> = d.identification_after_mm.iter().map(|e| e[k]).collect();
@@ -198,15 +222,15 @@ pub fn identify_plots(d: &IdentifyPlotData<'_>) -> Result<Vec<(String, String)>,
     }
     let mut f = Figure::new(
         format!("{}: outlier screen of the identification fit", d.robot),
-        "identification pose (row order)",
+        rows_title("identification pose", ia.len()),
         "3-D residual ‖e‖ (mm)",
     );
     f.y_from_zero = true;
-    let kept: Vec<(f64, f64)> = indexed(&ia)
-        .into_iter()
-        .enumerate()
-        .filter(|(i, _)| !d.outliers.contains(i))
-        .map(|(_, p)| p)
+    // Every flagged row is drawn, whatever the thinning.
+    let kept: Vec<(f64, f64)> = (0..ia.len())
+        .step_by(stride(ia.len()))
+        .filter(|i| !d.outliers.contains(i))
+        .map(|i| ((i + 1) as f64, ia[i]))
         .collect();
     f.series
         .push(Series::new("within the threshold", kept, Style::Markers));
@@ -298,6 +322,51 @@ mod tests {
                 ]
             })
             .collect()
+    }
+
+    /// A million-row recording gives plots of kilobytes: every k-th pose is drawn (and said
+    /// so), the CDF keeps at most MAX_CDF_STEPS steps, the flagged row keeps its legend.
+    #[test]
+    fn large_sets_are_thinned_and_say_so() {
+        let n = 200_000;
+        let (ib, ia) = (errors(n, 2.5), errors(n, 0.3));
+        let small = identify_plots(&IdentifyPlotData {
+            robot: "UR10",
+            identification_before_mm: &ib[..2000],
+            identification_after_mm: &ia[..2000],
+            validation_before_mm: None,
+            validation_after_mm: None,
+            outlier_threshold: None,
+            outliers: &[],
+            outlier_labels: &[],
+        })
+        .unwrap();
+        let plots = identify_plots(&IdentifyPlotData {
+            robot: "UR10",
+            identification_before_mm: &ib,
+            identification_after_mm: &ia,
+            validation_before_mm: None,
+            validation_after_mm: None,
+            outlier_threshold: Some((0.5, 3.0)),
+            outliers: &[12_345],
+            outlier_labels: &["line 12347".to_string()],
+        })
+        .unwrap();
+        assert!(small[0].1.contains("identification pose (row order)"));
+        assert!(
+            plots[0]
+                .1
+                .contains("identification pose (row order; every 80th of 200,000 drawn)")
+        );
+        for ((name, svg), (_, small_svg)) in plots.iter().zip(&small) {
+            // 2,500 drawn poses against 2,000: of the same order, not 100× larger.
+            assert!(
+                svg.len() < 3 * small_svg.len(),
+                "{name}: {} bytes",
+                svg.len()
+            );
+        }
+        assert!(plots[3].1.contains("flagged as outliers: line 12347"));
     }
 
     #[test]

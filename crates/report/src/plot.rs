@@ -303,8 +303,12 @@ pub fn panels_svg(panels: &[Figure], height: u32) -> Result<String, PlotError> {
     })
 }
 
+/// Most steps a CDF draws per sample (see [`cdf_figure`]).
+pub const MAX_CDF_STEPS: usize = 2000;
+
 /// Empirical cumulative distribution: for each named sample, the share of values ≤ x (%),
-/// drawn as steps.
+/// drawn as steps (above [`MAX_CDF_STEPS`] values, the steps of every k-th value and of the
+/// largest).
 ///
 /// # Errors
 /// [`PlotError::Empty`] if a sample is empty, [`PlotError::NonFinite`] for NaN or infinity.
@@ -324,11 +328,18 @@ pub fn cdf_figure(
         let mut v = values.clone();
         v.sort_by(f64::total_cmp);
         let n = v.len() as f64;
-        let mut points = Vec::with_capacity(2 * v.len() + 1);
+        // Every step up to MAX_CDF_STEPS values; above, the steps of every k-th value and
+        // the last (the curve is the same to the pixel, the file stays small).
+        let k = v.len().div_ceil(MAX_CDF_STEPS).max(1);
+        let mut steps: Vec<usize> = (0..v.len()).step_by(k).collect();
+        if steps.last() != Some(&(v.len() - 1)) {
+            steps.push(v.len() - 1);
+        }
+        let mut points = Vec::with_capacity(2 * steps.len() + 1);
         points.push((v[0], 0.0));
-        for (i, &x) in v.iter().enumerate() {
-            points.push((x, 100.0 * i as f64 / n));
-            points.push((x, 100.0 * (i + 1) as f64 / n));
+        for &i in &steps {
+            points.push((v[i], 100.0 * i as f64 / n));
+            points.push((v[i], 100.0 * (i + 1) as f64 / n));
         }
         fig.series
             .push(Series::new(name.clone(), points, Style::Line));
