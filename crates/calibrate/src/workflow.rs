@@ -229,12 +229,13 @@ impl Rendered {
             path: dir.to_path_buf(),
             source,
         })?;
-        for (name, text) in &self.files {
-            let path = dir.join(name);
-            measurements::write_atomically(&path, text.as_bytes())
-                .map_err(|source| CalibrateError::Write { path, source })?;
-        }
-        Ok(())
+        // All or nothing: on a full disk no output of an earlier run is replaced.
+        measurements::write_all_atomically(dir, &self.files).map_err(|source| {
+            CalibrateError::Write {
+                path: dir.to_path_buf(),
+                source,
+            }
+        })
     }
 }
 

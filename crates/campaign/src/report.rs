@@ -427,13 +427,6 @@ pub fn trial_report(scenario: &Scenario, t: &crate::trial::TrialResult) -> evalu
     }
 }
 
-fn write(path: &Path, bytes: &[u8]) -> Result<(), CampaignError> {
-    measurements::write_atomically(path, bytes).map_err(|source| CampaignError::Io {
-        path: path.display().to_string(),
-        source,
-    })
-}
-
 /// Renders every output file of a campaign in memory: `summary.json`, `summary.md`, the
 /// trial report, the SVG plots and `report.html` (the summary with the plots in place), as
 /// (file name, bytes).
@@ -487,7 +480,8 @@ pub fn render_outputs(
 }
 
 /// Writes [`render_outputs`] into `dir` (created if needed). Everything is rendered before
-/// the first file is written, and each file is replaced atomically.
+/// the first file is written, and the set is written all or nothing
+/// ([`measurements::write_all_atomically`]): on a full disk no output is replaced.
 pub fn write_outputs(
     dir: &Path,
     summary: &CampaignSummary,
@@ -498,10 +492,10 @@ pub fn write_outputs(
         path: dir.display().to_string(),
         source,
     })?;
-    for (name, bytes) in &files {
-        write(&dir.join(name), bytes)?;
-    }
-    Ok(())
+    measurements::write_all_atomically(dir, &files).map_err(|source| CampaignError::Io {
+        path: dir.display().to_string(),
+        source,
+    })
 }
 
 /// Identifies a shard: which slice of which campaign it holds.

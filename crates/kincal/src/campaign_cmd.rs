@@ -463,19 +463,17 @@ pub fn run_sweep_to(
             },
         )?)
     })?;
-    let w = |name: &str, bytes: &[u8]| -> Result<()> {
-        let path = out.join(name);
-        measurements::write_atomically(&path, bytes)
-            .with_context(|| format!("writing {}", path.display()))
-    };
     let mut json = serde_json::to_string_pretty(&result).context("serialising the sweep")?;
     json.push('\n');
-    w("sweep.json", json.as_bytes())?;
-    w("sweep.csv", result.to_csv().as_bytes())?;
-    w("sweep.md", result.to_markdown().as_bytes())?;
-    for (name, bytes) in campaign::plots::sweep_outputs(&result).map_err(anyhow::Error::msg)? {
-        w(&name, &bytes)?;
-    }
+    let mut files: Vec<(String, Vec<u8>)> = vec![
+        ("sweep.json".into(), json.into_bytes()),
+        ("sweep.csv".into(), result.to_csv().into_bytes()),
+        ("sweep.md".into(), result.to_markdown().into_bytes()),
+    ];
+    files.extend(campaign::plots::sweep_outputs(&result).map_err(anyhow::Error::msg)?);
+    // All or nothing: on a full disk no output of an earlier run is replaced.
+    measurements::write_all_atomically(&out, &files)
+        .with_context(|| format!("writing the sweep into {}", out.display()))?;
     if checkpointing.is_some() {
         campaign::checkpoint::finish(&out.join("sweep-checkpoint.json"), &visible_files(&out))?;
     }

@@ -74,7 +74,7 @@ mod write;
 
 pub use error::MeasurementError;
 pub use read::{read_file, read_str};
-pub use write::{to_csv_string, write_atomically, write_file};
+pub use write::{to_csv_string, write_all_atomically, write_atomically, write_file};
 
 /// One measured pose: the commanded joint values and (usually) the measured point.
 #[derive(Debug, Clone, PartialEq)]

@@ -53,6 +53,59 @@ pub fn write_atomically(path: &Path, bytes: &[u8]) -> Result<(), io::Error> {
         .map_err(|e| io::Error::new(e.kind(), format!("writing {}: {e}", path.display())))
 }
 
+/// Write a set of files into `dir` (which must exist) all or nothing: every file is first
+/// written in full to a temporary file beside its target and flushed to disk; only when all
+/// of them succeeded are they renamed into place. If any write fails (a full disk, say),
+/// every temporary file is removed and no target is touched, so a directory never holds
+/// some outputs of a run beside older or missing others. The error names the file.
+pub fn write_all_atomically<N: AsRef<str>, B: AsRef<[u8]>>(
+    dir: &Path,
+    files: &[(N, B)],
+) -> Result<(), io::Error> {
+    let mut staged: Vec<(PathBuf, PathBuf)> = Vec::with_capacity(files.len());
+    let abandon = |staged: &[(PathBuf, PathBuf)]| {
+        for (tmp, _) in staged {
+            let _ = fs::remove_file(tmp);
+        }
+    };
+    for (name, bytes) in files {
+        let path = dir.join(name.as_ref());
+        let written = create_temp_file(dir, name.as_ref()).and_then(|(tmp, mut file)| {
+            let filled = file
+                .write_all(bytes.as_ref())
+                .and_then(|()| file.sync_all());
+            match filled {
+                Ok(()) => Ok(tmp),
+                Err(e) => {
+                    let _ = fs::remove_file(&tmp);
+                    Err(e)
+                }
+            }
+        });
+        match written {
+            Ok(tmp) => staged.push((tmp, path)),
+            Err(e) => {
+                abandon(&staged);
+                return Err(io::Error::new(
+                    e.kind(),
+                    format!("writing {}: {e}", path.display()),
+                ));
+            }
+        }
+    }
+    for (i, (tmp, path)) in staged.iter().enumerate() {
+        if let Err(e) = fs::rename(tmp, path) {
+            abandon(&staged[i..]);
+            return Err(io::Error::new(
+                e.kind(),
+                format!("writing {}: {e}", path.display()),
+            ));
+        }
+    }
+    sync_dir(dir);
+    Ok(())
+}
+
 fn write_atomically_inner(path: &Path, bytes: &[u8]) -> io::Result<()> {
     let file_name = path
         .file_name()

@@ -4,7 +4,7 @@ use std::path::{Path, PathBuf};
 
 use measurements::{
     Measurement, MeasurementError, MeasurementSet, ReadOptions, read_file, read_str, to_csv_string,
-    write_atomically, write_file,
+    write_all_atomically, write_atomically, write_file,
 };
 
 /// A fresh, empty scratch directory for one test.
@@ -244,4 +244,32 @@ fn write_atomically_relative_path_without_directory() {
 fn write_atomically_rejects_a_path_without_file_name() {
     let err = write_atomically(Path::new("/"), b"x").unwrap_err();
     assert_eq!(err.kind(), std::io::ErrorKind::InvalidInput);
+}
+
+/// A set of outputs is written all or nothing: when one file cannot be written, none of the
+/// others replaces its previous version and no temporary file is left.
+#[test]
+fn write_all_atomically_writes_all_or_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::write(d.join("a.txt"), "old a").unwrap();
+    // The second file's directory does not exist: its write fails after the first is staged.
+    let files = [
+        ("a.txt", "new a"),
+        ("missing/b.txt", "new b"),
+        ("c.txt", "new c"),
+    ];
+    let err = write_all_atomically(d, &files).unwrap_err();
+    assert!(err.to_string().contains("missing/b.txt"), "{err}");
+    assert_eq!(std::fs::read_to_string(d.join("a.txt")).unwrap(), "old a");
+    assert!(!d.join("c.txt").exists());
+    let names: Vec<String> = std::fs::read_dir(d)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    assert_eq!(names, ["a.txt"], "temporaries left behind");
+    // And when every write succeeds, every file is replaced.
+    write_all_atomically(d, &[("a.txt", "new a"), ("c.txt", "new c")]).unwrap();
+    assert_eq!(std::fs::read_to_string(d.join("a.txt")).unwrap(), "new a");
+    assert_eq!(std::fs::read_to_string(d.join("c.txt")).unwrap(), "new c");
 }
