@@ -4,7 +4,7 @@
 
 mod common;
 
-use common::{kincal, root};
+use common::{kincal, ok, root, s};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::process::Output;
@@ -17,20 +17,6 @@ use nalgebra::Vector3;
 fn kr1000() -> &'static Path {
     static P: OnceLock<PathBuf> = OnceLock::new();
     P.get_or_init(|| root().join("scenarios/robots/kr1000-titan.json"))
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
-}
-
-fn ok(out: &Output) -> String {
-    let stdout = String::from_utf8_lossy(&out.stdout).into_owned();
-    assert!(
-        out.status.success(),
-        "command failed\nstdout:\n{stdout}\nstderr:\n{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    stdout
 }
 
 fn stderr(out: &Output) -> String {

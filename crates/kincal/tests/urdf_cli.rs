@@ -4,23 +4,8 @@
 
 mod common;
 
-use common::{kincal, root};
+use common::{kincal, ok, root, s};
 use std::path::Path;
-use std::process::Output;
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
-}
-
-fn ok(out: &Output) -> String {
-    let stdout = String::from_utf8_lossy(&out.stdout).into_owned();
-    assert!(
-        out.status.success(),
-        "command failed\nstdout:\n{stdout}\nstderr:\n{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    stdout
-}
 
 /// The `validation:` line of `identify`'s summary.
 fn validation_line(out: &str) -> String {

@@ -21,3 +21,21 @@ pub fn kincal(args: &[&str]) -> Output {
         .output()
         .expect("run kincal")
 }
+
+/// A path as the `&str` a command line takes.
+#[allow(dead_code)] // not every test binary uses it
+pub fn s(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+/// The stdout of a command that must have succeeded (else stdout and stderr in the panic).
+#[allow(dead_code)] // not every test binary uses it
+pub fn ok(out: &Output) -> String {
+    let stdout = String::from_utf8_lossy(&out.stdout).into_owned();
+    assert!(
+        out.status.success(),
+        "command failed\nstdout:\n{stdout}\nstderr:\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    stdout
+}
