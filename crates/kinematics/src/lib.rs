@@ -8,6 +8,7 @@
 //! millimetres; interfaces (files, reports) use degrees and millimetres.
 
 mod error;
+mod extended;
 mod ik;
 mod model;
 mod params;
@@ -16,6 +17,7 @@ pub mod simd;
 pub mod trig;
 
 pub use error::ModelError;
+pub use extended::{ExtendedKind, ExtendedModel, Gravity};
 pub use ik::{IkError, IkOptions, IkReport, IkTarget, Lower6, cholesky6};
 pub use model::{BaseSpec, JointSpec, LinkMassSpec, MAX_JOINTS, MassModelSpec, RobotSpec};
 pub use params::{BETA_ALPHA_TOL_DEG, ParamInfo, ParamKind, ParamLayout, Unit};

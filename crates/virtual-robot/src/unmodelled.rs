@@ -41,7 +41,7 @@
 
 use std::collections::BTreeMap;
 
-use kinematics::{Frame, MAX_JOINTS, ParamLayout, Robot};
+use kinematics::{Frame, Gravity, MAX_JOINTS, ParamLayout, Robot};
 use nalgebra::Vector3;
 use rand::RngExt;
 use rand::rngs::ChaCha8Rng;
@@ -337,15 +337,14 @@ impl UnmodelledConfig {
     }
 }
 
-/// The compliance model `Δq_i = (1 − c_i)·τ_i(q)/k_i` (see the module docs).
+/// The compliance model `Δq_i = (1 − c_i)·τ_i(q)/k_i` (see the module docs); τ_i is
+/// [`kinematics::Gravity`]'s, the one implementation of the gravity torque.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ComplianceModel {
-    /// (mass kg, centre of mass mm in link frame i+1) per joint i.
-    links: Vec<(f64, Vector3<f64>)>,
-    payload: (f64, Vector3<f64>),
+    /// Link masses, centres of mass, payload and g.
+    gravity: Gravity,
     /// (1 − c_i)/k_i, rad per N·m.
     gain: Vec<f64>,
-    gravity: f64,
 }
 
 impl ComplianceModel {
@@ -360,45 +359,24 @@ impl ComplianceModel {
     /// [`ComplianceModel::new`] for a configuration already validated (enabled).
     fn from_validated(cfg: &ComplianceConfig, n_joints: usize) -> Self {
         ComplianceModel {
-            links: cfg
-                .links
-                .iter()
-                .map(|l| (l.mass_kg, Vector3::from(l.com_mm)))
-                .collect(),
-            payload: (cfg.payload_kg, Vector3::from(cfg.payload_com_mm)),
+            gravity: Gravity::new(
+                cfg.links.iter().map(|l| (l.mass_kg, l.com_mm)),
+                (cfg.payload_kg, cfg.payload_com_mm),
+                cfg.gravity_m_per_s2,
+            ),
             gain: (0..n_joints)
                 .map(|i| {
                     let c = cfg.counterbalance_fraction.get(i).copied().unwrap_or(0.0);
                     (1.0 - c) / cfg.stiffness_nm_per_rad[i]
                 })
                 .collect(),
-            gravity: cfg.gravity_m_per_s2,
         }
     }
 
     /// Gravity torque τ_i about every joint axis, N·m (before the counterbalance), at the
     /// joints `q_rad` of `robot`. No allocation.
     pub fn torques_nm(&self, robot: &Robot, q_rad: &[f64], out: &mut [f64]) {
-        let mut frames = [Frame::identity(); MAX_JOINTS + 1];
-        robot.frames_into(q_rad, &mut frames);
-        self.torques_from_frames(&frames, out);
-    }
-
-    fn torques_from_frames(&self, frames: &[Frame; MAX_JOINTS + 1], out: &mut [f64]) {
-        let n = self.gain.len();
-        let g = frames[0].rot.column(2) * (-self.gravity);
-        // Accumulate total mass M and first moment S = Σ m c (kg·mm) from the tip.
-        let (mp, cp) = self.payload;
-        let mut mass = mp;
-        let mut moment = frames[n].transform_point(&cp) * mp;
-        for i in (0..n).rev() {
-            let (m, c) = self.links[i];
-            mass += m;
-            moment += frames[i + 1].transform_point(&c) * m;
-            let axis = frames[i].rot.column(2);
-            let lever_m = (moment - frames[i].pos_mm * mass) * 1e-3;
-            out[i] = axis.dot(&lever_m.cross(&g));
-        }
+        self.gravity.torques_nm(robot, q_rad, out);
     }
 
     /// Joint deflections Δq_i (rad) at the joints `q_rad` of `robot`. No allocation.
@@ -414,7 +392,7 @@ impl ComplianceModel {
     fn deflection_trig(&self, robot: &Robot, sc: &[[f64; 2]], out: &mut [f64]) {
         let mut frames = [Frame::identity(); MAX_JOINTS + 1];
         robot.frames_trig(sc, &mut frames);
-        self.torques_from_frames(&frames, out);
+        self.gravity.torques_from_frames(&frames, out);
         for (d, k) in out.iter_mut().zip(&self.gain) {
             *d *= k;
         }

@@ -143,3 +143,50 @@ fn compliance_left_after_a_linear_fit() {
         "{left:.3} mm left after the fit"
     );
 }
+
+/// The compliance parameter family of the kinematics crate (issue 19) contains the virtual
+/// robot's compliance truth exactly: with `compliance_j = (1 − c_j)/k_j` and the torques on
+/// the same robot, the extended model's point is the deflected point, to the bit (one
+/// implementation of the gravity torque, `kinematics::Gravity`).
+#[test]
+fn the_compliance_family_contains_the_truth() {
+    let robot = kr1000();
+    let cfg = ComplianceConfig {
+        payload_kg: 300.0,
+        counterbalance_fraction: vec![0.0, 0.58, 0.0, 0.0, 0.0, 0.0],
+        ..ComplianceConfig::default()
+    };
+    let truth = ComplianceModel::new(&cfg, 6).unwrap();
+    // The robot file's mass model with the same masses (the committed file carries them,
+    // tests/mass_model.rs), plus the payload.
+    let mut spec = robot.to_spec();
+    let mm = spec
+        .mass_model
+        .as_mut()
+        .expect("the KR1000 file has a mass model");
+    mm.payload_kg = cfg.payload_kg;
+    mm.payload_com_mm = cfg.payload_com_mm;
+    let with_mass = kinematics::Robot::from_spec(&spec).unwrap();
+    let names: Vec<String> = (1..=6).map(|j| format!("compliance_{j}")).collect();
+    let mut ext = kinematics::ExtendedModel::new(&with_mass, &names, "kr1000").unwrap();
+    let gains: Vec<f64> = (0..6)
+        .map(|i| (1.0 - cfg.counterbalance_fraction[i]) / cfg.stiffness_nm_per_rad[i])
+        .collect();
+    ext.set_values(&gains).unwrap();
+    for q in TABLE_POSES_DEG {
+        let q = deg(&q);
+        let expected = robot.point(&q) + truth.point_deflection_mm(&robot, &q);
+        let got = ext.point(&with_mass, &with_mass, &q);
+        // p(q + Δq) − p(q) + p(q) may round differently from p(q + Δq) in the last bit.
+        assert!((got - expected).norm() < 1e-9, "{got} vs {expected}");
+        let mut dq = [0.0; 6];
+        truth.deflection_rad(&robot, &q, &mut dq);
+        let mut w = [0.0; 6];
+        ext.weights(&with_mass, &q, &mut w);
+        let mut qe = [0.0; 6];
+        ext.effective_joints(&q, &w, &mut qe);
+        for i in 0..6 {
+            assert_eq!(qe[i], q[i] + dq[i], "joint {i}");
+        }
+    }
+}

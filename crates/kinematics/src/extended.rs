@@ -1,0 +1,402 @@
+//! Beyond geometry: gravity torques and the non-geometric joint-error families of
+//! `docs/extended-model.md` (joint compliance and gear / encoder harmonics).
+//!
+//! Both families perturb the joint angle before the geometric chain: the extended model
+//! evaluates the MD-H chain of [`Robot`] at
+//!
+//! `q̃_j = q_j + Σ_k w_k(q) · x_k`, for the parameters k acting on joint j,
+//!
+//! where `x_k` is the parameter's value and `w_k(q)` its per-pose weight:
+//!
+//! - `compliance_j` (internal unit rad/(N·m), display µrad/(N·m)): `w = τ_j(q)`, the gravity
+//!   torque about joint j ([`Gravity`]) from the mass model of the robot file, evaluated on the
+//!   **nominal** geometry at the **commanded** joints (first order in the deflection, as the
+//!   virtual robot's truth does), so `w` is a per-pose constant;
+//! - `gear_j_hk_sin` / `gear_j_hk_cos` (internal rad, display arcsec): `w = sin(k·q_j)` /
+//!   `cos(k·q_j)`, k the harmonic (cycles per joint revolution), q_j commanded.
+//!
+//! Because `q̃` is linear in `x` with weights that do not depend on any parameter, the
+//! identification Jacobian extends exactly by the chain rule: the column of `x_k` is
+//! `w_k(q) · ∂p/∂θ_j (q̃)`, the θ_j column of [`Robot::point_jacobian_into`] at `q̃` scaled
+//! by the weight, and the geometric columns are those of the chain at `q̃`
+//! (tested against central differences).
+
+use nalgebra::Vector3;
+
+use crate::MAX_JOINTS;
+use crate::error::ModelError;
+use crate::model::MassModelSpec;
+use crate::robot::{Frame, Robot};
+
+/// The gravity torque about every joint of a chain with a mass model.
+///
+/// `τ_i = ẑ_{i−1} · Σ_{j≥i} (c_j − o_{i−1}) × m_j g` over the links j ≥ i and the payload
+/// (`c_j` centres of mass, `ẑ_{i−1}`, `o_{i−1}` axis and origin of joint i, `g = −g ẑ_0`:
+/// gravity along −z of the robot base), N·m. The one implementation of it: the virtual
+/// robot's compliance truth and the compliance parameter family both call it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Gravity {
+    /// (mass kg, centre of mass mm in link frame i+1) per joint i.
+    links: Vec<(f64, Vector3<f64>)>,
+    /// Payload (mass kg, centre of mass mm in the flange frame).
+    payload: (f64, Vector3<f64>),
+    /// Gravitational acceleration, m/s².
+    gravity_m_per_s2: f64,
+}
+
+impl Gravity {
+    /// The gravity model of per-joint link masses `(mass_kg, com_mm)`, a payload and `g`.
+    pub fn new(
+        links: impl IntoIterator<Item = (f64, [f64; 3])>,
+        payload: (f64, [f64; 3]),
+        gravity_m_per_s2: f64,
+    ) -> Gravity {
+        Gravity {
+            links: links
+                .into_iter()
+                .map(|(m, c)| (m, Vector3::from(c)))
+                .collect(),
+            payload: (payload.0, Vector3::from(payload.1)),
+            gravity_m_per_s2,
+        }
+    }
+
+    /// The gravity model of a robot file's `mass_model` section.
+    pub fn from_spec(m: &MassModelSpec) -> Gravity {
+        Gravity::new(
+            m.links.iter().map(|l| (l.mass_kg, l.com_mm)),
+            (m.payload_kg, m.payload_com_mm),
+            m.gravity_m_per_s2,
+        )
+    }
+
+    /// Number of joints.
+    pub fn n_joints(&self) -> usize {
+        self.links.len()
+    }
+
+    /// τ_i (N·m) for every joint from the chain's frames (`frames[i]` the frame before joint
+    /// i+1, as [`Robot::frames_into`] writes them), into `out[..n_joints]`. No allocation.
+    pub fn torques_from_frames(&self, frames: &[Frame; MAX_JOINTS + 1], out: &mut [f64]) {
+        let n = self.links.len();
+        let g = frames[0].rot.column(2) * (-self.gravity_m_per_s2);
+        // Accumulate total mass M and first moment S = Σ m c (kg·mm) from the tip.
+        let (mp, cp) = self.payload;
+        let mut mass = mp;
+        let mut moment = frames[n].transform_point(&cp) * mp;
+        for i in (0..n).rev() {
+            let (m, c) = self.links[i];
+            mass += m;
+            moment += frames[i + 1].transform_point(&c) * m;
+            let axis = frames[i].rot.column(2);
+            let lever_m = (moment - frames[i].pos_mm * mass) * 1e-3;
+            out[i] = axis.dot(&lever_m.cross(&g));
+        }
+    }
+
+    /// τ_i (N·m) at the joints `q_rad` of `robot`, into `out[..n_joints]`. No allocation.
+    pub fn torques_nm(&self, robot: &Robot, q_rad: &[f64], out: &mut [f64]) {
+        let mut frames = [Frame::identity(); MAX_JOINTS + 1];
+        robot.frames_into(q_rad, &mut frames);
+        self.torques_from_frames(&frames, out);
+    }
+}
+
+/// Radians per arcsecond.
+const RAD_PER_ARCSEC: f64 = std::f64::consts::PI / (180.0 * 3600.0);
+
+/// What a non-geometric parameter is.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum ExtendedKind {
+    /// Compliance of joint `i` (0-based): Δθ = c · τ_i(q).
+    Compliance(usize),
+    /// Sine term of harmonic `harmonic` on joint `joint` (0-based): Δθ = s · sin(k q).
+    GearSin {
+        /// Joint, 0-based.
+        joint: usize,
+        /// Harmonic k ≥ 1.
+        harmonic: u32,
+    },
+    /// Cosine term: Δθ = c · cos(k q).
+    GearCos {
+        /// Joint, 0-based.
+        joint: usize,
+        /// Harmonic k ≥ 1.
+        harmonic: u32,
+    },
+}
+
+impl ExtendedKind {
+    /// The joint (0-based) the parameter acts on.
+    pub fn joint(self) -> usize {
+        match self {
+            ExtendedKind::Compliance(j)
+            | ExtendedKind::GearSin { joint: j, .. }
+            | ExtendedKind::GearCos { joint: j, .. } => j,
+        }
+    }
+
+    /// The stable name: `compliance_2`, `gear_1_h1_sin`, `gear_1_h1_cos` (joints 1-based).
+    pub fn name(self) -> String {
+        match self {
+            ExtendedKind::Compliance(j) => format!("compliance_{}", j + 1),
+            ExtendedKind::GearSin { joint, harmonic } => {
+                format!("gear_{}_h{harmonic}_sin", joint + 1)
+            }
+            ExtendedKind::GearCos { joint, harmonic } => {
+                format!("gear_{}_h{harmonic}_cos", joint + 1)
+            }
+        }
+    }
+
+    /// Parses a stable name (the inverse of [`ExtendedKind::name`]); `None` if `name` is not
+    /// of either family's form.
+    pub fn parse(name: &str) -> Option<ExtendedKind> {
+        let joint = |s: &str| s.parse::<usize>().ok().filter(|j| *j >= 1).map(|j| j - 1);
+        if let Some(j) = name.strip_prefix("compliance_") {
+            return joint(j).map(ExtendedKind::Compliance);
+        }
+        let rest = name.strip_prefix("gear_")?;
+        let (j, rest) = rest.split_once("_h")?;
+        let (k, kind) = rest.split_once('_')?;
+        let joint = joint(j)?;
+        let harmonic = k.parse::<u32>().ok().filter(|k| *k >= 1)?;
+        match kind {
+            "sin" => Some(ExtendedKind::GearSin { joint, harmonic }),
+            "cos" => Some(ExtendedKind::GearCos { joint, harmonic }),
+            _ => None,
+        }
+    }
+
+    /// The display unit's name: `µrad/(N·m)` or `arcsec`.
+    pub fn unit(self) -> &'static str {
+        match self {
+            ExtendedKind::Compliance(_) => "µrad/(N·m)",
+            _ => "arcsec",
+        }
+    }
+
+    /// Internal value (rad/(N·m) or rad) → display value (µrad/(N·m) or arcsec).
+    pub fn to_display(self, internal: f64) -> f64 {
+        match self {
+            ExtendedKind::Compliance(_) => internal * 1e6,
+            _ => internal / RAD_PER_ARCSEC,
+        }
+    }
+
+    /// Display value → internal value.
+    pub fn from_display(self, display: f64) -> f64 {
+        match self {
+            ExtendedKind::Compliance(_) => display * 1e-6,
+            _ => display * RAD_PER_ARCSEC,
+        }
+    }
+}
+
+/// The non-geometric part of an extended model: which parameters, their values, and the
+/// gravity model compliance needs. The geometric part stays a [`Robot`]; the torques are
+/// evaluated on the nominal robot given to [`ExtendedModel::weights`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct ExtendedModel {
+    kinds: Vec<ExtendedKind>,
+    /// Values in internal units (rad/(N·m), rad), in `kinds` order.
+    values: Vec<f64>,
+    gravity: Option<Gravity>,
+    n_joints: usize,
+}
+
+impl ExtendedModel {
+    /// The model with parameters `names` (stable names, e.g. `compliance_2`,
+    /// `gear_1_h1_sin`), all zero, for `robot`. `source_name` labels errors, which name the
+    /// field: a name of neither family, a joint the robot does not have, a repeated name, or
+    /// a compliance parameter on a robot file without `mass_model`.
+    pub fn new<S: AsRef<str>>(
+        robot: &Robot,
+        names: &[S],
+        source_name: &str,
+    ) -> Result<ExtendedModel, ModelError> {
+        let n = robot.n_joints();
+        let invalid = |field: String, message: String| ModelError::Invalid {
+            source_name: source_name.to_string(),
+            field,
+            message,
+        };
+        let mut kinds: Vec<ExtendedKind> = Vec::with_capacity(names.len());
+        for (i, name) in names.iter().enumerate() {
+            let name = name.as_ref().trim();
+            let field = format!("params[{i}]");
+            let kind = ExtendedKind::parse(name).ok_or_else(|| {
+                invalid(
+                    field.clone(),
+                    format!(
+                        "{name:?} is not a parameter of the extended families \
+                         (compliance_J, gear_J_hK_sin, gear_J_hK_cos; J a joint from 1, K ≥ 1)"
+                    ),
+                )
+            })?;
+            if kind.joint() >= n {
+                return Err(invalid(
+                    field,
+                    format!(
+                        "{name:?}: joint {} does not exist (the robot has {n} joints)",
+                        kind.joint() + 1
+                    ),
+                ));
+            }
+            if kinds.contains(&kind) {
+                return Err(invalid(field, format!("{name:?} is given twice")));
+            }
+            kinds.push(kind);
+        }
+        let needs_mass = kinds
+            .iter()
+            .any(|k| matches!(k, ExtendedKind::Compliance(_)));
+        let gravity = robot.mass_model().map(Gravity::from_spec);
+        if needs_mass && gravity.is_none() {
+            return Err(invalid(
+                "mass_model".into(),
+                "the compliance parameters need the robot file's mass model (link masses and \
+                 centres of mass, docs/extended-model.md); this robot has none"
+                    .into(),
+            ));
+        }
+        Ok(ExtendedModel {
+            values: vec![0.0; kinds.len()],
+            kinds,
+            gravity,
+            n_joints: n,
+        })
+    }
+
+    /// The parameters, in order.
+    pub fn kinds(&self) -> &[ExtendedKind] {
+        &self.kinds
+    }
+
+    /// Number of parameters.
+    pub fn len(&self) -> usize {
+        self.kinds.len()
+    }
+
+    /// True when the model has no parameter (the geometric model).
+    pub fn is_empty(&self) -> bool {
+        self.kinds.is_empty()
+    }
+
+    /// Their stable names, in order.
+    pub fn names(&self) -> Vec<String> {
+        self.kinds.iter().map(|k| k.name()).collect()
+    }
+
+    /// Values in internal units (rad/(N·m), rad).
+    pub fn values(&self) -> &[f64] {
+        &self.values
+    }
+
+    /// Sets every value (internal units).
+    pub fn set_values(&mut self, v: &[f64]) -> Result<(), ModelError> {
+        if v.len() != self.kinds.len() {
+            return Err(ModelError::Length {
+                what: "extended parameter vector",
+                expected: self.kinds.len(),
+                found: v.len(),
+            });
+        }
+        self.values.copy_from_slice(v);
+        Ok(())
+    }
+
+    /// The per-pose weights `w_k(q)` of every parameter at the commanded joints `q_rad`,
+    /// with the torques on `nominal` (see the module docs), into `out[..len]`.
+    pub fn weights(&self, nominal: &Robot, q_rad: &[f64], out: &mut [f64]) {
+        assert_eq!(q_rad.len(), self.n_joints, "joint vector length");
+        let mut tau = [0.0; MAX_JOINTS];
+        if let Some(g) = &self.gravity
+            && self
+                .kinds
+                .iter()
+                .any(|k| matches!(k, ExtendedKind::Compliance(_)))
+        {
+            g.torques_nm(nominal, q_rad, &mut tau);
+        }
+        for (w, k) in out.iter_mut().zip(&self.kinds) {
+            *w = match *k {
+                ExtendedKind::Compliance(j) => tau[j],
+                ExtendedKind::GearSin { joint, harmonic } => {
+                    (f64::from(harmonic) * q_rad[joint]).sin()
+                }
+                ExtendedKind::GearCos { joint, harmonic } => {
+                    (f64::from(harmonic) * q_rad[joint]).cos()
+                }
+            };
+        }
+    }
+
+    /// The joints the geometric chain is evaluated at: `q̃_j = q_j + Σ_k w_k x_k` over the
+    /// parameters of joint j, given the weights `w` of [`ExtendedModel::weights`].
+    pub fn effective_joints(&self, q_rad: &[f64], w: &[f64], out: &mut [f64]) {
+        out[..q_rad.len()].copy_from_slice(q_rad);
+        for ((k, wk), x) in self.kinds.iter().zip(w).zip(&self.values) {
+            out[k.joint()] += wk * x;
+        }
+    }
+
+    /// The measured point of `robot` (geometry) with this model's joint errors at the
+    /// commanded joints `q_rad`, torques on `nominal`.
+    pub fn point(&self, robot: &Robot, nominal: &Robot, q_rad: &[f64]) -> Vector3<f64> {
+        let n = q_rad.len();
+        let mut wbuf = [0.0; 4 * MAX_JOINTS];
+        let w = self.weights_buf(nominal, q_rad, &mut wbuf);
+        let mut q = [0.0; MAX_JOINTS];
+        self.effective_joints(q_rad, &w, &mut q);
+        robot.point(&q[..n])
+    }
+
+    /// The measured point and its derivatives: `geo[k] = ∂p/∂param_k` of `robot`'s layout
+    /// (at `q̃`), `ext[k] = ∂p/∂x_k = w_k · ∂p/∂θ_j(q̃)` for this model's parameters.
+    pub fn point_jacobian(
+        &self,
+        robot: &Robot,
+        nominal: &Robot,
+        q_rad: &[f64],
+        geo: &mut [Vector3<f64>],
+        ext: &mut [Vector3<f64>],
+    ) -> Vector3<f64> {
+        assert_eq!(ext.len(), self.kinds.len(), "extended column buffer length");
+        let n = q_rad.len();
+        let mut wbuf = [0.0; 4 * MAX_JOINTS];
+        let w = self.weights_buf(nominal, q_rad, &mut wbuf);
+        let mut q = [0.0; MAX_JOINTS];
+        self.effective_joints(q_rad, &w, &mut q);
+        let p = robot.point_jacobian_into(&q[..n], geo);
+        let layout = robot.layout();
+        for ((col, k), wk) in ext.iter_mut().zip(&self.kinds).zip(w.iter()) {
+            let theta = layout
+                .params()
+                .iter()
+                .position(|p| p.kind == crate::ParamKind::Theta(k.joint()))
+                .expect("every joint has a θ parameter");
+            *col = geo[theta] * *wk;
+        }
+        p
+    }
+
+    /// [`ExtendedModel::weights`] into a stack buffer when it is large enough, else a heap
+    /// one (models with more than 4 parameters per joint).
+    fn weights_buf<'a>(
+        &self,
+        nominal: &Robot,
+        q_rad: &[f64],
+        buf: &'a mut [f64; 4 * MAX_JOINTS],
+    ) -> std::borrow::Cow<'a, [f64]> {
+        if self.kinds.len() <= buf.len() {
+            let w = &mut buf[..self.kinds.len()];
+            self.weights(nominal, q_rad, w);
+            std::borrow::Cow::Borrowed(&*w)
+        } else {
+            let mut v = vec![0.0; self.kinds.len()];
+            self.weights(nominal, q_rad, &mut v);
+            std::borrow::Cow::Owned(v)
+        }
+    }
+}

@@ -1,0 +1,248 @@
+//! The non-geometric joint-error families (issue 19, `docs/extended-model.md`): joint
+//! compliance `compliance_j` and gear harmonics `gear_j_hk_sin|cos`. Their Jacobian columns
+//! against central differences, the vertical axis that sees no gravity torque, names and
+//! units, and the errors that name the field.
+
+use kinematics::{ExtendedKind, ExtendedModel, ModelError, Robot, RobotSpec};
+use nalgebra::Vector3;
+
+fn robot(name: &str) -> Robot {
+    Robot::from_file(std::path::Path::new(&format!(
+        "{}/../../scenarios/robots/{name}",
+        env!("CARGO_MANIFEST_DIR")
+    )))
+    .unwrap()
+}
+
+/// A small deterministic generator in [−1, 1).
+fn rnd(state: &mut u64) -> f64 {
+    *state = state
+        .wrapping_mul(6_364_136_223_846_793_005)
+        .wrapping_add(1_442_695_040_888_963_407);
+    ((*state >> 11) as f64 / (1u64 << 53) as f64) * 2.0 - 1.0
+}
+
+/// Every compliance parameter and the first two harmonics of every joint.
+fn all_names(n: usize) -> Vec<String> {
+    let mut v = Vec::new();
+    for j in 1..=n {
+        v.push(format!("compliance_{j}"));
+        for k in 1..=2 {
+            v.push(format!("gear_{j}_h{k}_sin"));
+            v.push(format!("gear_{j}_h{k}_cos"));
+        }
+    }
+    v
+}
+
+/// Random in-limit joints.
+fn pose(robot: &Robot, s: &mut u64) -> Vec<f64> {
+    (0..robot.n_joints())
+        .map(|_| 0.9 * rnd(s) * std::f64::consts::PI)
+        .collect()
+}
+
+#[test]
+fn jacobian_columns_match_central_differences() {
+    let mut s = 7;
+    for file in ["kr1000-titan.json", "ur10.json"] {
+        let nominal = robot(file);
+        // A perturbed geometry, so that torques (on the nominal) and chain (on this one)
+        // differ as in an identification.
+        let mut p = nominal.params();
+        for (k, v) in p.iter_mut().enumerate() {
+            *v += 1e-3
+                * rnd(&mut s)
+                * if nominal.layout().get(k).unit.as_str() == "mm" {
+                    100.0
+                } else {
+                    1.0
+                };
+        }
+        let geo_robot = nominal.with_params(&p).unwrap();
+        let names = all_names(nominal.n_joints());
+        let mut model = ExtendedModel::new(&nominal, &names, file).unwrap();
+        // Values of realistic size: compliance 0.01–1 µrad/(N·m), gears ±20″.
+        let x: Vec<f64> = model
+            .kinds()
+            .iter()
+            .map(|k| match k {
+                ExtendedKind::Compliance(_) => k.from_display(0.5 + 0.5 * rnd(&mut s)),
+                _ => k.from_display(20.0 * rnd(&mut s)),
+            })
+            .collect();
+        model.set_values(&x).unwrap();
+        for _ in 0..20 {
+            let q = pose(&nominal, &mut s);
+            let mut geo = vec![Vector3::zeros(); nominal.n_params()];
+            let mut ext = vec![Vector3::zeros(); model.len()];
+            let p0 = model.point_jacobian(&geo_robot, &nominal, &q, &mut geo, &mut ext);
+            assert!((p0 - model.point(&geo_robot, &nominal, &q)).norm() < 1e-9);
+            // Extended columns: central difference in x_k with the step that moves the joint
+            // by δ = 1e-5 rad (h_k = δ/|w_k|): truncation δ²/6·|∂³p/∂q³| ≲ 1e-10·4000 mm and
+            // rounding ε·|p|/δ ≈ 2e-16·4000/1e-5 mm, both ≲ 1e-7 mm per rad of joint motion,
+            // so the difference agrees to 1e-6 relative.
+            let mut w = vec![0.0; model.len()];
+            model.weights(&nominal, &q, &mut w);
+            for k in 0..model.len() {
+                let h = 1e-5 / w[k].abs().max(1e-3);
+                let at = |d: f64| {
+                    let mut m = model.clone();
+                    let mut v = x.clone();
+                    v[k] += d;
+                    m.set_values(&v).unwrap();
+                    m.point(&geo_robot, &nominal, &q)
+                };
+                let num = (at(h) - at(-h)) / (2.0 * h);
+                // Truncation error h²/6·|p'''| and rounding eps·|p|/h: with |p| ≲ 4 m and the
+                // steps above, both are far below 1e-4 of a column of ≳ 1 mm per unit.
+                let tol = 1e-6 * (1.0 + num.norm());
+                assert!(
+                    (num - ext[k]).norm() < tol,
+                    "{file}: {} analytic {:?} numeric {:?}",
+                    model.kinds()[k].name(),
+                    ext[k],
+                    num
+                );
+            }
+            // Geometric columns at the effective joints.
+            let gp = geo_robot.params();
+            for k in 0..gp.len() {
+                let h = 1e-6;
+                let at = |d: f64| {
+                    let mut v = gp.clone();
+                    v[k] += d;
+                    model.point(&geo_robot.with_params(&v).unwrap(), &nominal, &q)
+                };
+                let num = (at(h) - at(-h)) / (2.0 * h);
+                assert!(
+                    (num - geo[k]).norm() < 1e-5 * (1.0 + num.norm()),
+                    "{file}: {} analytic {:?} numeric {:?}",
+                    nominal.layout().get(k).name,
+                    geo[k],
+                    num
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn the_zero_model_is_the_geometric_model() {
+    let nominal = robot("kr1000-titan.json");
+    let model = ExtendedModel::new(&nominal, &all_names(6), "kr").unwrap();
+    let mut s = 3;
+    for _ in 0..50 {
+        let q = pose(&nominal, &mut s);
+        assert_eq!(model.point(&nominal, &nominal, &q), nominal.point(&q));
+    }
+}
+
+#[test]
+fn a_vertical_first_axis_sees_no_gravity_torque() {
+    // Both robots' joint 1 turns about the vertical: its compliance column is zero in every
+    // pose (not identifiable; the identifiability analysis reports it redundant), while the
+    // shoulder's is not.
+    for file in ["kr1000-titan.json", "ur10.json"] {
+        let nominal = robot(file);
+        let model = ExtendedModel::new(&nominal, &["compliance_1", "compliance_2"], file).unwrap();
+        let mut s = 11;
+        let mut shoulder = 0.0_f64;
+        for _ in 0..100 {
+            let q = pose(&nominal, &mut s);
+            let mut w = [0.0; 2];
+            model.weights(&nominal, &q, &mut w);
+            let weight: f64 = nominal
+                .mass_model()
+                .unwrap()
+                .links
+                .iter()
+                .map(|l| l.mass_kg)
+                .sum::<f64>()
+                * 9.80665;
+            // |τ1| at rounding level of the torque scale (weight × reach).
+            assert!(w[0].abs() < 1e-9 * weight * 4.0, "{file}: τ1 = {}", w[0]);
+            shoulder = shoulder.max(w[1].abs());
+        }
+        assert!(shoulder > 1.0, "{file}: τ2 never above 1 N·m");
+    }
+}
+
+#[test]
+fn names_and_units_round_trip() {
+    for kind in [
+        ExtendedKind::Compliance(1),
+        ExtendedKind::GearSin {
+            joint: 0,
+            harmonic: 1,
+        },
+        ExtendedKind::GearCos {
+            joint: 5,
+            harmonic: 12,
+        },
+    ] {
+        assert_eq!(ExtendedKind::parse(&kind.name()), Some(kind));
+        let v = 1.25;
+        assert!((kind.to_display(kind.from_display(v)) - v).abs() < 1e-12);
+    }
+    assert_eq!(ExtendedKind::Compliance(1).name(), "compliance_2");
+    assert_eq!(ExtendedKind::Compliance(1).unit(), "µrad/(N·m)");
+    // 1 arcsec = π/648000 rad.
+    let g = ExtendedKind::parse("gear_3_h2_cos").unwrap();
+    assert_eq!(g.unit(), "arcsec");
+    assert!((g.from_display(1.0) - std::f64::consts::PI / 648_000.0).abs() < 1e-20);
+    for bad in [
+        "compliance_0",
+        "compliance_x",
+        "gear_1_h0_sin",
+        "gear_1_h1_tan",
+        "gear_1_sin",
+        "theta1",
+    ] {
+        assert_eq!(ExtendedKind::parse(bad), None, "{bad}");
+    }
+}
+
+#[test]
+fn bad_models_name_the_field() {
+    let kr = robot("kr1000-titan.json");
+    let field = |r: &Robot, names: &[&str]| match ExtendedModel::new(r, names, "f.json") {
+        Err(ModelError::Invalid {
+            source_name,
+            field,
+            message,
+        }) => {
+            assert_eq!(source_name, "f.json");
+            (field, message)
+        }
+        other => panic!("expected an error naming a field, got {other:?}"),
+    };
+    let (f, m) = field(&kr, &["compliance_2", "gear_7_h1_sin"]);
+    assert_eq!(f, "params[1]");
+    assert!(
+        m.contains("joint 7 does not exist") && m.contains("6 joints"),
+        "{m}"
+    );
+    let (f, m) = field(&kr, &["gear_1_h1_sin", "gear_1_h1_sin"]);
+    assert_eq!(f, "params[1]");
+    assert!(m.contains("twice"), "{m}");
+    let (f, m) = field(&kr, &["compliance_two"]);
+    assert_eq!(f, "params[0]");
+    assert!(m.contains("compliance_J"), "{m}");
+    // A robot file without a mass model: compliance is refused naming `mass_model`, gears
+    // are fine.
+    let mut spec = kr.to_spec();
+    spec.mass_model = None;
+    let bare = Robot::from_spec(&spec).unwrap();
+    let (f, m) = field(&bare, &["gear_1_h1_sin", "compliance_3"]);
+    assert_eq!(f, "mass_model");
+    assert!(m.contains("mass model"), "{m}");
+    assert!(ExtendedModel::new(&bare, &["gear_1_h1_sin"], "f.json").is_ok());
+    // Negative masses are refused when the robot file is read, naming the field.
+    let mut text: serde_json::Value = serde_json::from_str(&kr.to_spec().to_json_string()).unwrap();
+    text["mass_model"]["links"][2]["mass_kg"] = (-800.0).into();
+    match RobotSpec::from_json_str(&text.to_string(), "neg.json").unwrap_err() {
+        ModelError::Invalid { field, .. } => assert_eq!(field, "mass_model.links[2].mass_kg"),
+        e => panic!("{e}"),
+    }
+}
