@@ -50,6 +50,7 @@ pub fn regenerate(args: RegenerateArgs) -> Result<()> {
             None,
             true,
             false,
+            false,
             None,
         )?;
         names.push(name);

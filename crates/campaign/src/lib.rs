@@ -1,6 +1,7 @@
 //! Monte Carlo campaigns: scenarios, trials, sweeps, deterministic aggregation and plots.
 
 pub mod aggregate;
+pub mod budget;
 pub mod check;
 pub mod checkpoint;
 pub mod plots;
@@ -10,12 +11,14 @@ pub mod scenario;
 pub mod sweep;
 pub mod trial;
 
+pub use budget::{BudgetConfig, ResidualBudget, residual_budget};
 pub use check::{Baseline, CheckFile, CheckSpec, Comparison, Figures, compare, run_check};
 pub use checkpoint::{
     Checkpoint, CheckpointConfig, CheckpointManifest, code_version, run_range_checkpointed,
 };
 pub use report::{
-    CampaignSummary, ShardFile, ShardManifest, merge_shards, shard_range, write_outputs,
+    CampaignSummary, ShardFile, ShardManifest, merge_shards, shard_budget, shard_range,
+    write_outputs,
 };
 pub use run::{Aggregate, run_range};
 pub use scenario::{LoadedScenario, Scenario, ScenarioError};

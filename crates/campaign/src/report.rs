@@ -7,6 +7,7 @@ use std::path::Path;
 use serde::{Deserialize, Serialize};
 
 use crate::aggregate::Summary;
+use crate::budget::ResidualBudget;
 use crate::plots;
 use crate::run::Aggregate;
 use crate::scenario::Scenario;
@@ -85,6 +86,9 @@ pub struct CampaignSummary {
     pub counts: BTreeMap<String, BTreeMap<String, u64>>,
     /// The paper's figures for comparison.
     pub paper: PaperFigures,
+    /// The residual budget, when the scenario asks for it ([`crate::budget`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub residual_budget: Option<ResidualBudget>,
 }
 
 impl CampaignSummary {
@@ -126,7 +130,14 @@ impl CampaignSummary {
                 .map(|(k, v)| (k.clone(), v.0.clone()))
                 .collect(),
             paper: PAPER,
+            residual_budget: None,
         }
+    }
+
+    /// The summary with its residual budget.
+    pub fn with_budget(mut self, budget: Option<ResidualBudget>) -> Self {
+        self.residual_budget = budget;
+        self
     }
 
     /// The summary of metric `name`, if any trial produced it.
@@ -262,6 +273,9 @@ impl CampaignSummary {
                 ));
             }
             o.push('\n');
+        }
+        if let Some(b) = &self.residual_budget {
+            o.push_str(&b.to_markdown());
         }
         o.push_str("## Identification\n\n| metric | value |\n|---|---:|\n");
         const N: Quantity = Quantity::MeanCount;
@@ -522,6 +536,10 @@ pub struct ShardFile {
     pub manifest: ShardManifest,
     /// Its trials' aggregate.
     pub aggregate: Aggregate,
+    /// The residual budget, computed by shard 0 only (it runs trials 0..budget trials
+    /// whatever the split), so that the merge gives a single run's summary.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub residual_budget: Option<ResidualBudget>,
 }
 
 /// The trial range of shard `k` of `shards` over `trials` trials (contiguous, sizes differ by
@@ -530,6 +548,15 @@ pub fn shard_range(trials: u64, k: u64, shards: u64) -> std::ops::Range<u64> {
     // In u128: no overflow for any trial count; for k < shards the bounds fit in u64.
     let at = |k: u64| (u128::from(trials) * u128::from(k) / u128::from(shards.max(1))) as u64;
     at(k)..at(k.saturating_add(1))
+}
+
+/// The residual budget of a set of shard files: shard 0's ([`merge_shards`] checks that it
+/// is there exactly when the scenario asks for one).
+pub fn shard_budget(files: &[ShardFile]) -> Option<ResidualBudget> {
+    files
+        .iter()
+        .find(|f| f.manifest.shard == 0)
+        .and_then(|f| f.residual_budget.clone())
 }
 
 /// Merges shard files: checks they belong to one campaign and cover every trial exactly
@@ -563,6 +590,18 @@ pub fn merge_shards(files: &[ShardFile]) -> Result<(Scenario, Aggregate), Campai
             return Err(CampaignError::Other(format!(
                 "shard {} of {} has trials {}..{}, expected {:?}",
                 m.shard, m.shards, m.first_trial, m.end_trial, expect
+            )));
+        }
+        if f.residual_budget.is_some() != (m.shard == 0 && m.scenario.residual_budget.enabled) {
+            return Err(CampaignError::Other(format!(
+                "shard {} of {}: {}",
+                m.shard,
+                m.shards,
+                if f.residual_budget.is_some() {
+                    "carries a residual budget, which only shard 0 of a budgeted scenario may"
+                } else {
+                    "the scenario asks for a residual budget and shard 0 has none"
+                }
             )));
         }
         if std::mem::replace(&mut seen[m.shard as usize], true) {

@@ -6,6 +6,8 @@ use std::path::{Path, PathBuf};
 use identify::{IdentifiabilityOptions, IdentifyOptions, LmOptions, ParamSet, RegistrationPolicy};
 use kinematics::{IkOptions, Robot};
 use serde::{Deserialize, Serialize};
+
+use crate::budget::BudgetConfig;
 use virtual_robot::{
     InjectedErrors, PoseSampling, TrackerConfig, UnmodelledConfig, VirtualRobotConfig,
 };
@@ -305,6 +307,10 @@ pub struct Scenario {
     /// How the identification poses are chosen (random or designed).
     #[serde(default, skip_serializing_if = "PoseSelection::is_default")]
     pub pose_selection: PoseSelection,
+    /// The residual budget: rerun with each source outside the model switched off in turn
+    /// and alone (see [`crate::budget`]) \[off\].
+    #[serde(default, skip_serializing_if = "BudgetConfig::is_default")]
+    pub residual_budget: BudgetConfig,
 }
 
 /// A parsed scenario with its robot loaded and everything validated.
@@ -438,6 +444,12 @@ impl Scenario {
             if iso.centre_step_mm.is_nan() || iso.centre_step_mm <= 0.0 {
                 return Err(invalid("iso.centre_step_mm", "must be positive".into()));
             }
+        }
+        if self.residual_budget.enabled && self.residual_budget.trials == 0 {
+            return Err(invalid(
+                "residual_budget.trials",
+                "must be at least 1 when the budget is enabled".into(),
+            ));
         }
         if self.compensation.max_iterations == 0
             || self.compensation.tol_pos_mm.is_nan()

@@ -1,31 +1,15 @@
 //! End-to-end campaign tests on the committed scenarios.
 
-use std::path::{Path, PathBuf};
+mod common;
+
+use std::path::Path;
+
+use common::{load, load_edited, scenario_path};
 
 use campaign::{
     Aggregate, CampaignSummary, Context, LoadedScenario, Scenario, ShardFile, ShardManifest,
     merge_shards, run_range, shard_range,
 };
-
-fn scenario_path(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("../../scenarios/{name}.json"))
-}
-
-fn load(name: &str) -> LoadedScenario {
-    Scenario::from_file(&scenario_path(name)).unwrap()
-}
-
-/// Loads a committed scenario as JSON, lets the test edit it, and loads the result.
-fn load_edited(name: &str, edit: impl FnOnce(&mut serde_json::Value)) -> LoadedScenario {
-    let path = scenario_path(name);
-    let mut v: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
-    edit(&mut v);
-    Scenario::from_value(v, "edited")
-        .unwrap()
-        .load(path.parent().unwrap(), "edited")
-        .unwrap()
-}
 
 fn run(loaded: &LoadedScenario, threads: usize) -> (Aggregate, CampaignSummary) {
     let scenario = loaded.scenario.clone();
@@ -49,6 +33,8 @@ fn mean(s: &CampaignSummary, key: &str) -> f64 {
 fn summary_is_byte_identical_for_1_2_3_threads_and_4_merged_shards() {
     let mut loaded = load("paper-kr1000");
     loaded.scenario.trials = 10;
+    // The budget's shard rules are tested in tests/budget.rs.
+    loaded.scenario.residual_budget.enabled = false;
     let (agg1, one) = run(&loaded, 1);
     // Each worker folds its own partial aggregate (rayon splits the range differently for
     // each thread count); the merged aggregates must not differ in a single bit.
@@ -77,6 +63,7 @@ fn summary_is_byte_identical_for_1_2_3_threads_and_4_merged_shards() {
                     &serde_json::to_string(&run_range(&ctx, range, &|_| {})).unwrap(),
                 )
                 .unwrap(),
+                residual_budget: None,
             }
         })
         .collect();

@@ -26,7 +26,7 @@ pub enum EvalError {
         got: usize,
     },
     /// An input value is NaN or infinite.
-    #[error("{what}: value {value} at index {index} is not finite")]
+    #[error("{what}: value {value:?} at index {index} is not finite")]
     NonFinite {
         /// Which input.
         what: &'static str,
@@ -46,7 +46,7 @@ pub enum EvalError {
         got: usize,
     },
     /// A reported standard error is not a finite positive number, so no z-score exists.
-    #[error("parameter `{name}`: standard error must be finite and > 0, got {value}")]
+    #[error("parameter `{name}`: standard error must be finite and > 0, got {value:?}")]
     InvalidStdError {
         /// Parameter name.
         name: String,
@@ -54,7 +54,7 @@ pub enum EvalError {
         value: f64,
     },
     /// A scalar argument is outside its admissible range.
-    #[error("invalid argument `{name}` = {value}: {reason}")]
+    #[error("invalid argument `{name}` = {value:?}: {reason}")]
     InvalidArgument {
         /// Argument name.
         name: &'static str,

@@ -49,7 +49,9 @@ pub enum IdentifyError {
         found: usize,
     },
     /// A weight is not a finite positive number.
-    #[error("weight of residual row {row} is {value}; weights are 1/σ and must be finite and > 0")]
+    #[error(
+        "weight of residual row {row} is {value:?}; weights are 1/σ and must be finite and > 0"
+    )]
     BadWeight {
         /// 0-based residual row.
         row: usize,

@@ -140,7 +140,7 @@ pub fn identify(problem: &Problem, options: &IdentifyOptions) -> Result<Fit, Ide
     {
         return Err(IdentifyError::InvalidOption {
             name: "correlation_flag",
-            value: options.correlation_flag.to_string(),
+            value: format!("{:?}", options.correlation_flag),
             reason: "must lie in (0, 1]",
         });
     }

@@ -96,7 +96,7 @@ impl IdentifiabilityOptions {
             if !(v.is_finite() && v > 0.0 && v < 1.0) {
                 return Err(IdentifyError::InvalidOption {
                     name,
-                    value: v.to_string(),
+                    value: format!("{v:?}"),
                     reason: "must lie in (0, 1)",
                 });
             }

@@ -170,7 +170,7 @@ impl Damping {
             } else {
                 Err(IdentifyError::InvalidOption {
                     name,
-                    value: v.to_string(),
+                    value: format!("{v:?}"),
                     reason: "must be finite and > 0",
                 })
             }
@@ -181,7 +181,7 @@ impl Damping {
             } else {
                 Err(IdentifyError::InvalidOption {
                     name,
-                    value: v.to_string(),
+                    value: format!("{v:?}"),
                     reason: "must be finite and > 1",
                 })
             }
@@ -321,7 +321,7 @@ impl LmOptions {
             if !(v.is_finite() && v >= 0.0) {
                 return Err(IdentifyError::InvalidOption {
                     name,
-                    value: v.to_string(),
+                    value: format!("{v:?}"),
                     reason: "must be finite and ≥ 0",
                 });
             }
@@ -329,7 +329,7 @@ impl LmOptions {
         if !(self.mu_min_rel.is_finite() && self.mu_min_rel > 0.0 && self.mu_min_rel < 1.0) {
             return Err(IdentifyError::InvalidOption {
                 name: "mu_min_rel",
-                value: self.mu_min_rel.to_string(),
+                value: format!("{:?}", self.mu_min_rel),
                 reason: "must lie in (0, 1)",
             });
         }

@@ -78,14 +78,14 @@ pub fn screen(
     if !(k.is_finite() && k > 0.0) {
         return Err(IdentifyError::InvalidOption {
             name: "outlier k",
-            value: k.to_string(),
+            value: format!("{k:?}"),
             reason: "must be finite and > 0",
         });
     }
     if !(sigma_axis_mm.is_finite() && sigma_axis_mm >= 0.0) {
         return Err(IdentifyError::InvalidOption {
             name: "sigma_axis_mm",
-            value: sigma_axis_mm.to_string(),
+            value: format!("{sigma_axis_mm:?}"),
             reason: "must be finite and ≥ 0",
         });
     }

@@ -39,6 +39,10 @@ pub struct CampaignArgs {
     /// Switch the scenario's ISO 9283 test off (e.g. to time the trials alone).
     #[arg(long)]
     pub no_iso: bool,
+    /// Switch the scenario's residual budget off (its reruns of the first trials with each
+    /// error source outside the model off in turn; `residual_budget` in the scenario).
+    #[arg(long)]
+    pub no_budget: bool,
     /// Continue an interrupted run from the checkpoint in the output directory (a fresh
     /// start if there is none; refused if it belongs to another run, saying what differs).
     #[arg(long)]
@@ -147,6 +151,7 @@ pub fn campaign(args: CampaignArgs) -> Result<()> {
         args.shard.as_deref(),
         args.quiet,
         args.no_iso,
+        args.no_budget,
         Some(Checkpointing {
             resume: args.resume,
             every: args.checkpoint_every,
@@ -204,12 +209,16 @@ pub fn run_campaign(
     shard: Option<&str>,
     quiet: bool,
     no_iso: bool,
+    no_budget: bool,
     checkpointing: Option<Checkpointing>,
 ) -> Result<()> {
     let mut loaded = Scenario::from_file(scenario_path)
         .with_context(|| format!("loading scenario {}", scenario_path.display()))?;
     if no_iso {
         loaded.scenario.iso.enabled = false;
+    }
+    if no_budget {
+        loaded.scenario.residual_budget.enabled = false;
     }
     if let Some(t) = trials {
         if t == 0 {
@@ -274,6 +283,25 @@ pub fn run_campaign(
         })
     })?;
     pb.finish_and_clear();
+    // The residual budget reruns trials 0..budget trials: a single run or shard 0 does it.
+    let budget = if shard.is_none_or(|(k, _)| k == 0) {
+        let runs = campaign::budget::budget_runs(&scenario);
+        let pb = progress_bar(runs * campaign::budget::budget_trials(&scenario));
+        let done = AtomicU64::new(0);
+        let progress = |k: u64| {
+            let d = done.fetch_add(k, Ordering::Relaxed) + k;
+            if d.is_multiple_of(16) {
+                pb.set_position(d);
+            }
+        };
+        let b = pool
+            .install(|| campaign::residual_budget(&ctx.loaded, &progress))
+            .context("computing the residual budget")?;
+        pb.finish_and_clear();
+        b
+    } else {
+        None
+    };
     let seconds = started.elapsed().as_secs_f64();
     let finish = |outputs: &[String]| -> Result<()> {
         if let Some(cfg) = &checkpoint {
@@ -292,6 +320,7 @@ pub fn run_campaign(
                 end_trial: range.end,
             },
             aggregate: agg,
+            residual_budget: budget,
         };
         let path = out.join(format!("shard-{k}-of-{n}.json"));
         let text = serde_json::to_string(&file).context("serialising the shard")?;
@@ -306,7 +335,7 @@ pub fn run_campaign(
         );
         return Ok(());
     }
-    let summary = CampaignSummary::new(&scenario, &agg);
+    let summary = CampaignSummary::new(&scenario, &agg).with_budget(budget);
     write_outputs(&out, &summary, &agg).with_context(|| format!("writing {}", out.display()))?;
     write_timing(&out, scenario.trials, threads, seconds)?;
     finish(&visible_files(&out))?;
@@ -341,8 +370,9 @@ pub fn merge(args: MergeArgs) -> Result<()> {
         .map(|p| Ok(ShardFile::from_file(p)?))
         .collect::<Result<Vec<_>>>()?;
     let (scenario, agg) = merge_shards(&files).context("merging shards")?;
+    let budget = campaign::shard_budget(&files);
     let out = args.out.unwrap_or_else(|| default_out(&scenario.name));
-    let summary = CampaignSummary::new(&scenario, &agg);
+    let summary = CampaignSummary::new(&scenario, &agg).with_budget(budget);
     write_outputs(&out, &summary, &agg).with_context(|| format!("writing {}", out.display()))?;
     println!("{}", summary.to_markdown());
     eprintln!("merged {} shards → {}", files.len(), out.display());

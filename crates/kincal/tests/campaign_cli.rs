@@ -1,4 +1,5 @@
-//! Command-line tests of `campaign`: `--no-iso` switches the scenario's ISO 9283 test off.
+//! Command-line tests of `campaign`: `--no-iso` switches the scenario's ISO 9283 test off,
+//! `--no-budget` its residual budget.
 
 mod common;
 
@@ -41,5 +42,10 @@ fn no_iso_drops_the_iso_rows_of_the_summary() {
     };
     assert_eq!(table4(&with), table4(&without));
     assert!(table4(&with).is_some(), "{with}");
+    // `--no-budget` drops the residual budget the scenario asks for, and nothing else.
+    let no_budget = run("no-budget", &["--no-budget"]);
+    assert!(with.contains("## Residual budget"), "{with}");
+    assert!(!no_budget.contains("Residual budget"), "{no_budget}");
+    assert_eq!(table4(&with), table4(&no_budget));
     let _ = std::fs::remove_dir_all(&dir);
 }

@@ -219,6 +219,63 @@ fn the_readme_paper_table_is_the_committed_result() {
     );
 }
 
+/// The figures the docs quote from the paper scenario's residual budget are the committed
+/// `results/paper-kr1000/summary.md`'s: every decimal number of each quoting passage must
+/// appear in the summary's budget section.
+#[test]
+fn the_residual_budget_quoted_in_the_docs_is_the_committed_result() {
+    let root = root();
+    let summary = std::fs::read_to_string(root.join("results/paper-kr1000/summary.md")).unwrap();
+    let section = summary
+        .split("## Residual budget")
+        .nth(1)
+        .and_then(|s| s.split("\n## ").next())
+        .expect("results/paper-kr1000/summary.md has a residual budget");
+    let numbers = Regex::new(r"\d+\.\d+(e-\d+)?").unwrap();
+    // (file, passage start, passage end, lines kept, numbers expected at least)
+    let passages: [(&str, &str, &str, bool, usize); 3] = [
+        (
+            "scenarios/README.md",
+            "Its residual budget",
+            "issue 19",
+            false,
+            8,
+        ),
+        (
+            "docs/extended-model.md",
+            "## What the paper scenario's residual is made of",
+            "\n## ",
+            true,
+            10,
+        ),
+        ("README.md", "What the ", "docs/extended-model.md", false, 2),
+    ];
+    for (file, from, to, table_only, at_least) in passages {
+        let text = std::fs::read_to_string(root.join(file)).unwrap();
+        let start = text
+            .find(from)
+            .unwrap_or_else(|| panic!("{file} has no passage `{from}`"));
+        let rest = &text[start + from.len()..];
+        let passage = &rest[..rest.find(to).unwrap_or(rest.len())];
+        let mut n = 0;
+        for line in passage
+            .lines()
+            .filter(|l| !table_only || l.starts_with("| "))
+        {
+            for m in numbers.find_iter(line) {
+                n += 1;
+                assert!(
+                    section.contains(m.as_str()),
+                    "{file} quotes {} in `{line}`, which the residual budget of \
+                     results/paper-kr1000/summary.md does not have:\n{section}",
+                    m.as_str()
+                );
+            }
+        }
+        assert!(n >= at_least, "{file}: {n} numbers in\n{passage}");
+    }
+}
+
 /// The Markdown files of the repository's own docs (README, ARCHITECTURE, docs/, scenarios/,
 /// results/, data/), not those of build output.
 fn markdown_files(root: &Path) -> Vec<PathBuf> {

@@ -9,7 +9,7 @@ use std::cell::RefCell;
 
 use kinematics::{Robot, RobotSpec};
 use mutate::{Tally, apply, mutations, names_file_and_place};
-use proptest::test_runner::{Config, TestRunner};
+use proptest::test_runner::TestRunner;
 
 fn read(bytes: &[u8], dir: &std::path::Path) -> Result<(), String> {
     let path = dir.join("robot.json");
@@ -44,11 +44,7 @@ fn mutated_robot_files_are_read_or_refused_clearly() {
     }
     let file = dir.path().join("robot.json").display().to_string();
     let tally = RefCell::new(Tally::default());
-    let mut runner = TestRunner::new(Config {
-        cases: 1500,
-        failure_persistence: None,
-        ..Config::default()
-    });
+    let mut runner = TestRunner::new(mutate::config(1500));
     runner
         .run(&(0..seeds.len(), mutations()), |(k, muts)| {
             let input = apply(&seeds[k], &muts);

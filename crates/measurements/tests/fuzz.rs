@@ -8,7 +8,7 @@ use std::cell::RefCell;
 
 use measurements::{ReadOptions, read_file, read_str};
 use mutate::{Tally, apply, mutations};
-use proptest::test_runner::{Config, TestRunner};
+use proptest::test_runner::TestRunner;
 
 /// A valid file: the first rows of the real UR10 series B, a comment, an `id` column.
 fn seed() -> Vec<u8> {
@@ -80,11 +80,7 @@ fn mutated_measurement_files_are_read_or_refused_clearly() {
         read(&seed, dir.path(), &opts).expect("the seed is valid");
     }
     let tally = RefCell::new(Tally::default());
-    let mut runner = TestRunner::new(Config {
-        cases: 3000,
-        failure_persistence: None,
-        ..Config::default()
-    });
+    let mut runner = TestRunner::new(mutate::config(3000));
     runner
         .run(&mutations(), |muts| {
             let input = apply(&seed, &muts);

@@ -64,7 +64,7 @@ pub enum PlotError {
         what: String,
     },
     /// A value is NaN or infinite.
-    #[error("non-finite value {value} in series `{series}` at index {index}")]
+    #[error("non-finite value {value:?} in series `{series}` at index {index}")]
     NonFinite {
         /// The series (or input) holding the value.
         series: String,
@@ -86,7 +86,7 @@ pub enum PlotError {
     /// A finite value that the plot still cannot represent (a negative standard deviation,
     /// a non-positive value on a log axis, a bin whose upper edge is not above its lower
     /// edge).
-    #[error("invalid value {value} in series `{series}` at index {index}: {reason}")]
+    #[error("invalid value {value:?} in series `{series}` at index {index}: {reason}")]
     InvalidValue {
         /// The series (or input) holding the value.
         series: String,

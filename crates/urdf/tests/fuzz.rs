@@ -13,7 +13,7 @@ use std::path::Path;
 
 use kinematics::Robot;
 use mutate::{Tally, apply, mutations};
-use proptest::test_runner::{Config, TestRunner};
+use proptest::test_runner::TestRunner;
 use urdf::{ImportOptions, import_file, import_str};
 
 fn import(bytes: &[u8], dir: &Path) -> Result<(), String> {
@@ -65,11 +65,7 @@ fn mutated_urdf_files_are_imported_or_refused_clearly() {
     }
     let file = dir.path().join("robot.urdf").display().to_string();
     let tally = RefCell::new(Tally::default());
-    let mut runner = TestRunner::new(Config {
-        cases: 1000,
-        failure_persistence: None,
-        ..Config::default()
-    });
+    let mut runner = TestRunner::new(mutate::config(1000));
     runner
         .run(&(0..seeds.len(), mutations()), |(k, muts)| {
             let input = apply(&seeds[k], &muts);

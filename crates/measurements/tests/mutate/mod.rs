@@ -221,3 +221,23 @@ pub fn names_file_and_place(msg: &str, file: &str) -> Option<String> {
     }
     None
 }
+
+/// The runner configuration of every fuzz test: `cases` cases, no persistence files, and a
+/// **fixed seed**, so that CI explores the same cases on every run and a failure reproduces
+/// (`PROPTEST_RNG_SEED=<u64>` explores others; a case found that way goes into the crate's
+/// regression corpus).
+#[allow(dead_code)]
+pub fn config(cases: u32) -> proptest::test_runner::Config {
+    use proptest::test_runner::{Config, RngSeed};
+    let base = Config::default();
+    let rng_seed = match base.rng_seed {
+        RngSeed::Random => RngSeed::Fixed(0x6b69_6e63_616c_0019),
+        fixed => fixed,
+    };
+    Config {
+        cases,
+        failure_persistence: None,
+        rng_seed,
+        ..base
+    }
+}
