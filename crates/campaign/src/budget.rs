@@ -100,6 +100,17 @@ impl Source {
         }
     }
 
+    /// A short name, for plot categories.
+    pub fn short(self) -> &'static str {
+        match self {
+            Source::Compliance => "compliance",
+            Source::Gears => "gears",
+            Source::Repeatability => "repeatability",
+            Source::Drift => "drift",
+            Source::TrackerNoise => "tracker noise",
+        }
+    }
+
     /// Whether the scenario switches this source on (with a non-zero size).
     pub fn is_on(self, s: &Scenario) -> bool {
         let u = &s.unmodelled;

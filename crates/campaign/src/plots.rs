@@ -12,6 +12,7 @@ use report::plot::{mean, norms};
 use report::{Figure, PlotError, RefLine, Scale, Series, Style};
 
 use crate::aggregate::Summary;
+use crate::budget::{ResidualBudget, RunFigures};
 use crate::report::{CampaignSummary, PAPER, RecoverySummary};
 use crate::sweep::{PlotSpec, SweepPoint, SweepResult};
 
@@ -522,6 +523,7 @@ pub fn campaign_page(summary: &CampaignSummary, svgs: &[(String, String)]) -> St
                 "improvement-histogram.svg" => ("Table 4", "Improvement of the mean validation error, over all trials."),
                 "recovery.svg" => ("Parameter recovery", "Recovery error (estimate − truth) per parameter over trials, mean ± 1 sd, lengths in mm and angles in arcseconds, in kinematic order."),
                 "recovery-z.svg" => ("Parameter recovery", "z-score per parameter over trials, mean ± 1 sd: honest standard errors give mean 0 and sd 1."),
+                "residual-budget.svg" => ("Residual budget: what the error after calibration is made of", "Validation error after compensation, mean over trials with p5–p95 bars, when the same trials are rerun with each error source outside the model switched off, with each alone, and with none."),
                 _ => ("", "plot"),
             };
             Picture {
@@ -557,6 +559,78 @@ pub fn sweep_outputs(result: &SweepResult) -> Result<Vec<(String, Vec<u8>)>, Str
     )];
     files.extend(svgs.into_iter().map(|(n, s)| (n, s.into_bytes())));
     Ok(files)
+}
+
+/// The residual budget ([`crate::budget`]): the validation error after compensation (mean
+/// over trials of each trial's mean, with the p5–p95 band over trials) with every source
+/// outside the model, with each switched off, with each alone, and with none; for the paper's
+/// scenarios, its Table-4 value as a reference line. `None` when a run has no figure.
+pub fn budget_svg(
+    name: &str,
+    budget: &ResidualBudget,
+    paper: bool,
+) -> Result<Option<String>, PlotError> {
+    let mut cats: Vec<String> = Vec::new();
+    let mut series: Vec<Series> = Vec::new();
+    let mut push = |label: &str, runs: Vec<(String, &RunFigures)>| -> Option<()> {
+        let mut s = Series::new(label, Vec::new(), Style::Markers);
+        for (cat, run) in runs {
+            let m = run.after_mean_mm.as_ref()?;
+            s.points.push((cats.len() as f64, m.mean));
+            s.bars.push((m.p5, m.p95));
+            cats.push(cat);
+        }
+        series.push(s);
+        Some(())
+    };
+    let ok = push(
+        "every source (the campaign)",
+        vec![("all".to_string(), &budget.all)],
+    )
+    .and_then(|_| {
+        push(
+            "that source switched off",
+            budget
+                .sources
+                .iter()
+                .map(|r| (format!("no {}", r.source.short()), &r.without))
+                .collect(),
+        )
+    })
+    .and_then(|_| {
+        push(
+            "that source alone",
+            budget
+                .sources
+                .iter()
+                .map(|r| (format!("{} only", r.source.short()), &r.alone))
+                .collect(),
+        )
+    })
+    .and_then(|_| {
+        push(
+            "none: geometric errors only",
+            vec![("none".to_string(), &budget.none)],
+        )
+    });
+    if ok.is_none() || budget.sources.is_empty() {
+        return Ok(None);
+    }
+    let mut f = Figure::new(
+        format!("{name}: what the error after calibration is made of"),
+        "error sources outside the model in the run (bars: p5–p95 over trials)",
+        "validation error after compensation (mm)",
+    );
+    f.x_categories = Some(cats);
+    f.y_from_zero = true;
+    f.series = series;
+    if paper {
+        f.refs.push(RefLine::horizontal(
+            format!("paper, mean after: {} mm", fmt::mm(PAPER.after_mean_mm)),
+            PAPER.after_mean_mm,
+        ));
+    }
+    figure_svg(&f).map(Some)
 }
 
 #[cfg(test)]

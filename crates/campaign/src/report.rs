@@ -485,6 +485,11 @@ pub fn render_outputs(
     if let Some(svg) = plots::z_scores_svg(name, &summary.recovery).map_err(plot_err)? {
         svgs.push(("recovery-z.svg".into(), svg));
     }
+    if let Some(b) = &summary.residual_budget
+        && let Some(svg) = plots::budget_svg(name, b, paper).map_err(plot_err)?
+    {
+        svgs.push(("residual-budget.svg".into(), svg));
+    }
     files.push((
         "report.html".into(),
         plots::campaign_page(summary, &svgs).into_bytes(),

@@ -85,7 +85,32 @@ fn paper_budget_explains_the_residual() {
             .to_json()
             .contains("residual_budget\": {\n    \"trials")
     );
-    let md = summary.with_budget(Some(b)).to_markdown();
+    let files = |s: &CampaignSummary| -> Vec<(String, Vec<u8>)> {
+        campaign::report::render_outputs(s, &agg).unwrap()
+    };
+    assert!(
+        !files(&summary)
+            .iter()
+            .any(|(n, _)| n == "residual-budget.svg")
+    );
+    let summary = summary.with_budget(Some(b));
+    let out = files(&summary);
+    let svg = out
+        .iter()
+        .find(|(n, _)| n == "residual-budget.svg")
+        .map(|(_, s)| String::from_utf8_lossy(s).into_owned())
+        .expect("a budget plot");
+    for label in [
+        "no compliance",
+        "tracker noise only",
+        "none",
+        "paper, mean after",
+    ] {
+        assert!(svg.contains(label), "{label}");
+    }
+    let html = out.iter().find(|(n, _)| n == "report.html").unwrap();
+    assert!(String::from_utf8_lossy(&html.1).contains("no compliance"));
+    let md = summary.to_markdown();
     assert!(md.contains("## Residual budget"), "{md}");
     assert!(md.contains("| without joint compliance under self-weight |"));
     assert!(md.contains("switching off joint compliance under self-weight removes the most"));
