@@ -81,6 +81,13 @@ pub struct IdentificationConfig {
     pub registration: RegistrationPolicy,
     /// Rank tolerance and thresholds of the identifiability analysis.
     pub identifiability: IdentifiabilityOptions,
+    /// Non-geometric joint-error parameters identified beside the geometric ones
+    /// (`docs/extended-model.md`) \[none\]: names (`compliance_2`, `gear_1_h1_sin`, …) or the
+    /// families `"compliance"` (every joint's) and `"gears"` (the first harmonic, sine and
+    /// cosine, of every joint). `params` then selects among all of them (`"paper"`: every
+    /// geometric and every extended parameter).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub extended: Vec<String>,
 }
 
 impl Default for IdentificationConfig {
@@ -90,7 +97,27 @@ impl Default for IdentificationConfig {
             lm: LmOptions::default(),
             registration: RegistrationPolicy::Never,
             identifiability: IdentifiabilityOptions::default(),
+            extended: Vec::new(),
         }
+    }
+}
+
+impl IdentificationConfig {
+    /// The extended parameters' names for an `n_joints` robot, families expanded, in the
+    /// order given.
+    pub fn extended_names(&self, n_joints: usize) -> Vec<String> {
+        let mut out: Vec<String> = Vec::new();
+        for e in &self.extended {
+            match e.trim() {
+                "compliance" => out.extend((1..=n_joints).map(|j| format!("compliance_{j}"))),
+                "gears" => out.extend(
+                    (1..=n_joints)
+                        .flat_map(|j| [format!("gear_{j}_h1_sin"), format!("gear_{j}_h1_cos")]),
+                ),
+                name => out.push(name.to_string()),
+            }
+        }
+        out
     }
 }
 
@@ -464,8 +491,14 @@ impl Scenario {
             .lm
             .validate()
             .map_err(|e| invalid("identification.lm", e.to_string()))?;
+        let id_nominal = nominal
+            .with_extended(
+                &self.identification.extended_names(nominal.n_joints()),
+                source,
+            )
+            .map_err(|e| invalid("identification.extended", e.to_string()))?;
         if let ParamSet::Names(names) = &self.identification.params {
-            nominal
+            id_nominal
                 .layout()
                 .select(names)
                 .map_err(|e| invalid("identification.params", e.to_string()))?;

@@ -96,6 +96,9 @@ pub struct Context {
     pub iso: Option<IsoPlan>,
     /// A designed pose selection: criterion, poses to choose and column scale.
     pub design: Option<(design::Criterion, usize, design::Scale)>,
+    /// The start model of the identification: the nominal robot, extended by the
+    /// scenario's non-geometric parameters (`identification.extended`) when it has any.
+    pub id_nominal: Robot,
 }
 
 impl Context {
@@ -130,8 +133,16 @@ impl Context {
             (Some(c), virtual_robot::PoseSet::Count(n)) => Some((c, *n, loaded.design_scale())),
             _ => None,
         };
+        let id_nominal = loaded
+            .nominal
+            .with_extended(
+                &id.extended_names(loaded.nominal.n_joints()),
+                &loaded.source,
+            )
+            .map_err(|e| CampaignError::Other(format!("identification.extended: {e}")))?;
         Ok(Context {
             design,
+            id_nominal,
             id_options: id.options(),
             loaded,
             setup,
@@ -358,13 +369,13 @@ pub fn run_trial(ctx: &Context, trial: u64) -> Result<TrialResult, CampaignError
         .identification
         .params
         .resolve(
-            nominal,
+            &ctx.id_nominal,
             &id_poses,
             None,
             &scenario.identification.identifiability,
         )
         .map_err(ident)?;
-    let problem = Problem::new(nominal, &id_poses, &id_points, free).map_err(ident)?;
+    let problem = Problem::new(&ctx.id_nominal, &id_poses, &id_points, free).map_err(ident)?;
     let fit: Fit = identify::identify(&problem, &ctx.id_options).map_err(ident)?;
 
     // Validation before compensation, then after.
@@ -510,7 +521,7 @@ fn recovery(
         .filter_map(|n| layout.index_of(n).ok())
         .collect();
     let registered = fit.registration.as_ref().is_some_and(|r| r.applied);
-    let (est_min, cov) = if !registered && solved == *free {
+    let (est_min, cov) = if !registered && solved == *free && !fit.robot.is_extended() {
         (fit.params.clone(), fit.covariance.clone())
     } else {
         // The estimate's re-expression, then its covariance with the trial's measurements

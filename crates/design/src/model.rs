@@ -53,6 +53,8 @@ impl Scale {
                 .map(|p| match p.unit {
                     Unit::Mm => *length_mm,
                     Unit::Deg => *angle_deg,
+                    Unit::MicroradPerNm => EXTENDED_COMPLIANCE_SCALE,
+                    Unit::Arcsec => EXTENDED_GEAR_SCALE_ARCSEC,
                 })
                 .collect(),
             Scale::PerParameter(v) => {
@@ -114,11 +116,21 @@ impl Scale {
                         pick(base_translation_mm, 0.5)
                     }
                     ParamKind::ToolX | ParamKind::ToolY | ParamKind::ToolZ => pick(tool_mm, 0.5),
+                    ParamKind::Extended(kinematics::ExtendedKind::Compliance(_)) => {
+                        EXTENDED_COMPLIANCE_SCALE
+                    }
+                    ParamKind::Extended(_) => EXTENDED_GEAR_SCALE_ARCSEC,
                 })
                 .collect(),
         )
     }
 }
+
+/// Column scale of a joint-compliance parameter, µrad/(N·m): the order of a large robot's
+/// main-axis compliance (1/k with k ≈ 10⁷ N·m/rad is 0.1 µrad/(N·m)).
+pub const EXTENDED_COMPLIANCE_SCALE: f64 = 0.1;
+/// Column scale of a gear-harmonic parameter, arcsec (the paper scenario's 10–20″).
+pub const EXTENDED_GEAR_SCALE_ARCSEC: f64 = 10.0;
 
 /// Rounding allowance at a joint limit (a limit read in degrees and converted).
 const LIMIT_TOL_RAD: f64 = 1e-12;

@@ -253,6 +253,12 @@ fn covariance_on(
     opts: &IdentifiabilityOptions,
     correlation_flag: f64,
 ) -> Result<Option<Covariance>, IdentifyError> {
+    // The lane kernels evaluate the geometric chain only (see `lm::solve_on`).
+    let source = if robot.is_extended() {
+        Source::Reference
+    } else {
+        source
+    };
     let layout = robot.layout();
     let n = robot.n_joints();
     let m = poses_rad.len() / n;

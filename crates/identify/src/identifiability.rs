@@ -206,12 +206,16 @@ pub struct IdentifiabilityReport {
 }
 
 /// Keep-priority of the parameters (most preferred first): tool, base translations, joint
-/// parameters in layout order, base rotations. See the module docs.
+/// parameters in layout order, base rotations, then the non-geometric parameters of an
+/// extended robot. See the module docs.
 pub fn keep_priority(layout: &ParamLayout) -> Vec<usize> {
     let rank = |kind: ParamKind| match kind {
         ParamKind::ToolX | ParamKind::ToolY | ParamKind::ToolZ => 0,
         ParamKind::BaseDx | ParamKind::BaseDy | ParamKind::BaseDz => 1,
         ParamKind::BaseRx | ParamKind::BaseRy | ParamKind::BaseRz => 3,
+        // Non-geometric joint parameters last: where one is confounded with geometry, the
+        // geometric parameter is kept.
+        ParamKind::Extended(_) => 4,
         _ => 2,
     };
     let mut idx: Vec<usize> = (0..layout.len()).collect();
@@ -706,6 +710,10 @@ pub(crate) fn redundant_positions(
     // the SVD on the stacked Jacobian.
     match greedy_cholesky(a, &priority) {
         Some(gr) => Ok((0..pf).filter(|k| !gr.kp.contains(k)).collect()),
+        None if robot.is_extended() => {
+            let j = weighted_jacobian(robot, poses_rad, weights, free);
+            Ok(analyze_matrix(j, &priority, opts)?.dropped)
+        }
         None => {
             let trig = PoseTrig::new(robot.n_joints(), poses_rad);
             let mut j = DMatrix::zeros(3 * m, pf);

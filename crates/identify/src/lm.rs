@@ -783,6 +783,13 @@ fn solve_on(
     options: &LmOptions,
     ident: &IdentifiabilityOptions,
 ) -> Result<LmSolution, IdentifyError> {
+    // The lane kernels of the fast path evaluate the geometric chain only: an extended
+    // robot (non-geometric joint parameters) is solved on the reference path.
+    let path = if problem.robot().is_extended() {
+        Path::Reference
+    } else {
+        path
+    };
     solve_speculating(path, problem, options, ident, true)
 }
 

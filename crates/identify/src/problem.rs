@@ -124,6 +124,9 @@ impl<'a> Problem<'a> {
     /// (3m × P) and `e` the weighted residual; returns the cost `‖e‖²`. This is what every
     /// accepted LM iteration assembles (exposed for benchmarks and tests).
     pub fn normal_equations(&self, a: &mut DMatrix<f64>, g: &mut DVector<f64>) -> f64 {
+        if self.robot.is_extended() {
+            return self.normal_equations_reference(a, g);
+        }
         let pf = self.free.len();
         if a.shape() != (pf, pf) {
             *a = DMatrix::zeros(pf, pf);

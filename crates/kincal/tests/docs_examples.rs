@@ -276,6 +276,42 @@ fn the_residual_budget_quoted_in_the_docs_is_the_committed_result() {
     }
 }
 
+/// The geometric-vs-extended table of `docs/extended-model.md` and the figures
+/// `scenarios/README.md` quotes for `paper-kr1000-extended` are the committed summaries'.
+#[test]
+fn the_extended_model_figures_in_the_docs_are_the_committed_results() {
+    let root = root();
+    let read = |f: &str| std::fs::read_to_string(root.join(f)).unwrap();
+    let geo = read("results/paper-kr1000/summary.md");
+    let ext = read("results/paper-kr1000-extended/summary.md");
+    let doc = read("docs/extended-model.md");
+    let mean = |s: &str| summary_row(s, "mean 3-D after (mm)").0;
+    let max = |s: &str| summary_row(s, "max 3-D after (mm)").0;
+    for row in [
+        format!("| mean after | {} | {} |", mean(&geo), mean(&ext)),
+        format!("| max after | {} | {} |", max(&geo), max(&ext)),
+    ] {
+        assert!(
+            doc.contains(&row),
+            "docs/extended-model.md should have the row\n{row}"
+        );
+    }
+    let scen = read("scenarios/README.md");
+    for quoted in [
+        format!(
+            "from the geometric model's {} mm to\n  {} mm",
+            mean(&geo),
+            mean(&ext)
+        ),
+        format!("(max {} → {} mm)", max(&geo), max(&ext)),
+    ] {
+        assert!(
+            scen.contains(&quoted),
+            "scenarios/README.md should say {quoted:?}"
+        );
+    }
+}
+
 /// The Markdown files of the repository's own docs (README, ARCHITECTURE, docs/, scenarios/,
 /// results/, data/), not those of build output.
 fn markdown_files(root: &Path) -> Vec<PathBuf> {

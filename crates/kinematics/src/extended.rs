@@ -106,7 +106,7 @@ impl Gravity {
 const RAD_PER_ARCSEC: f64 = std::f64::consts::PI / (180.0 * 3600.0);
 
 /// What a non-geometric parameter is.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
 pub enum ExtendedKind {
     /// Compliance of joint `i` (0-based): Δθ = c · τ_i(q).
     Compliance(usize),
@@ -266,6 +266,11 @@ impl ExtendedModel {
             gravity,
             n_joints: n,
         })
+    }
+
+    /// The gravity model of the robot file's mass model, if it has one.
+    pub fn gravity(&self) -> Option<&Gravity> {
+        self.gravity.as_ref()
     }
 
     /// The parameters, in order.

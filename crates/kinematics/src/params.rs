@@ -49,6 +49,9 @@ pub enum ParamKind {
     ToolY,
     /// Measured point in the flange frame, z.
     ToolZ,
+    /// A non-geometric joint-error parameter (`compliance_j`, `gear_j_hk_sin|cos`), after the
+    /// tool in the layout of an extended robot ([`crate::Robot::with_extended`]).
+    Extended(crate::ExtendedKind),
 }
 
 /// The interface unit of a parameter.
@@ -58,6 +61,10 @@ pub enum Unit {
     Deg,
     /// A length: millimetres everywhere.
     Mm,
+    /// A joint compliance: µrad/(N·m) outside, rad/(N·m) inside.
+    MicroradPerNm,
+    /// A small joint angle (gear harmonics): arcseconds outside, radians inside.
+    Arcsec,
 }
 
 impl Unit {
@@ -66,6 +73,8 @@ impl Unit {
         match self {
             Unit::Deg => "deg",
             Unit::Mm => "mm",
+            Unit::MicroradPerNm => "urad/Nm",
+            Unit::Arcsec => "arcsec",
         }
     }
 }
@@ -98,23 +107,32 @@ impl ParamInfo {
             ParamKind::ToolX => ("tool_x".into(), Unit::Mm),
             ParamKind::ToolY => ("tool_y".into(), Unit::Mm),
             ParamKind::ToolZ => ("tool_z".into(), Unit::Mm),
+            ParamKind::Extended(e) => (
+                e.name(),
+                match e {
+                    crate::ExtendedKind::Compliance(_) => Unit::MicroradPerNm,
+                    _ => Unit::Arcsec,
+                },
+            ),
         };
         ParamInfo { name, kind, unit }
     }
 
     /// Internal value (rad or mm) → interface value (deg or mm).
     pub fn to_display(&self, internal: f64) -> f64 {
-        match self.unit {
-            Unit::Deg => internal.to_degrees(),
-            Unit::Mm => internal,
+        match (self.unit, self.kind) {
+            (Unit::Deg, _) => internal.to_degrees(),
+            (_, ParamKind::Extended(e)) => e.to_display(internal),
+            _ => internal,
         }
     }
 
     /// Interface value (deg or mm) → internal value (rad or mm).
     pub fn from_display(&self, display: f64) -> f64 {
-        match self.unit {
-            Unit::Deg => display.to_radians(),
-            Unit::Mm => display,
+        match (self.unit, self.kind) {
+            (Unit::Deg, _) => display.to_radians(),
+            (_, ParamKind::Extended(e)) => e.from_display(display),
+            _ => display,
         }
     }
 }
@@ -189,6 +207,25 @@ impl ParamLayout {
         ParamLayout {
             params: params.into(),
             n_joints: n,
+        }
+    }
+
+    /// This layout with the non-geometric parameters `kinds` appended (after the tool).
+    pub fn with_extended(&self, kinds: &[crate::ExtendedKind]) -> ParamLayout {
+        let mut params: Vec<ParamInfo> = self
+            .params
+            .iter()
+            .filter(|p| !matches!(p.kind, ParamKind::Extended(_)))
+            .cloned()
+            .collect();
+        params.extend(
+            kinds
+                .iter()
+                .map(|k| ParamInfo::new(ParamKind::Extended(*k))),
+        );
+        ParamLayout {
+            params: params.into(),
+            n_joints: self.n_joints,
         }
     }
 

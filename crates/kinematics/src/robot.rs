@@ -4,6 +4,7 @@
 use nalgebra::{DMatrix, Matrix3, Matrix6, Rotation3, Vector3, Vector6};
 
 use crate::error::ModelError;
+use crate::extended::ExtendedModel;
 use crate::model::{BaseSpec, JointSpec, MAX_JOINTS, MassModelSpec, RobotSpec};
 use crate::params::{ParamKind, ParamLayout};
 
@@ -166,7 +167,69 @@ pub struct Robot {
     base_index: usize,
     /// The model file's optional mass model, kept as given (see [`MassModelSpec`]).
     mass_model: Option<MassModelSpec>,
+    /// The non-geometric joint-error parameters of an extended robot
+    /// ([`Robot::with_extended`]).
+    extended: Option<Box<ExtendedPart>>,
 }
+
+/// The non-geometric part of an extended robot.
+#[derive(Clone, Debug, PartialEq)]
+struct ExtendedPart {
+    /// Parameters, values (internal units) and the gravity model.
+    model: ExtendedModel,
+    /// The geometry the gravity torques are evaluated on: the robot as it was extended
+    /// (normally the nominal), geometric only, fixed while the parameters move.
+    torque_robot: Robot,
+    /// Layout index of the first extended parameter (they follow in `model` order).
+    first: usize,
+    /// Layout index of θ_j for each extended parameter's joint j.
+    theta_index: Vec<usize>,
+}
+
+impl ExtendedPart {
+    /// The joint offsets δ_j = Σ_k w_k x_k at the pose whose `[sin q, cos q]` are `sc`,
+    /// and the weights `w` (into `w[..len]`).
+    fn offsets(&self, sc: &[[f64; 2]], w: &mut [f64], delta: &mut [f64; MAX_JOINTS]) {
+        let kinds = self.model.kinds();
+        let mut tau = [0.0; MAX_JOINTS];
+        if let Some(g) = self.model.gravity()
+            && kinds
+                .iter()
+                .any(|k| matches!(k, crate::ExtendedKind::Compliance(_)))
+        {
+            let mut frames = [Frame::identity(); MAX_JOINTS + 1];
+            self.torque_robot.frames_trig(sc, &mut frames);
+            g.torques_from_frames(&frames, &mut tau);
+        }
+        for (wk, k) in w.iter_mut().zip(kinds) {
+            *wk = match *k {
+                crate::ExtendedKind::Compliance(j) => tau[j],
+                crate::ExtendedKind::GearSin { joint, harmonic } => {
+                    harmonic_sin_cos(sc[joint], harmonic)[0]
+                }
+                crate::ExtendedKind::GearCos { joint, harmonic } => {
+                    harmonic_sin_cos(sc[joint], harmonic)[1]
+                }
+            };
+        }
+        *delta = [0.0; MAX_JOINTS];
+        for ((k, wk), x) in kinds.iter().zip(w.iter()).zip(self.model.values()) {
+            delta[k.joint()] += wk * x;
+        }
+    }
+}
+
+/// `[sin kq, cos kq]` from `[sin q, cos q]` by the angle-addition recurrence.
+fn harmonic_sin_cos([s, c]: [f64; 2], k: u32) -> [f64; 2] {
+    let (mut sk, mut ck) = (s, c);
+    for _ in 1..k {
+        (sk, ck) = (sk * c + ck * s, ck * c - sk * s);
+    }
+    [sk, ck]
+}
+
+/// Most non-geometric parameters one robot can carry (one weight each on the stack).
+const MAX_EXTENDED: usize = 4 * MAX_JOINTS;
 
 impl Robot {
     /// Builds a robot from a validated model file.
@@ -221,7 +284,129 @@ impl Robot {
             beta_index,
             base_index,
             mass_model: spec.mass_model.clone(),
+            extended: None,
         })
+    }
+
+    /// This robot with the non-geometric joint-error parameters `names` (`compliance_j`,
+    /// `gear_j_hk_sin|cos`, all zero) appended to its parameter vector, the gravity torques
+    /// evaluated on this robot's geometry from then on (see [`ExtendedModel`] and
+    /// `docs/extended-model.md`). Every commanded-joint entry point ([`Robot::point`],
+    /// [`Robot::flange`], the `_trig` forms, IK) then evaluates the chain at the effective
+    /// joints q̃ = q + Σ w_k(q)·x_k, and the Jacobians carry the columns w_k·∂p/∂θ_j. The
+    /// vectorised lane kernels do not (they panic on an extended robot; the identification
+    /// takes its reference path for one). Errors name the field, as [`ExtendedModel::new`]'s.
+    pub fn with_extended<S: AsRef<str>>(
+        &self,
+        names: &[S],
+        source_name: &str,
+    ) -> Result<Robot, ModelError> {
+        let mut geometric = self.clone();
+        if geometric.extended.is_some() {
+            geometric.extended = None;
+            geometric.layout = self.layout.with_extended(&[]);
+        }
+        let model = ExtendedModel::new(&geometric, names, source_name)?;
+        if model.len() > MAX_EXTENDED || geometric.n_params() + model.len() > MAX_PARAMS {
+            return Err(ModelError::Invalid {
+                source_name: source_name.to_string(),
+                field: "params".into(),
+                message: format!(
+                    "{} non-geometric parameters: at most {} fit beside the {} geometric ones",
+                    model.len(),
+                    (MAX_PARAMS - geometric.n_params()).min(MAX_EXTENDED),
+                    geometric.n_params()
+                ),
+            });
+        }
+        if model.is_empty() {
+            return Ok(geometric);
+        }
+        let layout = geometric.layout.with_extended(model.kinds());
+        let first = geometric.n_params();
+        let theta_index = model
+            .kinds()
+            .iter()
+            .map(|k| {
+                layout
+                    .params()
+                    .iter()
+                    .position(|p| p.kind == ParamKind::Theta(k.joint()))
+                    .expect("every joint has a θ parameter")
+            })
+            .collect();
+        let mut r = geometric.clone();
+        r.layout = layout;
+        r.extended = Some(Box::new(ExtendedPart {
+            model,
+            torque_robot: geometric,
+            first,
+            theta_index,
+        }));
+        Ok(r)
+    }
+
+    /// The non-geometric parameters of an extended robot (`None` for a geometric one).
+    pub fn extended(&self) -> Option<&ExtendedModel> {
+        self.extended.as_ref().map(|e| &e.model)
+    }
+
+    /// Whether the robot has non-geometric parameters ([`Robot::with_extended`]).
+    #[inline]
+    pub fn is_extended(&self) -> bool {
+        self.extended.is_some()
+    }
+
+    /// `[sin q̃, cos q̃]` of the effective joints at the pose whose `[sin q, cos q]` are `sc`,
+    /// and the weights `w_k` (a copy of `sc` and no weights for a geometric robot):
+    /// `sin(q + δ) = s·cos δ + c·sin δ`, `cos(q + δ) = c·cos δ − s·sin δ`.
+    fn effective_trig_of(&self, sc: &[[f64; 2]]) -> ([[f64; 2]; MAX_JOINTS], [f64; MAX_EXTENDED]) {
+        let mut out = [[0.0; 2]; MAX_JOINTS];
+        let mut w = [0.0; MAX_EXTENDED];
+        out[..sc.len()].copy_from_slice(sc);
+        if let Some(ext) = &self.extended {
+            let mut delta = [0.0; MAX_JOINTS];
+            ext.offsets(sc, &mut w[..ext.model.len()], &mut delta);
+            for (i, [s, c]) in sc.iter().enumerate() {
+                let (sd, cd) = delta[i].sin_cos();
+                out[i] = [s * cd + c * sd, c * cd - s * sd];
+            }
+        }
+        (out, w)
+    }
+
+    /// The effective joints q̃ (radians) of the commanded `q_rad` into `out` (a copy for a
+    /// geometric robot), with the weights into `w`.
+    fn effective_joints(
+        &self,
+        q_rad: &[f64],
+        out: &mut [f64; MAX_JOINTS],
+        w: &mut [f64; MAX_EXTENDED],
+    ) {
+        let n = q_rad.len();
+        out[..n].copy_from_slice(q_rad);
+        if let Some(ext) = &self.extended {
+            let mut sc = [[0.0; 2]; MAX_JOINTS];
+            joint_sin_cos(q_rad, &mut sc);
+            let mut delta = [0.0; MAX_JOINTS];
+            ext.offsets(&sc[..n], &mut w[..ext.model.len()], &mut delta);
+            for i in 0..n {
+                out[i] += delta[i];
+            }
+        }
+    }
+
+    /// Writes the extended parameters' Jacobian columns `w_k · ∂p/∂θ_j` from the θ columns.
+    fn extended_columns<T: Copy + std::ops::Mul<f64, Output = T>>(
+        &self,
+        w: &[f64; MAX_EXTENDED],
+        cols: &mut [T],
+    ) {
+        if let Some(ext) = &self.extended {
+            for (k, &t) in ext.theta_index.iter().enumerate() {
+                cols[ext.first + k] = cols[t] * w[k];
+            }
+        }
     }
 
     /// Reads a model file (see [`RobotSpec`]).
@@ -324,7 +509,8 @@ impl Robot {
         self.layout
             .params()
             .iter()
-            .map(|p| match p.kind {
+            .enumerate()
+            .map(|(k, p)| match p.kind {
                 ParamKind::Theta(i) => self.links[i].theta_rad,
                 ParamKind::D(i) => self.links[i].d_mm,
                 ParamKind::A(i) => self.links[i].a_mm,
@@ -339,6 +525,10 @@ impl Robot {
                 ParamKind::ToolX => self.tool_mm.x,
                 ParamKind::ToolY => self.tool_mm.y,
                 ParamKind::ToolZ => self.tool_mm.z,
+                ParamKind::Extended(_) => {
+                    let e = self.extended.as_ref().expect("extended layout");
+                    e.model.values()[k - e.first]
+                }
             })
             .collect()
     }
@@ -369,7 +559,11 @@ impl Robot {
                 ParamKind::ToolX => self.tool_mm.x = v,
                 ParamKind::ToolY => self.tool_mm.y = v,
                 ParamKind::ToolZ => self.tool_mm.z = v,
+                ParamKind::Extended(_) => {}
             }
+        }
+        if let Some(e) = self.extended.as_mut() {
+            e.model.set_values(&p[e.first..])?;
         }
         refresh_links(&mut self.links);
         self.base_frame = self.base.frame();
@@ -394,10 +588,9 @@ impl Robot {
         self.frames_trig(&sc[..q_rad.len()], frames)
     }
 
-    /// The straightforward chain: one [`Frame::compose`] per link with `sin_cos(θ+q)`.
-    #[inline]
+    /// The straightforward chain at the joints given (the effective joints of an extended
+    /// robot): one [`Frame::compose`] per link with `sin_cos(θ+q)`.
     fn chain_reference(&self, q_rad: &[f64], frames: &mut [Frame; MAX_JOINTS + 1]) {
-        debug_assert_eq!(q_rad.len(), self.links.len(), "joint vector length");
         frames[0] = self.base_frame;
         for (i, (l, q)) in self.links.iter().zip(q_rad).enumerate() {
             frames[i + 1] = frames[i].compose(&l.frame(*q));
@@ -419,8 +612,11 @@ impl Robot {
     /// reference the fast kernels are tested against (equal up to rounding).
     pub fn flange_reference(&self, q_rad: &[f64]) -> Frame {
         assert_eq!(q_rad.len(), self.links.len(), "joint vector length");
+        let mut qe = [0.0; MAX_JOINTS];
+        let mut w = [0.0; MAX_EXTENDED];
+        self.effective_joints(q_rad, &mut qe, &mut w);
         let mut f = self.base_frame;
-        for (l, q) in self.links.iter().zip(q_rad) {
+        for (l, q) in self.links.iter().zip(&qe[..q_rad.len()]) {
             f = f.compose(&l.frame(*q));
         }
         f
@@ -471,6 +667,10 @@ impl Robot {
         );
         assert_eq!(q_rad.len(), self.links.len(), "joint vector length");
         let mut frames = [Frame::identity(); MAX_JOINTS + 1];
+        let mut qe = [0.0; MAX_JOINTS];
+        let mut w = [0.0; MAX_EXTENDED];
+        self.effective_joints(q_rad, &mut qe, &mut w);
+        let q_rad = &qe[..q_rad.len()];
         self.chain_reference(q_rad, &mut frames);
         let n = self.links.len();
         let p = frames[n].transform_point(&self.tool_mm);
@@ -507,6 +707,7 @@ impl Robot {
         cols[b + 6] = rf.column(0).into_owned();
         cols[b + 7] = rf.column(1).into_owned();
         cols[b + 8] = rf.column(2).into_owned();
+        self.extended_columns(&w, cols);
         p
     }
 

@@ -35,10 +35,17 @@ fn all_names(n: usize) -> Vec<String> {
     v
 }
 
-/// Random in-limit joints.
+/// Random in-limit joints (within 90 % of each range, at most ±0.9π).
 fn pose(robot: &Robot, s: &mut u64) -> Vec<f64> {
     (0..robot.n_joints())
-        .map(|_| 0.9 * rnd(s) * std::f64::consts::PI)
+        .map(|i| {
+            let [lo, hi] = robot.limits_rad(i);
+            let (mid, half) = (
+                0.5 * (lo + hi),
+                (0.45 * (hi - lo)).min(0.9 * std::f64::consts::PI),
+            );
+            mid + half * rnd(s)
+        })
         .collect()
 }
 
@@ -244,5 +251,101 @@ fn bad_models_name_the_field() {
     match RobotSpec::from_json_str(&text.to_string(), "neg.json").unwrap_err() {
         ModelError::Invalid { field, .. } => assert_eq!(field, "mass_model.links[2].mass_kg"),
         e => panic!("{e}"),
+    }
+}
+
+/// An extended robot ([`Robot::with_extended`]) with random non-geometric values.
+fn extended_robot(file: &str, s: &mut u64) -> (Robot, Robot) {
+    let nominal = robot(file);
+    let ext = nominal
+        .with_extended(&all_names(nominal.n_joints()), file)
+        .unwrap();
+    let mut p = ext.params();
+    for (k, info) in ext.layout().params().iter().enumerate() {
+        if let kinematics::ParamKind::Extended(kind) = info.kind {
+            p[k] = match kind {
+                ExtendedKind::Compliance(_) => kind.from_display(0.5 + 0.5 * rnd(s)),
+                _ => kind.from_display(20.0 * rnd(s)),
+            };
+        }
+    }
+    (nominal, ext.with_params(&p).unwrap())
+}
+
+#[test]
+fn an_extended_robot_evaluates_the_extended_model_everywhere() {
+    let mut s = 19;
+    for file in ["kr1000-titan.json", "ur10.json"] {
+        let (nominal, ext) = extended_robot(file, &mut s);
+        assert!(ext.is_extended() && !nominal.is_extended());
+        let np = ext.n_params();
+        assert_eq!(np, nominal.n_params() + 5 * nominal.n_joints());
+        assert_eq!(ext.layout().get(np - 1).name, "gear_6_h2_cos");
+        assert_eq!(
+            ext.layout().get(nominal.n_params()).unit.as_str(),
+            "urad/Nm"
+        );
+        // The same values in the stand-alone model.
+        let mut model = ExtendedModel::new(&nominal, &all_names(6), file).unwrap();
+        model
+            .set_values(&ext.params()[nominal.n_params()..])
+            .unwrap();
+        for _ in 0..20 {
+            let q = pose(&nominal, &mut s);
+            let p = ext.point(&q);
+            assert!((p - model.point(&nominal, &nominal, &q)).norm() < 1e-9);
+            assert!((p - ext.point_reference(&q)).norm() < 1e-9);
+            assert!((ext.flange(&q).pos_mm - ext.flange_reference(&q).pos_mm).norm() < 1e-9);
+            // Reference and fast Jacobians agree, and both match central differences.
+            let mut cols = vec![Vector3::zeros(); np];
+            let p_ref = ext.point_jacobian_into(&q, &mut cols);
+            assert!((p_ref - p).norm() < 1e-9);
+            let (pts, jac) = ext.jacobian_batch(&q);
+            let mut w = vec![0.0; model.len()];
+            model.weights(&nominal, &q, &mut w);
+            assert!((pts[0] - p).norm() < 1e-9);
+            let x = ext.params();
+            for k in 0..np {
+                let fast = Vector3::new(jac[(0, k)], jac[(1, k)], jac[(2, k)]);
+                assert!(
+                    (fast - cols[k]).norm() < 1e-9 * (1.0 + cols[k].norm()),
+                    "{file}: {}",
+                    ext.layout().get(k).name
+                );
+                // Steps that move a joint by about 1e-5 rad (see the test above).
+                let g = nominal.n_params();
+                let h = if k >= g {
+                    1e-5 / w[k - g].abs().max(1e-3)
+                } else {
+                    1e-6
+                };
+                let at = |d: f64| {
+                    let mut v = x.clone();
+                    v[k] += d;
+                    ext.with_params(&v).unwrap().point(&q)
+                };
+                let num = (at(h) - at(-h)) / (2.0 * h);
+                assert!(
+                    (num - cols[k]).norm() < 1e-5 * (1.0 + num.norm()),
+                    "{file}: {} analytic {:?} numeric {:?}",
+                    ext.layout().get(k).name,
+                    cols[k],
+                    num
+                );
+            }
+        }
+        // IK through the extended model reaches a point of it exactly.
+        for _ in 0..10 {
+            let q = pose(&nominal, &mut s);
+            let target = kinematics::IkTarget::point_with_orientation(&ext, &q);
+            let mut qs: Vec<f64> = q.iter().map(|v| v + 0.01).collect();
+            let opts = kinematics::IkOptions::default();
+            ext.solve_ik(&target, &mut qs, &opts).unwrap();
+            assert!((ext.point(&qs) - target.position_mm).norm() < 1e-6);
+        }
+        // Back to geometric: the same geometry, no extended parameter.
+        let geo = ext.with_extended::<&str>(&[], file).unwrap();
+        assert!(!geo.is_extended());
+        assert_eq!(geo.n_params(), nominal.n_params());
     }
 }

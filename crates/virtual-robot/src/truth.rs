@@ -200,6 +200,8 @@ impl InjectedErrors {
                         r.base_translation_sigma_mm
                     }
                     ParamKind::ToolX | ParamKind::ToolY | ParamKind::ToolZ => r.tool_sigma_mm,
+                    // The truth is geometric (its joint errors are `unmodelled`): no draw.
+                    ParamKind::Extended(_) => continue,
                 };
                 let z: f64 = match r.distribution {
                     ErrorDistribution::Normal => rng.sample(StandardNormal),

@@ -402,6 +402,11 @@ impl Robot {
         cos_q: &[[f64; POSE_LANES]],
     ) -> [[f64; POSE_LANES]; 3] {
         assert!(
+            !self.is_extended(),
+            "the lane kernels evaluate the geometric chain only; an extended robot takes the \
+             _trig forms"
+        );
+        assert!(
             sin_q.len() == self.links.len() && cos_q.len() == self.links.len(),
             "joint vector length"
         );
@@ -419,6 +424,11 @@ impl Robot {
         cos_q: &[[f64; POSE_LANES]],
         jac: &mut [[[f64; POSE_LANES]; 3]],
     ) -> [[f64; POSE_LANES]; 3] {
+        assert!(
+            !self.is_extended(),
+            "the lane kernels evaluate the geometric chain only; an extended robot takes the \
+             _trig forms"
+        );
         assert!(
             sin_q.len() == self.links.len() && cos_q.len() == self.links.len(),
             "joint vector length"
@@ -440,6 +450,11 @@ impl Robot {
         out: &mut [[[f64; POSE_LANES]; 3]],
     ) -> [[f64; POSE_LANES]; 3] {
         assert!(
+            !self.is_extended(),
+            "the lane kernels evaluate the geometric chain only; an extended robot takes the \
+             _trig forms"
+        );
+        assert!(
             sin_q.len() == self.links.len() && cos_q.len() == self.links.len(),
             "joint vector length"
         );
@@ -460,6 +475,9 @@ impl Robot {
     pub fn point_trig(&self, sc: &[[f64; 2]]) -> Vector3<f64> {
         let n = self.links.len();
         assert_eq!(sc.len(), n, "joint vector length");
+        if self.is_extended() {
+            return self.point_trig_extended(sc);
+        }
         let (s, c) = single(sc);
         self.point_generic(&s[..n], &c[..n]).lane(0)
     }
@@ -468,6 +486,20 @@ impl Robot {
     /// returns the flange's columns and origin.
     #[inline(always)]
     fn chain_trig(
+        &self,
+        sc: &[[f64; 2]],
+        visit: impl FnMut(usize, &[V3<1>; 3], &V3<1>),
+    ) -> ([V3<1>; 3], V3<1>) {
+        if self.is_extended() {
+            let (eff, _) = self.effective_trig_of(sc);
+            return self.chain_trig_geometric(&eff[..sc.len()], visit);
+        }
+        self.chain_trig_geometric(sc, visit)
+    }
+
+    /// [`Robot::chain_trig`] on the sines and cosines given (the effective joints).
+    #[inline(always)]
+    fn chain_trig_geometric(
         &self,
         sc: &[[f64; 2]],
         mut visit: impl FnMut(usize, &[V3<1>; 3], &V3<1>),
@@ -531,6 +563,23 @@ impl Robot {
             jx.len() >= np && jy.len() >= np && jz.len() >= np,
             "Jacobian row length"
         );
+        if self.is_extended() {
+            return self.point_jacobian_trig_extended(sc, jx, jy, jz);
+        }
+        self.point_jacobian_rows(&sc[..n], jx, jy, jz)
+    }
+
+    /// The chain's point and Jacobian rows at the sines and cosines given, `np` columns.
+    #[inline(always)]
+    fn point_jacobian_rows(
+        &self,
+        sc: &[[f64; 2]],
+        jx: &mut [f64],
+        jy: &mut [f64],
+        jz: &mut [f64],
+    ) -> Vector3<f64> {
+        let n = self.links.len();
+        let np = self.layout.len();
         let (s, c) = single(sc);
         let mut jac = [[[0.0]; 3]; crate::robot::MAX_PARAMS];
         let p = self.point_jacobian_generic(&s[..n], &c[..n], &mut jac[..np]);
@@ -540,5 +589,34 @@ impl Robot {
             jz[k] = z[0];
         }
         p.lane(0)
+    }
+
+    /// [`Robot::point_trig`] of an extended robot: the chain at the effective joints.
+    #[inline(never)]
+    fn point_trig_extended(&self, sc: &[[f64; 2]]) -> Vector3<f64> {
+        let n = self.links.len();
+        let (eff, _) = self.effective_trig_of(sc);
+        let (s, c) = single(&eff[..n]);
+        self.point_generic(&s[..n], &c[..n]).lane(0)
+    }
+
+    /// [`Robot::point_jacobian_trig`] of an extended robot: the geometric columns at the
+    /// effective joints, then the extended columns `w_k · ∂p/∂θ_j`.
+    #[inline(never)]
+    fn point_jacobian_trig_extended(
+        &self,
+        sc: &[[f64; 2]],
+        jx: &mut [f64],
+        jy: &mut [f64],
+        jz: &mut [f64],
+    ) -> Vector3<f64> {
+        let n = self.links.len();
+        let np = self.layout.len();
+        let (eff, w) = self.effective_trig_of(sc);
+        let p = self.point_jacobian_rows(&eff[..n], jx, jy, jz);
+        self.extended_columns(&w, &mut jx[..np]);
+        self.extended_columns(&w, &mut jy[..np]);
+        self.extended_columns(&w, &mut jz[..np]);
+        p
     }
 }
