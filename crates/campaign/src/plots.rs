@@ -291,6 +291,9 @@ pub fn path_in_words(path: &str) -> String {
         "poses.identification" => "identification poses".into(),
         "poses.validation" => "validation poses".into(),
         "tracker.noise_scale" => "tracker noise (× AT960)".into(),
+        "unmodelled.compliance.scale" => "injected joint compliance (× the paper budget)".into(),
+        "unmodelled.gears.scale" => "injected gear errors (× the paper budget)".into(),
+        "identification.extended" => "identified model".into(),
         "trials" => "trials".into(),
         other => other.into(),
     }
@@ -324,6 +327,14 @@ pub fn value_in_words(path: &str, v: &serde_json::Value) -> String {
     match (path, v) {
         ("identification.lm.column_scaling", Value::Bool(true)) => "column-scaled".into(),
         ("identification.lm.column_scaling", Value::Bool(false)) => "unscaled (JᵀJ + μI)".into(),
+        ("identification.extended", Value::Array(a)) if a.is_empty() => "geometric model".into(),
+        ("identification.extended", Value::Array(a)) => format!(
+            "geometric + {}",
+            a.iter()
+                .map(|x| x.as_str().map_or_else(|| x.to_string(), String::from))
+                .collect::<Vec<_>>()
+                .join(" + ")
+        ),
         (_, Value::String(s)) => schedule(s),
         (_, Value::Object(m)) => {
             let mut parts: Vec<String> = Vec::new();

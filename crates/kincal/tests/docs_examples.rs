@@ -312,6 +312,51 @@ fn the_extended_model_figures_in_the_docs_are_the_committed_results() {
     }
 }
 
+/// The sweep table of `docs/extended-model.md` is the committed `sweep.md`s': each row's
+/// three model columns are the "after (mm)" cells of that sweep at that scale.
+#[test]
+fn the_extended_model_sweep_table_is_the_committed_result() {
+    let root = root();
+    let doc = std::fs::read_to_string(root.join("docs/extended-model.md")).unwrap();
+    let table = doc
+        .split("## How much a richer model removes")
+        .nth(1)
+        .expect("docs/extended-model.md has the sweep table");
+    let models = ["[]", "[\"compliance\"]", "[\"compliance\",\"gears\"]"];
+    let mut rows = 0;
+    for line in table.lines().take_while(|l| !l.starts_with("## ")) {
+        let cells: Vec<&str> = line.split('|').map(str::trim).collect();
+        if cells.len() != 7 {
+            continue;
+        }
+        let sweep = match cells[1] {
+            "compliance" => "compliance",
+            c if c.starts_with("gear errors") => "gears",
+            c if c.contains("mismatch") => "mismatch",
+            _ => continue,
+        };
+        let md =
+            std::fs::read_to_string(root.join(format!("results/sweep-extended-{sweep}/sweep.md")))
+                .unwrap();
+        for (model, doc_value) in models.iter().zip(&cells[3..6]) {
+            let row = md
+                .lines()
+                .find(|l| l.starts_with(&format!("| {model} | {} |", cells[2])))
+                .unwrap_or_else(|| {
+                    panic!("sweep-extended-{sweep}: no row {model} at {}", cells[2])
+                });
+            let after = row.split('|').map(str::trim).nth(6).unwrap();
+            assert_eq!(
+                after, *doc_value,
+                "docs/extended-model.md: {sweep} {model} at {}× says {doc_value}, sweep.md {after}",
+                cells[2]
+            );
+        }
+        rows += 1;
+    }
+    assert_eq!(rows, 7);
+}
+
 /// The Markdown files of the repository's own docs (README, ARCHITECTURE, docs/, scenarios/,
 /// results/, data/), not those of build output.
 fn markdown_files(root: &Path) -> Vec<PathBuf> {

@@ -81,6 +81,15 @@ pub struct ComplianceConfig {
     pub payload_kg: f64,
     /// Payload centre of mass in the flange frame, mm (default (0, 0, 250)).
     pub payload_com_mm: [f64; 3],
+    /// Factor on every deflection (default 1; 0 to 2 in the extended-model sweep): the
+    /// compliance (1 − c_i)/k_i times it. Left out of summaries at 1.
+    #[serde(skip_serializing_if = "is_one")]
+    pub scale: f64,
+}
+
+/// `v == 1` (a default left out of summaries).
+fn is_one(v: &f64) -> bool {
+    *v == 1.0
 }
 
 /// Default link masses (kg) and centres of mass (mm, link frames) for the KR1000 titan;
@@ -121,6 +130,7 @@ impl Default for ComplianceConfig {
             counterbalance_fraction: KR1000_COUNTERBALANCE_FRACTION.to_vec(),
             payload_kg: 0.0,
             payload_com_mm: [0.0, 0.0, 250.0],
+            scale: 1.0,
         }
     }
 }
@@ -149,6 +159,7 @@ impl ComplianceConfig {
         }
         non_negative(&f("payload_kg"), self.payload_kg)?;
         all_finite(&f("payload_com_mm"), &self.payload_com_mm)?;
+        non_negative(&f("scale"), self.scale)?;
         if self.enabled {
             let count = |name: &str, len: usize| {
                 if len == n_joints {
@@ -199,6 +210,10 @@ pub struct GearConfig {
     /// and 20″ on the wrist, phases 0°, 60°, …, 300° — illustrative sizes, not measured
     /// KR1000 data (10″ is ≈ 0.15 mm at 3 m).
     pub terms: Vec<GearTerm>,
+    /// Factor on every term's amplitude (default 1; 0 to 2 in the extended-model sweep).
+    /// Left out of summaries at 1.
+    #[serde(skip_serializing_if = "is_one")]
+    pub scale: f64,
 }
 
 impl Default for GearConfig {
@@ -214,6 +229,7 @@ impl Default for GearConfig {
                     phase_deg: 60.0 * (j - 1) as f64,
                 })
                 .collect(),
+            scale: 1.0,
         }
     }
 }
@@ -221,6 +237,7 @@ impl Default for GearConfig {
 impl GearConfig {
     /// Checks values; when enabled, also that every joint number exists.
     pub fn validate(&self, n_joints: usize) -> Result<(), ConfigError> {
+        non_negative("unmodelled.gears.scale", self.scale)?;
         for (k, t) in self.terms.iter().enumerate() {
             let f = |name: &str| format!("unmodelled.gears.terms[{k}].{name}");
             non_negative(&f("amplitude_arcsec"), t.amplitude_arcsec)?;
@@ -367,7 +384,8 @@ impl ComplianceModel {
             gain: (0..n_joints)
                 .map(|i| {
                     let c = cfg.counterbalance_fraction.get(i).copied().unwrap_or(0.0);
-                    (1.0 - c) / cfg.stiffness_nm_per_rad[i]
+                    // × 1 (the default scale) is exact: the same bits as without it.
+                    (1.0 - c) / cfg.stiffness_nm_per_rad[i] * cfg.scale
                 })
                 .collect(),
         }
@@ -459,7 +477,7 @@ impl Unmodelled {
                     };
                     GearRad {
                         joint: t.joint - 1,
-                        amplitude_rad: (t.amplitude_arcsec / 3600.0).to_radians(),
+                        amplitude_rad: (t.amplitude_arcsec / 3600.0).to_radians() * cfg.gears.scale,
                         harmonic: t.harmonic,
                         phase_deg,
                         phase_rad: phase_deg.to_radians(),
