@@ -241,6 +241,27 @@ impl Rendered {
 
 /// Rows needed so that 3·rows ≥ the free parameters of `set`, and that count. For `minimal`
 /// the count is the structural rank of the nominal model (on generic random poses).
+/// Splits `--params` into its base set (`paper`, `minimal` or names) and the non-geometric
+/// parameters after `+`: the families `compliance` (every joint's) and `gears` (the first
+/// harmonic, sine and cosine, of every joint), or names (`compliance_2`, `gear_1_h2_sin`).
+/// `paper+compliance+gears` → (`paper`, [compliance_1 … gear_6_h1_cos]).
+pub fn split_params(params: &str, n_joints: usize) -> (String, Vec<String>) {
+    let mut parts = params.split('+').map(str::trim);
+    let base = parts.next().unwrap_or("paper").to_string();
+    let mut ext = Vec::new();
+    for p in parts {
+        match p {
+            "compliance" => ext.extend((1..=n_joints).map(|j| format!("compliance_{j}"))),
+            "gears" => ext.extend(
+                (1..=n_joints)
+                    .flat_map(|j| [format!("gear_{j}_h1_sin"), format!("gear_{j}_h1_cos")]),
+            ),
+            names => ext.extend(names.split(',').map(|n| n.trim().to_string())),
+        }
+    }
+    (base, ext)
+}
+
 fn free_count(robot: &Robot, set: &ParamSet, opts: &IdentifiabilityOptions) -> Result<usize> {
     Ok(match set {
         ParamSet::Paper => robot.n_params(),
@@ -365,10 +386,22 @@ pub fn run(request: &IdentifyRequest) -> Result<Calibration> {
                 .into(),
         ));
     }
-    let nominal = LoadedRobot::load(&args.robot, "robot")?;
+    let mut nominal = LoadedRobot::load(&args.robot, "robot")?;
+    // `--params BASE+FAMILY+…`: the extended families join the geometric parameters.
+    let (base_set, extended) = split_params(&args.params, nominal.robot.n_joints());
+    if !extended.is_empty() {
+        nominal.robot = nominal
+            .robot
+            .with_extended(&extended, &args.robot.display().to_string())
+            .map_err(|source| CalibrateError::Robot {
+                what: "robot (--params)",
+                path: args.robot.clone(),
+                source,
+            })?;
+    }
     let nom = &nominal.robot;
     let id_opts = IdentifiabilityOptions::default();
-    let set: ParamSet = args.params.parse().expect("infallible");
+    let set: ParamSet = base_set.parse().expect("infallible");
     let n_free = free_count(nom, &set, &id_opts)
         .map_err(|e| e.context(format!("--params {}", args.params)))?;
     let min_rows = n_free.div_ceil(3);
@@ -512,11 +545,24 @@ pub fn run(request: &IdentifyRequest) -> Result<Calibration> {
             "setting up the identification on {}",
             data.source
         )))?;
-        identify(&problem, &options).map_err(id_err(format!(
+        let mut fit = identify(&problem, &options).map_err(id_err(format!(
             "identifying {} on {}",
             nom.name(),
             data.source
-        )))
+        )))?;
+        // An extended model evaluates its gravity torques on the geometry it was extended
+        // from (the nominal, during the fit). `identified.json` re-extends its own geometry
+        // when it is read, so the model validated and reported is that one: what every
+        // command loading the file will compute.
+        if fit.robot.is_extended() {
+            fit.robot =
+                Robot::from_spec(&fit.robot.to_spec()).map_err(|source| CalibrateError::Robot {
+                    what: "identified robot",
+                    path: args.robot.clone(),
+                    source,
+                })?;
+        }
+        Ok(fit)
     };
     let first = fit_rows(&id_rows)?;
     let screen = match first.sigma_hat {

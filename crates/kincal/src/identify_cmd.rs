@@ -50,7 +50,11 @@ pub struct IdentifyArgs {
     #[arg(long, default_value = "d", requires = "select")]
     criterion: design::Criterion,
     /// Parameters to identify: `paper` (all, redundant ones included), `minimal` (the
-    /// identifiable set at the registered nominal model), or comma-separated names.
+    /// identifiable set at the registered nominal model), or comma-separated names; then,
+    /// after `+`, non-geometric joint parameters (docs/extended-model.md): `compliance`
+    /// (every joint's; needs the robot file's mass_model), `gears` (first harmonic of every
+    /// joint) or names, e.g. `paper+compliance`, `paper+compliance+gears`,
+    /// `minimal+compliance_2,compliance_3`. identified.json then has an `extended` section.
     #[arg(long, default_value = "paper")]
     params: String,
     /// Damping schedule.

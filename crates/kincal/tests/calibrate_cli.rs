@@ -861,3 +861,91 @@ fn identifiability_json_has_rank_redundant_condition_and_observability() {
     }
     assert_eq!(v["singular_values"].as_array().unwrap().len(), 34);
 }
+
+/// Real data with the extended model (issue 19): on the UR10 series B (every 15th row,
+/// validated on the 1,395 others), joint compliance lowers the validation mean below the
+/// geometric model's; `identified.json` carries the extended section, `predict` on it gives
+/// the validation figures `identify` printed, and `urdf export` refuses it by name.
+#[test]
+fn ur10_with_joint_compliance() {
+    let data = root().join("data/ur10-ipa/series-b-joint-configurations.csv");
+    let robot = root().join("scenarios/robots/ur10.json");
+    let tmp = tempfile::tempdir().unwrap();
+    let cal = tmp.path().join("cal");
+    let out = ok(&kincal(&[
+        "identify",
+        "--robot",
+        s(&robot),
+        "--data",
+        s(&data),
+        "--every",
+        "15",
+        "--params",
+        "paper+compliance",
+        "--out",
+        s(&cal),
+    ]));
+    assert!(out.contains("41 free parameters"), "{out}");
+    // Joint 1 is vertical and the probe lies on axis 6: neither sees a gravity torque.
+    assert!(
+        line_with(&out, "held at their start values")
+            .ends_with("base_rz, compliance_1, compliance_6"),
+        "{out}"
+    );
+    let v = line_with(&out, "validation:");
+    let mean = number_after(v, "calibrated mean ");
+    let (ref_mean, _) = UR10_REFERENCE_MM;
+    assert!(
+        mean < 0.9 * ref_mean,
+        "extended {mean} mm vs geometric {ref_mean} mm"
+    );
+    let identified = std::fs::read_to_string(cal.join("identified.json")).unwrap();
+    assert!(identified.contains("\"extended\"") && identified.contains("compliance_2"));
+    let params = std::fs::read_to_string(cal.join("parameters.json")).unwrap();
+    assert!(params.contains("urad/Nm"), "{params}");
+    // predict on identified.json reproduces the validation mean identify printed.
+    let pred = tmp.path().join("pred.csv");
+    ok(&kincal(&[
+        "predict",
+        "--robot",
+        s(&cal.join("identified.json")),
+        "--joints",
+        s(&data),
+        "--out",
+        s(&pred),
+    ]));
+    let text = std::fs::read_to_string(&pred).unwrap();
+    let measured = std::fs::read_to_string(&data).unwrap();
+    let rows = |t: &str| -> Vec<Vec<f64>> {
+        t.lines()
+            .filter(|l| !l.starts_with('#') && !l.starts_with('q'))
+            .map(|l| l.split(',').map(|x| x.trim().parse().unwrap()).collect())
+            .collect()
+    };
+    let (p, m) = (rows(&text), rows(&measured));
+    let errs: Vec<f64> = p
+        .iter()
+        .zip(&m)
+        .enumerate()
+        .filter(|(i, _)| i % 15 != 0)
+        .map(|(_, (a, b))| {
+            ((a[6] - b[6]).powi(2) + (a[7] - b[7]).powi(2) + (a[8] - b[8]).powi(2)).sqrt()
+        })
+        .collect();
+    let pred_mean = errs.iter().sum::<f64>() / errs.len() as f64;
+    assert!(
+        (pred_mean - mean).abs() < 0.0006,
+        "predict {pred_mean} vs identify {mean}"
+    );
+    // A URDF cannot carry compliance: export refuses, naming the section.
+    let e = kincal(&[
+        "urdf",
+        "export",
+        s(&cal.join("identified.json")),
+        "--out",
+        s(&tmp.path().join("x.urdf")),
+    ]);
+    assert!(!e.status.success());
+    assert!(stderr(&e).contains("`extended` section"), "{}", stderr(&e));
+    assert!(!tmp.path().join("x.urdf").exists());
+}

@@ -19,6 +19,8 @@ pub mod trig;
 pub use error::ModelError;
 pub use extended::{ExtendedKind, ExtendedModel, Gravity};
 pub use ik::{IkError, IkOptions, IkReport, IkTarget, Lower6, cholesky6};
-pub use model::{BaseSpec, JointSpec, LinkMassSpec, MAX_JOINTS, MassModelSpec, RobotSpec};
+pub use model::{
+    BaseSpec, ExtendedParamSpec, JointSpec, LinkMassSpec, MAX_JOINTS, MassModelSpec, RobotSpec,
+};
 pub use params::{BETA_ALPHA_TOL_DEG, ParamInfo, ParamKind, ParamLayout, Unit};
 pub use robot::{Frame, MAX_PARAMS, POSE_LANES, PoseTrig, Robot, gram_of_axes, joint_sin_cos};

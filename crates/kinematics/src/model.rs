@@ -133,6 +133,21 @@ pub struct RobotSpec {
     /// parameter families; absent from files and output when not given.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub mass_model: Option<MassModelSpec>,
+    /// Optional non-geometric joint-error parameters with their values (an extended robot,
+    /// e.g. an `identified.json` of `--params paper+compliance`; `docs/extended-model.md`);
+    /// absent from files and output when not given.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub extended: Option<Vec<ExtendedParamSpec>>,
+}
+
+/// One non-geometric parameter of a robot file's `extended` section.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ExtendedParamSpec {
+    /// Stable name: `compliance_J`, `gear_J_hK_sin`, `gear_J_hK_cos`.
+    pub name: String,
+    /// Value in display units: µrad/(N·m) for compliance, arcseconds for gear terms.
+    pub value: f64,
 }
 
 impl RobotSpec {

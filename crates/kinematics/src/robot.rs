@@ -5,7 +5,7 @@ use nalgebra::{DMatrix, Matrix3, Matrix6, Rotation3, Vector3, Vector6};
 
 use crate::error::ModelError;
 use crate::extended::ExtendedModel;
-use crate::model::{BaseSpec, JointSpec, MAX_JOINTS, MassModelSpec, RobotSpec};
+use crate::model::{BaseSpec, ExtendedParamSpec, JointSpec, MAX_JOINTS, MassModelSpec, RobotSpec};
 use crate::params::{ParamKind, ParamLayout};
 
 mod fast;
@@ -286,6 +286,40 @@ impl Robot {
             mass_model: spec.mass_model.clone(),
             extended: None,
         })
+        .and_then(|r: Robot| match &spec.extended {
+            None => Ok(r),
+            Some(list) => {
+                // Errors name the file's field: `extended[i]`, not the model's `params[i]`.
+                let rename = |e: ModelError| match e {
+                    ModelError::Invalid {
+                        source_name,
+                        field,
+                        message,
+                    } => ModelError::Invalid {
+                        source_name,
+                        field: field.replacen("params", "extended", 1),
+                        message,
+                    },
+                    other => other,
+                };
+                let names: Vec<&str> = list.iter().map(|e| e.name.as_str()).collect();
+                let mut r = r.with_extended(&names, &spec.name).map_err(rename)?;
+                let mut x = r.params();
+                let first = x.len() - list.len();
+                for (k, e) in list.iter().enumerate() {
+                    if !e.value.is_finite() {
+                        return Err(ModelError::Invalid {
+                            source_name: spec.name.clone(),
+                            field: format!("extended[{k}].value"),
+                            message: format!("{:?} is not a finite number", e.value),
+                        });
+                    }
+                    x[first + k] = r.layout().get(first + k).from_display(e.value);
+                }
+                r.set_params(&x)?;
+                Ok(r)
+            }
+        })
     }
 
     /// This robot with the non-geometric joint-error parameters `names` (`compliance_j`,
@@ -441,6 +475,17 @@ impl Robot {
             tool_mm: self.tool_mm.into(),
             joint_names: self.joint_names.clone(),
             mass_model: self.mass_model.clone(),
+            extended: self.extended.as_ref().map(|e| {
+                e.model
+                    .kinds()
+                    .iter()
+                    .zip(e.model.values())
+                    .map(|(k, v)| ExtendedParamSpec {
+                        name: k.name(),
+                        value: k.to_display(*v),
+                    })
+                    .collect()
+            }),
         }
     }
 

@@ -349,3 +349,55 @@ fn an_extended_robot_evaluates_the_extended_model_everywhere() {
         assert_eq!(geo.n_params(), nominal.n_params());
     }
 }
+
+#[test]
+fn the_robot_file_carries_the_extended_parameters() {
+    let mut s = 23;
+    let (_, ext) = extended_robot("ur10.json", &mut s);
+    let spec = ext.to_spec();
+    let list = spec.extended.as_ref().expect("an extended section");
+    assert_eq!(list.len(), 30);
+    assert_eq!(list[0].name, "compliance_1");
+    // Through JSON and back: the same parameters and values (display units round trip).
+    let text = spec.to_json_string();
+    let back = Robot::from_spec(&RobotSpec::from_json_str(&text, "ext.json").unwrap()).unwrap();
+    assert_eq!(back.layout(), ext.layout());
+    for (a, b) in back.params().iter().zip(ext.params()) {
+        assert!((a - b).abs() <= 1e-12 * b.abs().max(1e-12), "{a} vs {b}");
+    }
+    // A geometric file has no such section.
+    assert!(robot("ur10.json").to_spec().extended.is_none());
+    assert!(
+        !robot("ur10.json")
+            .to_spec()
+            .to_json_string()
+            .contains("extended")
+    );
+    // Errors name the file's field.
+    let bad = |edit: &dyn Fn(&mut serde_json::Value)| {
+        let mut v: serde_json::Value = serde_json::from_str(&text).unwrap();
+        edit(&mut v);
+        let spec = RobotSpec::from_json_str(&v.to_string(), "ext.json");
+        match spec.and_then(|s| Robot::from_spec(&s)) {
+            Err(ModelError::Invalid { field, .. }) | Err(ModelError::Parse { field, .. }) => field,
+            other => panic!("expected an error naming a field, got {other:?}"),
+        }
+    };
+    assert_eq!(
+        bad(&|v| v["extended"][3]["name"] = "gear_9_h1_sin".into()),
+        "extended[3]"
+    );
+    assert_eq!(
+        bad(&|v| v["extended"][0]["unit"] = "x".into()),
+        "extended[0].unit"
+    );
+    assert_eq!(
+        bad(&|v| v["extended"][2]["value"] = "x".into()),
+        "extended[2].value"
+    );
+    let mut no_mass: serde_json::Value = serde_json::from_str(&text).unwrap();
+    no_mass.as_object_mut().unwrap().remove("mass_model");
+    let err = Robot::from_spec(&RobotSpec::from_json_str(&no_mass.to_string(), "e").unwrap())
+        .unwrap_err();
+    assert!(err.to_string().contains("mass_model"), "{err}");
+}

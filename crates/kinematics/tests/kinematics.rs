@@ -104,6 +104,7 @@ fn random_chain(u: &[f64]) -> Robot {
         tool_mm: [200.0 * u[48] - 100.0, 200.0 * u[49] - 100.0, 300.0 * u[50]],
         joint_names: None,
         mass_model: None,
+        extended: None,
     };
     Robot::from_spec(&spec).unwrap()
 }

@@ -65,6 +65,7 @@ fn link_transform(j: &JointSpec) -> Result<Frame, UrdfError> {
         tool_mm: [0.0; 3],
         joint_names: None,
         mass_model: None,
+        extended: None,
     };
     Ok(Robot::from_spec(&one)?.flange_reference(&[0.0]))
 }
@@ -113,6 +114,14 @@ fn esc(s: &str) -> String {
 /// Effort and velocity limits, which a robot file does not hold, are written as 0.
 pub fn export(spec: &RobotSpec, opts: &ExportOptions) -> Result<String, UrdfError> {
     spec.validate(&spec.name)?;
+    if let Some(ext) = spec.extended.as_ref().filter(|e| !e.is_empty()) {
+        return Err(UrdfError::Options(format!(
+            "the robot file has an `extended` section ({} non-geometric parameters: joint \
+             compliance, gear harmonics) that a URDF cannot carry; exporting it would drop \
+             them silently. Calibrate with geometric `--params` for a URDF",
+            ext.len()
+        )));
+    }
     let names = joint_names(spec, opts)?;
     let robot = Robot::from_spec(spec)?;
     let n = spec.joints.len();

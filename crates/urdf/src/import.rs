@@ -250,6 +250,7 @@ pub fn import_str(
         tool_mm: [0.0; 3],
         joint_names: None,
         mass_model: None,
+        extended: None,
     };
 
     // Joints 1..N−1: frame i has z along axis i+1 and its origin on it; each frame is the
