@@ -38,6 +38,11 @@ const TARGETS: &[(&str, f64, &str)] = &[
     ),
     ("kinematics/ik_one_pose", 5e3, "IK of one pose ≤ 5 µs"),
     (
+        "identify/identify_levenberg_50x52_extended",
+        150e3,
+        "one identification with the extended model (50 × 52: + compliance, gear harmonics) ≤ 2 × 75 µs",
+    ),
+    (
         "campaign/trial_paper-kr1000_no_iso",
         500e3,
         "one paper-kr1000 trial without ISO ≤ 0.5 ms",

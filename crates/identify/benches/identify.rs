@@ -128,6 +128,56 @@ fn benches(c: &mut Criterion) {
         set_simd_level(None);
     }
 
+    // Issue 19: the extended model (34 geometric + 6 compliance + 12 first-harmonic gear
+    // columns, 50 poses), identified on the reference path (the lane kernels are
+    // geometric); its target is ≤ 2× identify_levenberg_50x34.
+    {
+        let names: Vec<String> = (1..=6)
+            .map(|j| format!("compliance_{j}"))
+            .chain((1..=6).flat_map(|j| [format!("gear_{j}_h1_sin"), format!("gear_{j}_h1_cos")]))
+            .collect();
+        let ext_nominal = nominal.with_extended(&names, "bench").expect("extended");
+        let mut x = truth
+            .with_extended(&names, "bench")
+            .expect("extended")
+            .params();
+        let first = nominal.n_params();
+        for (k, v) in x[first..].iter_mut().enumerate() {
+            let info = ext_nominal.layout().get(first + k);
+            // 0.03–0.5 µrad/(N·m) and ±10″: the sizes of the paper scenario's truth.
+            let display = if info.unit == kinematics::Unit::MicroradPerNm {
+                [0.03, 0.03, 0.05, 0.5, 0.5, 1.0][k % 6]
+            } else {
+                10.0 * (((k * 5) % 7) as f64 - 3.0) / 3.0
+            };
+            *v = info.from_display(display);
+        }
+        let ext_truth = ext_nominal.with_params(&x).expect("truth");
+        let mut rng = ChaCha8Rng::seed_from_u64(8);
+        let ext_measured: Vec<Vector3<f64>> = ext_truth
+            .points(&poses)
+            .iter()
+            .map(|p| {
+                p + Vector3::new(
+                    noise.sample(&mut rng),
+                    noise.sample(&mut rng),
+                    noise.sample(&mut rng),
+                )
+            })
+            .collect();
+        let all: Vec<usize> = (0..ext_nominal.n_params()).collect();
+        let ext_problem =
+            Problem::new(&ext_nominal, &poses, &ext_measured, all).expect("extended problem");
+        let opts = IdentifyOptions {
+            lm: LmOptions::default(),
+            registration: RegistrationPolicy::Never,
+            ..IdentifyOptions::default()
+        };
+        g.bench_function("identify_levenberg_50x52_extended", |b| {
+            b.iter(|| identify(black_box(&ext_problem), &opts).expect("identifies"))
+        });
+    }
+
     if let Some((ur_poses, ur_points)) = ur10_data() {
         let ur10 = robot("ur10.json", None);
         let free = ParamSet::Paper
