@@ -26,7 +26,8 @@ use nalgebra::Vector3;
 use crate::MAX_JOINTS;
 use crate::error::ModelError;
 use crate::model::MassModelSpec;
-use crate::robot::{Frame, Robot};
+use crate::params::Unit;
+use crate::robot::{Frame, Robot, joint_sin_cos};
 
 /// The gravity torque about every joint of a chain with a mass model.
 ///
@@ -68,11 +69,6 @@ impl Gravity {
             (m.payload_kg, m.payload_com_mm),
             m.gravity_m_per_s2,
         )
-    }
-
-    /// Number of joints.
-    pub fn n_joints(&self) -> usize {
-        self.links.len()
     }
 
     /// τ_i (N·m) for every joint from the chain's frames (`frames[i]` the frame before joint
@@ -168,11 +164,12 @@ impl ExtendedKind {
         }
     }
 
-    /// The display unit's name: `µrad/(N·m)` or `arcsec`.
-    pub fn unit(self) -> &'static str {
+    /// The interface unit: µrad/(N·m) ([`Unit::MicroradPerNm`]) or arcseconds
+    /// ([`Unit::Arcsec`]).
+    pub fn unit(self) -> Unit {
         match self {
-            ExtendedKind::Compliance(_) => "µrad/(N·m)",
-            _ => "arcsec",
+            ExtendedKind::Compliance(_) => Unit::MicroradPerNm,
+            _ => Unit::Arcsec,
         }
     }
 
@@ -194,8 +191,8 @@ impl ExtendedKind {
 }
 
 /// The non-geometric part of an extended model: which parameters, their values, and the
-/// gravity model compliance needs. The geometric part stays a [`Robot`]; the torques are
-/// evaluated on the nominal robot given to [`ExtendedModel::weights`].
+/// gravity model compliance needs. [`Robot::with_extended`] carries one and evaluates the
+/// chain with it; the weights and offsets below are the one implementation it calls.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ExtendedModel {
     kinds: Vec<ExtendedKind>,
@@ -288,11 +285,6 @@ impl ExtendedModel {
         self.kinds.is_empty()
     }
 
-    /// Their stable names, in order.
-    pub fn names(&self) -> Vec<String> {
-        self.kinds.iter().map(|k| k.name()).collect()
-    }
-
     /// Values in internal units (rad/(N·m), rad).
     pub fn values(&self) -> &[f64] {
         &self.values
@@ -315,6 +307,14 @@ impl ExtendedModel {
     /// with the torques on `nominal` (see the module docs), into `out[..len]`.
     pub fn weights(&self, nominal: &Robot, q_rad: &[f64], out: &mut [f64]) {
         assert_eq!(q_rad.len(), self.n_joints, "joint vector length");
+        let mut sc = [[0.0; 2]; MAX_JOINTS];
+        joint_sin_cos(q_rad, &mut sc);
+        self.weights_trig(nominal, &sc[..q_rad.len()], out);
+    }
+
+    /// [`ExtendedModel::weights`] at the pose whose `[sin q, cos q]` are `sc`: τ from the
+    /// frames of `nominal` there, `sin(kq)`/`cos(kq)` by angle addition.
+    pub fn weights_trig(&self, nominal: &Robot, sc: &[[f64; 2]], out: &mut [f64]) {
         let mut tau = [0.0; MAX_JOINTS];
         if let Some(g) = &self.gravity
             && self
@@ -322,86 +322,48 @@ impl ExtendedModel {
                 .iter()
                 .any(|k| matches!(k, ExtendedKind::Compliance(_)))
         {
-            g.torques_nm(nominal, q_rad, &mut tau);
+            let mut frames = [Frame::identity(); MAX_JOINTS + 1];
+            nominal.frames_trig(sc, &mut frames);
+            g.torques_from_frames(&frames, &mut tau);
         }
         for (w, k) in out.iter_mut().zip(&self.kinds) {
             *w = match *k {
                 ExtendedKind::Compliance(j) => tau[j],
                 ExtendedKind::GearSin { joint, harmonic } => {
-                    (f64::from(harmonic) * q_rad[joint]).sin()
+                    harmonic_sin_cos(sc[joint], harmonic)[0]
                 }
                 ExtendedKind::GearCos { joint, harmonic } => {
-                    (f64::from(harmonic) * q_rad[joint]).cos()
+                    harmonic_sin_cos(sc[joint], harmonic)[1]
                 }
             };
         }
     }
 
-    /// The joints the geometric chain is evaluated at: `q̃_j = q_j + Σ_k w_k x_k` over the
-    /// parameters of joint j, given the weights `w` of [`ExtendedModel::weights`].
-    pub fn effective_joints(&self, q_rad: &[f64], w: &[f64], out: &mut [f64]) {
-        out[..q_rad.len()].copy_from_slice(q_rad);
+    /// The joint offsets `δ_j = Σ_k w_k x_k` over the parameters of joint j, given the
+    /// weights `w`, into `delta[..n_joints]` (zero where no parameter acts).
+    pub fn offsets(&self, w: &[f64], delta: &mut [f64]) {
+        delta[..self.n_joints].fill(0.0);
         for ((k, wk), x) in self.kinds.iter().zip(w).zip(&self.values) {
-            out[k.joint()] += wk * x;
+            delta[k.joint()] += wk * x;
         }
     }
 
-    /// The measured point of `robot` (geometry) with this model's joint errors at the
-    /// commanded joints `q_rad`, torques on `nominal`.
-    pub fn point(&self, robot: &Robot, nominal: &Robot, q_rad: &[f64]) -> Vector3<f64> {
-        let n = q_rad.len();
-        let mut wbuf = [0.0; 4 * MAX_JOINTS];
-        let w = self.weights_buf(nominal, q_rad, &mut wbuf);
-        let mut q = [0.0; MAX_JOINTS];
-        self.effective_joints(q_rad, &w, &mut q);
-        robot.point(&q[..n])
-    }
-
-    /// The measured point and its derivatives: `geo[k] = ∂p/∂param_k` of `robot`'s layout
-    /// (at `q̃`), `ext[k] = ∂p/∂x_k = w_k · ∂p/∂θ_j(q̃)` for this model's parameters.
-    pub fn point_jacobian(
-        &self,
-        robot: &Robot,
-        nominal: &Robot,
-        q_rad: &[f64],
-        geo: &mut [Vector3<f64>],
-        ext: &mut [Vector3<f64>],
-    ) -> Vector3<f64> {
-        assert_eq!(ext.len(), self.kinds.len(), "extended column buffer length");
-        let n = q_rad.len();
-        let mut wbuf = [0.0; 4 * MAX_JOINTS];
-        let w = self.weights_buf(nominal, q_rad, &mut wbuf);
-        let mut q = [0.0; MAX_JOINTS];
-        self.effective_joints(q_rad, &w, &mut q);
-        let p = robot.point_jacobian_into(&q[..n], geo);
-        let layout = robot.layout();
-        for ((col, k), wk) in ext.iter_mut().zip(&self.kinds).zip(w.iter()) {
-            let theta = layout
-                .params()
-                .iter()
-                .position(|p| p.kind == crate::ParamKind::Theta(k.joint()))
-                .expect("every joint has a θ parameter");
-            *col = geo[theta] * *wk;
-        }
-        p
-    }
-
-    /// [`ExtendedModel::weights`] into a stack buffer when it is large enough, else a heap
-    /// one (models with more than 4 parameters per joint).
-    fn weights_buf<'a>(
-        &self,
-        nominal: &Robot,
-        q_rad: &[f64],
-        buf: &'a mut [f64; 4 * MAX_JOINTS],
-    ) -> std::borrow::Cow<'a, [f64]> {
-        if self.kinds.len() <= buf.len() {
-            let w = &mut buf[..self.kinds.len()];
-            self.weights(nominal, q_rad, w);
-            std::borrow::Cow::Borrowed(&*w)
-        } else {
-            let mut v = vec![0.0; self.kinds.len()];
-            self.weights(nominal, q_rad, &mut v);
-            std::borrow::Cow::Owned(v)
+    /// The joints the geometric chain is evaluated at: `q̃ = q + δ`
+    /// ([`ExtendedModel::offsets`]), given the weights `w` of [`ExtendedModel::weights`].
+    pub fn effective_joints(&self, q_rad: &[f64], w: &[f64], out: &mut [f64]) {
+        let mut delta = [0.0; MAX_JOINTS];
+        self.offsets(w, &mut delta);
+        for ((o, q), d) in out.iter_mut().zip(q_rad).zip(&delta) {
+            *o = q + d;
         }
     }
+}
+
+/// `[sin kq, cos kq]` from `[sin q, cos q]` by the angle-addition recurrence.
+fn harmonic_sin_cos([s, c]: [f64; 2], k: u32) -> [f64; 2] {
+    let (mut sk, mut ck) = (s, c);
+    for _ in 1..k {
+        (sk, ck) = (sk * c + ck * s, ck * c - sk * s);
+    }
+    [sk, ck]
 }

@@ -107,13 +107,7 @@ impl ParamInfo {
             ParamKind::ToolX => ("tool_x".into(), Unit::Mm),
             ParamKind::ToolY => ("tool_y".into(), Unit::Mm),
             ParamKind::ToolZ => ("tool_z".into(), Unit::Mm),
-            ParamKind::Extended(e) => (
-                e.name(),
-                match e {
-                    crate::ExtendedKind::Compliance(_) => Unit::MicroradPerNm,
-                    _ => Unit::Arcsec,
-                },
-            ),
+            ParamKind::Extended(e) => (e.name(), e.unit()),
         };
         ParamInfo { name, kind, unit }
     }

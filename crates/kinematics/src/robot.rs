@@ -188,44 +188,11 @@ struct ExtendedPart {
 
 impl ExtendedPart {
     /// The joint offsets δ_j = Σ_k w_k x_k at the pose whose `[sin q, cos q]` are `sc`,
-    /// and the weights `w` (into `w[..len]`).
+    /// and the weights `w` (into `w[..len]`), the torques on [`ExtendedPart::torque_robot`].
     fn offsets(&self, sc: &[[f64; 2]], w: &mut [f64], delta: &mut [f64; MAX_JOINTS]) {
-        let kinds = self.model.kinds();
-        let mut tau = [0.0; MAX_JOINTS];
-        if let Some(g) = self.model.gravity()
-            && kinds
-                .iter()
-                .any(|k| matches!(k, crate::ExtendedKind::Compliance(_)))
-        {
-            let mut frames = [Frame::identity(); MAX_JOINTS + 1];
-            self.torque_robot.frames_trig(sc, &mut frames);
-            g.torques_from_frames(&frames, &mut tau);
-        }
-        for (wk, k) in w.iter_mut().zip(kinds) {
-            *wk = match *k {
-                crate::ExtendedKind::Compliance(j) => tau[j],
-                crate::ExtendedKind::GearSin { joint, harmonic } => {
-                    harmonic_sin_cos(sc[joint], harmonic)[0]
-                }
-                crate::ExtendedKind::GearCos { joint, harmonic } => {
-                    harmonic_sin_cos(sc[joint], harmonic)[1]
-                }
-            };
-        }
-        *delta = [0.0; MAX_JOINTS];
-        for ((k, wk), x) in kinds.iter().zip(w.iter()).zip(self.model.values()) {
-            delta[k.joint()] += wk * x;
-        }
+        self.model.weights_trig(&self.torque_robot, sc, w);
+        self.model.offsets(w, delta);
     }
-}
-
-/// `[sin kq, cos kq]` from `[sin q, cos q]` by the angle-addition recurrence.
-fn harmonic_sin_cos([s, c]: [f64; 2], k: u32) -> [f64; 2] {
-    let (mut sk, mut ck) = (s, c);
-    for _ in 1..k {
-        (sk, ck) = (sk * c + ck * s, ck * c - sk * s);
-    }
-    [sk, ck]
 }
 
 /// Most non-geometric parameters one robot can carry (one weight each on the stack).

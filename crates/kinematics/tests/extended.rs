@@ -3,7 +3,9 @@
 //! against central differences, the vertical axis that sees no gravity torque, names and
 //! units, and the errors that name the field.
 
-use kinematics::{ExtendedKind, ExtendedModel, ModelError, Robot, RobotSpec};
+use kinematics::{
+    ExtendedKind, ExtendedModel, Gravity, ModelError, ParamKind, Robot, RobotSpec, Unit,
+};
 use nalgebra::Vector3;
 
 fn robot(name: &str) -> Robot {
@@ -49,84 +51,103 @@ fn pose(robot: &Robot, s: &mut u64) -> Vec<f64> {
         .collect()
 }
 
+/// The weights from their definition, independently of the crate's angle-addition path:
+/// τ_j by [`Gravity::torques_nm`] on `nominal` at `q`, `sin(k q_j)`, `cos(k q_j)` by `f64`.
+fn reference_weights(nominal: &Robot, kinds: &[ExtendedKind], q: &[f64]) -> Vec<f64> {
+    let mut tau = vec![0.0; q.len()];
+    Gravity::from_spec(nominal.mass_model().unwrap()).torques_nm(nominal, q, &mut tau);
+    kinds
+        .iter()
+        .map(|k| match *k {
+            ExtendedKind::Compliance(j) => tau[j],
+            ExtendedKind::GearSin { joint, harmonic } => (f64::from(harmonic) * q[joint]).sin(),
+            ExtendedKind::GearCos { joint, harmonic } => (f64::from(harmonic) * q[joint]).cos(),
+        })
+        .collect()
+}
+
+/// The extended robot's point from the definition: its geometric chain at
+/// `q̃ = q + Σ_k w_k x_k`, weights by [`reference_weights`] on `nominal`.
+fn reference_point(ext: &Robot, nominal: &Robot, q: &[f64]) -> Vector3<f64> {
+    let model = ext.extended().unwrap();
+    let w = reference_weights(nominal, model.kinds(), q);
+    let mut qe = q.to_vec();
+    for ((k, wk), x) in model.kinds().iter().zip(&w).zip(model.values()) {
+        qe[k.joint()] += wk * x;
+    }
+    ext.with_extended::<&str>(&[], "geometric")
+        .unwrap()
+        .point(&qe)
+}
+
 #[test]
 fn jacobian_columns_match_central_differences() {
     let mut s = 7;
     for file in ["kr1000-titan.json", "ur10.json"] {
         let nominal = robot(file);
-        // A perturbed geometry, so that torques (on the nominal) and chain (on this one)
-        // differ as in an identification.
-        let mut p = nominal.params();
-        for (k, v) in p.iter_mut().enumerate() {
-            *v += 1e-3
-                * rnd(&mut s)
-                * if nominal.layout().get(k).unit.as_str() == "mm" {
-                    100.0
-                } else {
-                    1.0
-                };
-        }
-        let geo_robot = nominal.with_params(&p).unwrap();
         let names = all_names(nominal.n_joints());
-        let mut model = ExtendedModel::new(&nominal, &names, file).unwrap();
-        // Values of realistic size: compliance 0.01–1 µrad/(N·m), gears ±20″.
-        let x: Vec<f64> = model
-            .kinds()
-            .iter()
-            .map(|k| match k {
-                ExtendedKind::Compliance(_) => k.from_display(0.5 + 0.5 * rnd(&mut s)),
-                _ => k.from_display(20.0 * rnd(&mut s)),
-            })
-            .collect();
-        model.set_values(&x).unwrap();
+        // Extended on the nominal (the torques stay there), then a perturbed geometry, so
+        // that torques and chain differ as in an identification.
+        let ext0 = nominal.with_extended(&names, file).unwrap();
+        let mut p = ext0.params();
+        for (k, v) in p.iter_mut().enumerate() {
+            let info = ext0.layout().get(k);
+            *v += match info.kind {
+                // Values of realistic size: compliance 0.01–1 µrad/(N·m), gears ±20″.
+                ParamKind::Extended(e @ ExtendedKind::Compliance(_)) => {
+                    e.from_display(0.5 + 0.5 * rnd(&mut s))
+                }
+                ParamKind::Extended(e) => e.from_display(20.0 * rnd(&mut s)),
+                _ => 1e-3 * rnd(&mut s) * if info.unit == Unit::Mm { 100.0 } else { 1.0 },
+            };
+        }
+        let ext = ext0.with_params(&p).unwrap();
+        let g = nominal.n_params();
+        let kinds = ext.extended().unwrap().kinds().to_vec();
         for _ in 0..20 {
             let q = pose(&nominal, &mut s);
-            let mut geo = vec![Vector3::zeros(); nominal.n_params()];
-            let mut ext = vec![Vector3::zeros(); model.len()];
-            let p0 = model.point_jacobian(&geo_robot, &nominal, &q, &mut geo, &mut ext);
-            assert!((p0 - model.point(&geo_robot, &nominal, &q)).norm() < 1e-9);
+            let mut cols = vec![Vector3::zeros(); ext.n_params()];
+            let p0 = ext.point_jacobian_into(&q, &mut cols);
+            assert!((p0 - reference_point(&ext, &nominal, &q)).norm() < 1e-9);
             // Extended columns: central difference in x_k with the step that moves the joint
             // by δ = 1e-5 rad (h_k = δ/|w_k|): truncation δ²/6·|∂³p/∂q³| ≲ 1e-10·4000 mm and
             // rounding ε·|p|/δ ≈ 2e-16·4000/1e-5 mm, both ≲ 1e-7 mm per rad of joint motion,
             // so the difference agrees to 1e-6 relative.
-            let mut w = vec![0.0; model.len()];
-            model.weights(&nominal, &q, &mut w);
-            for k in 0..model.len() {
-                let h = 1e-5 / w[k].abs().max(1e-3);
+            let w = reference_weights(&nominal, &kinds, &q);
+            for (i, kind) in kinds.iter().enumerate() {
+                let k = g + i;
+                let h = 1e-5 / w[i].abs().max(1e-3);
                 let at = |d: f64| {
-                    let mut m = model.clone();
-                    let mut v = x.clone();
+                    let mut v = p.clone();
                     v[k] += d;
-                    m.set_values(&v).unwrap();
-                    m.point(&geo_robot, &nominal, &q)
+                    ext.with_params(&v).unwrap().point(&q)
                 };
                 let num = (at(h) - at(-h)) / (2.0 * h);
                 // Truncation error h²/6·|p'''| and rounding eps·|p|/h: with |p| ≲ 4 m and the
                 // steps above, both are far below 1e-4 of a column of ≳ 1 mm per unit.
                 let tol = 1e-6 * (1.0 + num.norm());
                 assert!(
-                    (num - ext[k]).norm() < tol,
+                    (num - cols[k]).norm() < tol,
                     "{file}: {} analytic {:?} numeric {:?}",
-                    model.kinds()[k].name(),
-                    ext[k],
+                    kind.name(),
+                    cols[k],
                     num
                 );
             }
             // Geometric columns at the effective joints.
-            let gp = geo_robot.params();
-            for k in 0..gp.len() {
+            for k in 0..g {
                 let h = 1e-6;
                 let at = |d: f64| {
-                    let mut v = gp.clone();
+                    let mut v = p.clone();
                     v[k] += d;
-                    model.point(&geo_robot.with_params(&v).unwrap(), &nominal, &q)
+                    ext.with_params(&v).unwrap().point(&q)
                 };
                 let num = (at(h) - at(-h)) / (2.0 * h);
                 assert!(
-                    (num - geo[k]).norm() < 1e-5 * (1.0 + num.norm()),
+                    (num - cols[k]).norm() < 1e-5 * (1.0 + num.norm()),
                     "{file}: {} analytic {:?} numeric {:?}",
                     nominal.layout().get(k).name,
-                    geo[k],
+                    cols[k],
                     num
                 );
             }
@@ -137,11 +158,11 @@ fn jacobian_columns_match_central_differences() {
 #[test]
 fn the_zero_model_is_the_geometric_model() {
     let nominal = robot("kr1000-titan.json");
-    let model = ExtendedModel::new(&nominal, &all_names(6), "kr").unwrap();
+    let ext = nominal.with_extended(&all_names(6), "kr").unwrap();
     let mut s = 3;
     for _ in 0..50 {
         let q = pose(&nominal, &mut s);
-        assert_eq!(model.point(&nominal, &nominal, &q), nominal.point(&q));
+        assert_eq!(ext.point(&q), nominal.point(&q));
     }
 }
 
@@ -193,10 +214,12 @@ fn names_and_units_round_trip() {
         assert!((kind.to_display(kind.from_display(v)) - v).abs() < 1e-12);
     }
     assert_eq!(ExtendedKind::Compliance(1).name(), "compliance_2");
-    assert_eq!(ExtendedKind::Compliance(1).unit(), "µrad/(N·m)");
+    assert_eq!(ExtendedKind::Compliance(1).unit(), Unit::MicroradPerNm);
+    assert_eq!(ExtendedKind::Compliance(1).unit().as_str(), "urad/Nm");
     // 1 arcsec = π/648000 rad.
     let g = ExtendedKind::parse("gear_3_h2_cos").unwrap();
-    assert_eq!(g.unit(), "arcsec");
+    assert_eq!(g.unit(), Unit::Arcsec);
+    assert_eq!(g.unit().as_str(), "arcsec");
     assert!((g.from_display(1.0) - std::f64::consts::PI / 648_000.0).abs() < 1e-20);
     for bad in [
         "compliance_0",
@@ -285,15 +308,11 @@ fn an_extended_robot_evaluates_the_extended_model_everywhere() {
             ext.layout().get(nominal.n_params()).unit.as_str(),
             "urad/Nm"
         );
-        // The same values in the stand-alone model.
-        let mut model = ExtendedModel::new(&nominal, &all_names(6), file).unwrap();
-        model
-            .set_values(&ext.params()[nominal.n_params()..])
-            .unwrap();
+        let kinds = ext.extended().unwrap().kinds().to_vec();
         for _ in 0..20 {
             let q = pose(&nominal, &mut s);
             let p = ext.point(&q);
-            assert!((p - model.point(&nominal, &nominal, &q)).norm() < 1e-9);
+            assert!((p - reference_point(&ext, &nominal, &q)).norm() < 1e-9);
             assert!((p - ext.point_reference(&q)).norm() < 1e-9);
             assert!((ext.flange(&q).pos_mm - ext.flange_reference(&q).pos_mm).norm() < 1e-9);
             // Reference and fast Jacobians agree, and both match central differences.
@@ -301,8 +320,7 @@ fn an_extended_robot_evaluates_the_extended_model_everywhere() {
             let p_ref = ext.point_jacobian_into(&q, &mut cols);
             assert!((p_ref - p).norm() < 1e-9);
             let (pts, jac) = ext.jacobian_batch(&q);
-            let mut w = vec![0.0; model.len()];
-            model.weights(&nominal, &q, &mut w);
+            let w = reference_weights(&nominal, &kinds, &q);
             assert!((pts[0] - p).norm() < 1e-9);
             let x = ext.params();
             for k in 0..np {

@@ -173,10 +173,15 @@ fn the_compliance_family_contains_the_truth() {
         .map(|i| (1.0 - cfg.counterbalance_fraction[i]) / cfg.stiffness_nm_per_rad[i])
         .collect();
     ext.set_values(&gains).unwrap();
+    // The same parameters in an extended robot, which is what identifies and compensates.
+    let ext_robot = with_mass.with_extended(&names, "kr1000").unwrap();
+    let mut x = ext_robot.params();
+    x[with_mass.n_params()..].copy_from_slice(&gains);
+    let ext_robot = ext_robot.with_params(&x).unwrap();
     for q in TABLE_POSES_DEG {
         let q = deg(&q);
         let expected = robot.point(&q) + truth.point_deflection_mm(&robot, &q);
-        let got = ext.point(&with_mass, &with_mass, &q);
+        let got = ext_robot.point(&q);
         // p(q + Δq) − p(q) + p(q) may round differently from p(q + Δq) in the last bit.
         assert!((got - expected).norm() < 1e-9, "{got} vs {expected}");
         let mut dq = [0.0; 6];

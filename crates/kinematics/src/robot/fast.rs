@@ -401,11 +401,7 @@ impl Robot {
         sin_q: &[[f64; POSE_LANES]],
         cos_q: &[[f64; POSE_LANES]],
     ) -> [[f64; POSE_LANES]; 3] {
-        assert!(
-            !self.is_extended(),
-            "the lane kernels evaluate the geometric chain only; an extended robot takes the \
-             _trig forms"
-        );
+        self.assert_geometric();
         assert!(
             sin_q.len() == self.links.len() && cos_q.len() == self.links.len(),
             "joint vector length"
@@ -424,11 +420,7 @@ impl Robot {
         cos_q: &[[f64; POSE_LANES]],
         jac: &mut [[[f64; POSE_LANES]; 3]],
     ) -> [[f64; POSE_LANES]; 3] {
-        assert!(
-            !self.is_extended(),
-            "the lane kernels evaluate the geometric chain only; an extended robot takes the \
-             _trig forms"
-        );
+        self.assert_geometric();
         assert!(
             sin_q.len() == self.links.len() && cos_q.len() == self.links.len(),
             "joint vector length"
@@ -449,11 +441,7 @@ impl Robot {
         slot: &[usize],
         out: &mut [[[f64; POSE_LANES]; 3]],
     ) -> [[f64; POSE_LANES]; 3] {
-        assert!(
-            !self.is_extended(),
-            "the lane kernels evaluate the geometric chain only; an extended robot takes the \
-             _trig forms"
-        );
+        self.assert_geometric();
         assert!(
             sin_q.len() == self.links.len() && cos_q.len() == self.links.len(),
             "joint vector length"
@@ -589,6 +577,17 @@ impl Robot {
             jz[k] = z[0];
         }
         p.lane(0)
+    }
+
+    /// Panics on an extended robot: the lane kernels evaluate the geometric chain at the
+    /// joints given, which for an extended robot are not the effective ones.
+    #[inline(always)]
+    fn assert_geometric(&self) {
+        assert!(
+            !self.is_extended(),
+            "the lane kernels evaluate the geometric chain only; an extended robot takes the \
+             _trig forms"
+        );
     }
 
     /// [`Robot::point_trig`] of an extended robot: the chain at the effective joints.
