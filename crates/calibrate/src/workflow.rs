@@ -250,13 +250,10 @@ pub fn split_params(params: &str, n_joints: usize) -> (String, Vec<String>) {
     let base = parts.next().unwrap_or("paper").to_string();
     let mut ext = Vec::new();
     for p in parts {
-        match p {
-            "compliance" => ext.extend((1..=n_joints).map(|j| format!("compliance_{j}"))),
-            "gears" => ext.extend(
-                (1..=n_joints)
-                    .flat_map(|j| [format!("gear_{j}_h1_sin"), format!("gear_{j}_h1_cos")]),
-            ),
-            names => ext.extend(names.split(',').map(|n| n.trim().to_string())),
+        if p.contains(',') {
+            ext.extend(p.split(',').map(|n| n.trim().to_string()));
+        } else {
+            ext.extend(kinematics::expand_family(p, n_joints));
         }
     }
     (base, ext)

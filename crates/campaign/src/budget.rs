@@ -123,6 +123,11 @@ impl Source {
         }
     }
 
+    /// The sources `s` switches on, in [`Source::ALL`] order: the budget's lines.
+    pub fn on_in(s: &Scenario) -> Vec<Source> {
+        Source::ALL.into_iter().filter(|x| x.is_on(s)).collect()
+    }
+
     /// Switches this source off in `s`.
     pub fn switch_off(self, s: &mut Scenario) {
         let u = &mut s.unmodelled;
@@ -190,10 +195,7 @@ pub fn residual_budget(
         return Ok(None);
     }
     let trials = budget_trials(&loaded.scenario);
-    let on: Vec<Source> = Source::ALL
-        .into_iter()
-        .filter(|s| s.is_on(&loaded.scenario))
-        .collect();
+    let on = Source::on_in(&loaded.scenario);
     let run = |edit: &dyn Fn(&mut Scenario)| -> Result<RunFigures, CampaignError> {
         let mut l = loaded.clone();
         l.scenario.iso.enabled = false;
@@ -248,7 +250,7 @@ pub fn budget_runs(s: &Scenario) -> u64 {
     if !s.residual_budget.enabled {
         return 0;
     }
-    2 + 2 * Source::ALL.iter().filter(|x| x.is_on(s)).count() as u64
+    2 + 2 * Source::on_in(s).len() as u64
 }
 
 /// A length in mm by the report rules, or to 3 significant digits below 0.0001 mm (the

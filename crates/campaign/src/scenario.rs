@@ -106,18 +106,10 @@ impl IdentificationConfig {
     /// The extended parameters' names for an `n_joints` robot, families expanded, in the
     /// order given.
     pub fn extended_names(&self, n_joints: usize) -> Vec<String> {
-        let mut out: Vec<String> = Vec::new();
-        for e in &self.extended {
-            match e.trim() {
-                "compliance" => out.extend((1..=n_joints).map(|j| format!("compliance_{j}"))),
-                "gears" => out.extend(
-                    (1..=n_joints)
-                        .flat_map(|j| [format!("gear_{j}_h1_sin"), format!("gear_{j}_h1_cos")]),
-                ),
-                name => out.push(name.to_string()),
-            }
-        }
-        out
+        self.extended
+            .iter()
+            .flat_map(|e| kinematics::expand_family(e.trim(), n_joints))
+            .collect()
     }
 }
 

@@ -122,6 +122,17 @@ fn progress_bar(total: u64) -> ProgressBar {
     pb
 }
 
+/// The `progress(k)` callback of a run: counts finished trials and moves `pb` every 16.
+fn ticker(pb: &ProgressBar) -> impl Fn(u64) + Sync + '_ {
+    let done = AtomicU64::new(0);
+    move |k| {
+        let d = done.fetch_add(k, Ordering::Relaxed) + k;
+        if d.is_multiple_of(16) {
+            pb.set_position(d);
+        }
+    }
+}
+
 fn default_out(name: &str) -> PathBuf {
     Path::new("results").join(name)
 }
@@ -243,7 +254,6 @@ pub fn run_campaign(
     let started = Instant::now();
     let ctx = Context::new(loaded).context("preparing the campaign")?;
     let pb = progress_bar(range.end - range.start);
-    let done = AtomicU64::new(0);
     create_out_dir(&out)?;
     let checkpoint = match (checkpointing, shard) {
         (None, _) => None,
@@ -268,12 +278,7 @@ pub fn run_campaign(
         Some((k, n)) => format!("shard {k}/{n}"),
         None => "campaign".to_string(),
     };
-    let progress = |k: u64| {
-        let d = done.fetch_add(k, Ordering::Relaxed) + k;
-        if d.is_multiple_of(16) {
-            pb.set_position(d);
-        }
-    };
+    let progress = ticker(&pb);
     let agg: Aggregate = pool.install(|| -> Result<Aggregate> {
         Ok(match &checkpoint {
             None => run_range(&ctx, range.clone(), &progress),
@@ -287,13 +292,7 @@ pub fn run_campaign(
     let budget = if shard.is_none_or(|(k, _)| k == 0) {
         let runs = campaign::budget::budget_runs(&scenario);
         let pb = progress_bar(runs * campaign::budget::budget_trials(&scenario));
-        let done = AtomicU64::new(0);
-        let progress = |k: u64| {
-            let d = done.fetch_add(k, Ordering::Relaxed) + k;
-            if d.is_multiple_of(16) {
-                pb.set_position(d);
-            }
-        };
+        let progress = ticker(&pb);
         let b = pool
             .install(|| campaign::residual_budget(&ctx.loaded, &progress))
             .context("computing the residual budget")?;

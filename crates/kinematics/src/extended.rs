@@ -98,6 +98,20 @@ impl Gravity {
     }
 }
 
+/// One item of a list of non-geometric parameters, expanded for an `n_joints` robot: the
+/// family `compliance` (every joint's), the family `gears` (the first harmonic, sine and
+/// cosine, of every joint), or a parameter name, as itself. Scenario files
+/// (`identification.extended`) and `--params …+…` both read their lists through it.
+pub fn expand_family(item: &str, n_joints: usize) -> Vec<String> {
+    match item {
+        "compliance" => (1..=n_joints).map(|j| format!("compliance_{j}")).collect(),
+        "gears" => (1..=n_joints)
+            .flat_map(|j| [format!("gear_{j}_h1_sin"), format!("gear_{j}_h1_cos")])
+            .collect(),
+        name => vec![name.to_string()],
+    }
+}
+
 /// Radians per arcsecond.
 const RAD_PER_ARCSEC: f64 = std::f64::consts::PI / (180.0 * 3600.0);
 

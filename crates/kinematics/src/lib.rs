@@ -17,7 +17,7 @@ pub mod simd;
 pub mod trig;
 
 pub use error::ModelError;
-pub use extended::{ExtendedKind, ExtendedModel, Gravity};
+pub use extended::{ExtendedKind, ExtendedModel, Gravity, expand_family};
 pub use ik::{IkError, IkOptions, IkReport, IkTarget, Lower6, cholesky6};
 pub use model::{
     BaseSpec, ExtendedParamSpec, JointSpec, LinkMassSpec, MAX_JOINTS, MassModelSpec, RobotSpec,
