@@ -24,5 +24,5 @@ pub use joints::{Compensation, Prediction, SAME_FRAME_MM, compensate_targets, pr
 pub use workflow::{
     Calibration, IdentifyRequest, PARAMETERS_FILE, REGISTERED_FILE, REPORT_FILE, REPORT_HTML_FILE,
     ROBOT_FILE, RedundantArg, Registration, Rendered, Schedule, Split, Validation, norms,
-    residuals, run,
+    residuals, run, split_params,
 };

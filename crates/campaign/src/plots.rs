@@ -24,7 +24,27 @@ pub fn kinematic_order<'a>(names: impl IntoIterator<Item = &'a str>) -> Vec<&'a 
     // the same relative order as in any smaller chain.
     let layout = kinematics::ParamLayout::new(&[0.0; 16]);
     let mut v: Vec<&str> = names.into_iter().collect();
-    v.sort_by_key(|n| (layout.index_of(n).unwrap_or(usize::MAX), *n));
+    // The non-geometric parameters of an extended model follow, compliances first, then the
+    // gear terms by joint and harmonic.
+    let extended = |n: &str| {
+        kinematics::ExtendedKind::parse(n).map(|k| match k {
+            kinematics::ExtendedKind::Compliance(j) => j,
+            kinematics::ExtendedKind::GearSin { joint, harmonic } => {
+                100 + 100 * joint + 2 * harmonic as usize
+            }
+            kinematics::ExtendedKind::GearCos { joint, harmonic } => {
+                101 + 100 * joint + 2 * harmonic as usize
+            }
+        })
+    };
+    v.sort_by_key(|n| {
+        let k = layout
+            .index_of(n)
+            .ok()
+            .or_else(|| extended(n).map(|e| layout.len() + e))
+            .unwrap_or(usize::MAX);
+        (k, *n)
+    });
     v
 }
 
@@ -159,9 +179,42 @@ pub fn improvement_histogram_svg(
 /// One parameter's recovery, for the recovery figures.
 struct RecoveryRow<'a> {
     name: &'a str,
-    angle: bool,
+    panel: RecoveryPanel,
     error: &'a Summary,
     z: Option<&'a Summary>,
+}
+
+/// The panels of the recovery plot, one per display unit.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum RecoveryPanel {
+    /// Lengths, mm.
+    Lengths,
+    /// Angles in arcseconds: the geometric ones (summarised in degrees) and the gear terms.
+    Angles,
+    /// Joint compliances, µrad/(N·m).
+    Compliance,
+}
+
+impl RecoveryPanel {
+    /// The panel of a parameter summarised in `unit` ([`kinematics::Unit::as_str`]), and the
+    /// factor to its display unit.
+    fn of(unit: &str) -> (RecoveryPanel, f64) {
+        match unit {
+            "deg" => (RecoveryPanel::Angles, fmt::ARCSEC_PER_DEG),
+            "arcsec" => (RecoveryPanel::Angles, 1.0),
+            "urad/Nm" => (RecoveryPanel::Compliance, 1.0),
+            _ => (RecoveryPanel::Lengths, 1.0),
+        }
+    }
+
+    /// What the panel holds, and its unit.
+    fn words(self) -> (&'static str, &'static str) {
+        match self {
+            RecoveryPanel::Lengths => ("lengths", "mm"),
+            RecoveryPanel::Angles => ("angles", "arcsec"),
+            RecoveryPanel::Compliance => ("joint compliances", "µrad/(N·m)"),
+        }
+    }
 }
 
 fn recovery_rows(
@@ -173,7 +226,7 @@ fn recovery_rows(
             let r = &recovery[n];
             r.error.as_ref().map(|e| RecoveryRow {
                 name: n,
-                angle: r.unit == "deg",
+                panel: RecoveryPanel::of(&r.unit).0,
                 error: e,
                 z: r.z.as_ref(),
             })
@@ -182,15 +235,20 @@ fn recovery_rows(
 }
 
 /// Recovery error (estimate − truth) per parameter, mean ± 1 sd over trials, in kinematic
-/// order: lengths in mm in the upper panel, angles in arcseconds in the lower one.
+/// order: lengths in mm in the upper panel, angles (and the gear terms of an extended
+/// model) in arcseconds below, joint compliances in µrad/(N·m) at the bottom.
 pub fn recovery_svg(
     name: &str,
     recovery: &std::collections::BTreeMap<String, RecoverySummary>,
 ) -> Result<Option<String>, PlotError> {
     let rows = recovery_rows(recovery);
     let mut panels = Vec::new();
-    for (angle, unit, scale) in [(false, "mm", 1.0), (true, "arcsec", fmt::ARCSEC_PER_DEG)] {
-        let sel: Vec<&RecoveryRow> = rows.iter().filter(|r| r.angle == angle).collect();
+    for panel in [
+        RecoveryPanel::Lengths,
+        RecoveryPanel::Angles,
+        RecoveryPanel::Compliance,
+    ] {
+        let sel: Vec<&RecoveryRow> = rows.iter().filter(|r| r.panel == panel).collect();
         if sel.is_empty() {
             continue;
         }
@@ -199,7 +257,13 @@ pub fn recovery_svg(
         } else {
             String::new()
         };
-        let what = if angle { "angles" } else { "lengths" };
+        let (what, unit) = panel.words();
+        let what = if sel.iter().any(|r| recovery[r.name].unit == "arcsec") {
+            "angles and gear terms"
+        } else {
+            what
+        };
+        let scale = |r: &RecoveryRow| RecoveryPanel::of(&recovery[r.name].unit).1;
         let mut f = Figure::new(
             title,
             format!("parameter ({what})"),
@@ -210,7 +274,7 @@ pub fn recovery_svg(
             "mean over trials ± 1 sd",
             sel.iter()
                 .enumerate()
-                .map(|(i, r)| (i as f64, r.error.mean * scale))
+                .map(|(i, r)| (i as f64, r.error.mean * scale(r)))
                 .collect(),
             Style::Markers,
         );
@@ -218,8 +282,8 @@ pub fn recovery_svg(
             .iter()
             .map(|r| {
                 (
-                    (r.error.mean - r.error.sd) * scale,
-                    (r.error.mean + r.error.sd) * scale,
+                    (r.error.mean - r.error.sd) * scale(r),
+                    (r.error.mean + r.error.sd) * scale(r),
                 )
             })
             .collect();
@@ -230,7 +294,11 @@ pub fn recovery_svg(
     if panels.is_empty() {
         return Ok(None);
     }
-    let h = if panels.len() == 1 { 500 } else { 860 };
+    let h = match panels.len() {
+        1 => 500,
+        2 => 860,
+        _ => 1220,
+    };
     panels_svg(&panels, h).map(Some)
 }
 

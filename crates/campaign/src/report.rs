@@ -332,15 +332,29 @@ impl CampaignSummary {
             o.push_str("## Parameter recovery (minimal identifiable set)\n\n");
             o.push_str(
                 "Error = estimate − truth, both re-expressed in the minimal identifiable set; \
-                 lengths in mm, angles in arcseconds (″). Parameters in kinematic order.\n\n",
+                 lengths in mm, angles in arcseconds (″). Parameters in kinematic order.",
             );
+            if self
+                .recovery
+                .values()
+                .any(|r| r.unit == "arcsec" || r.unit == "urad/Nm")
+            {
+                o.push_str(
+                    " The non-geometric parameters of the extended model follow: joint \
+                     compliances in µrad/(N·m) and gear terms in ″, their truth the injected \
+                     compliance (1 − c)/k and the injected harmonic A·sin(k q + φ) = \
+                     A cos φ · sin(k q) + A sin φ · cos(k q).",
+                );
+            }
+            o.push_str("\n\n");
             o.push_str("| parameter | unit | mean error | sd of error | mean std error | z mean | z sd |\n|---|---|---:|---:|---:|---:|---:|\n");
             for name in crate::plots::kinematic_order(self.recovery.keys().map(String::as_str)) {
                 let r = &self.recovery[name];
-                let (unit, q) = if r.unit == "deg" {
-                    ("″", Quantity::AngleArcsecFromDeg)
-                } else {
-                    (r.unit.as_str(), MM)
+                let (unit, q) = match r.unit.as_str() {
+                    "deg" => ("″", Quantity::AngleArcsecFromDeg),
+                    "arcsec" => ("″", Quantity::Index),
+                    "urad/Nm" => ("µrad/(N·m)", Quantity::Index),
+                    other => (other, MM),
                 };
                 let g = |s: &Option<Summary>, f: fn(&Summary) -> f64, q: Quantity| {
                     s.as_ref().map_or("n/a".into(), |s| q.format(f(s)))

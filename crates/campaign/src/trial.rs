@@ -99,6 +99,9 @@ pub struct Context {
     /// The start model of the identification: the nominal robot, extended by the
     /// scenario's non-geometric parameters (`identification.extended`) when it has any.
     pub id_nominal: Robot,
+    /// The minimal identifiable set of `id_nominal` (on the same poses as `minimal_free`,
+    /// which it equals for a geometric identification): recovery is scored on it.
+    pub recovery_free: Vec<usize>,
 }
 
 impl Context {
@@ -140,9 +143,22 @@ impl Context {
                 &loaded.source,
             )
             .map_err(|e| CampaignError::Other(format!("identification.extended: {e}")))?;
+        let recovery_free = if id_nominal.is_extended() {
+            ParamSet::Minimal
+                .resolve(
+                    &id_nominal,
+                    reference.identification_poses_rad(),
+                    None,
+                    &id.identifiability,
+                )
+                .map_err(|source| CampaignError::Identify { trial: 0, source })?
+        } else {
+            minimal_free.clone()
+        };
         Ok(Context {
             design,
             id_nominal,
+            recovery_free,
             id_options: id.options(),
             loaded,
             setup,
@@ -428,7 +444,17 @@ pub fn run_trial(ctx: &Context, trial: u64) -> Result<TrialResult, CampaignError
     let observability = observability(nominal, &id_poses, &id_points, &ctx.minimal_free);
 
     let recovery = if scenario.recovery.enabled {
-        recovery(ctx, &fit, &truth_robot, &id_poses, &id_points).map_err(ident)?
+        // An extended identification is scored against the truth in its own family.
+        let truth = match ctx.id_nominal.extended() {
+            Some(model) => {
+                let names: Vec<String> = model.kinds().iter().map(|k| k.name()).collect();
+                world.extended_truth(&names).map_err(|e| {
+                    CampaignError::Other(format!("trial {trial}: the extended truth: {e}"))
+                })?
+            }
+            None => truth_robot.clone(),
+        };
+        recovery(ctx, &fit, &truth, &id_poses, &id_points).map_err(ident)?
     } else {
         Vec::new()
     };
@@ -496,10 +522,11 @@ fn observability(
     Observability::from_singular_values(&sv, problem.n_poses())
 }
 
-/// Scores the estimate against the truth on the minimal set: both are re-expressed in it (a
-/// noise-free fit of the minimal set to each model's points on the identification poses),
-/// and the standard errors come from the covariance at the re-expressed estimate with the
-/// trial's measurements.
+/// Scores the estimate against the truth on the minimal set of the identified model
+/// ([`Context::recovery_free`]): both are re-expressed in it (a noise-free fit of the
+/// minimal set to each model's points on the identification poses), and the standard
+/// errors come from the covariance at the re-expressed estimate with the trial's
+/// measurements. For an extended identification `truth` is [`World::extended_truth`].
 fn recovery(
     ctx: &Context,
     fit: &Fit,
@@ -507,8 +534,8 @@ fn recovery(
     poses: &[f64],
     measured: &[Vector3<f64>],
 ) -> Result<Vec<ParameterRecovery>, identify::IdentifyError> {
-    let nominal = ctx.nominal();
-    let free = &ctx.minimal_free;
+    let nominal = &ctx.id_nominal;
+    let free = &ctx.recovery_free;
     let lm = &ctx.id_options.lm;
     let truth_min = reexpress(nominal, truth, poses, free, lm)?;
     let layout = nominal.layout();
@@ -521,7 +548,7 @@ fn recovery(
         .filter_map(|n| layout.index_of(n).ok())
         .collect();
     let registered = fit.registration.as_ref().is_some_and(|r| r.applied);
-    let (est_min, cov) = if !registered && solved == *free && !fit.robot.is_extended() {
+    let (est_min, cov) = if !registered && solved == *free {
         (fit.params.clone(), fit.covariance.clone())
     } else {
         // The estimate's re-expression, then its covariance with the trial's measurements

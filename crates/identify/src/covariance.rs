@@ -253,12 +253,6 @@ fn covariance_on(
     opts: &IdentifiabilityOptions,
     correlation_flag: f64,
 ) -> Result<Option<Covariance>, IdentifyError> {
-    // The lane kernels evaluate the geometric chain only (see `lm::solve_on`).
-    let source = if robot.is_extended() {
-        Source::Reference
-    } else {
-        source
-    };
     let layout = robot.layout();
     let n = robot.n_joints();
     let m = poses_rad.len() / n;
@@ -272,7 +266,7 @@ fn covariance_on(
             (weighted_rss(robot, poses_rad, points_mm, weights), None)
         }
         Source::Fast => {
-            let trig = PoseTrig::new(n, poses_rad);
+            let trig = PoseTrig::for_robot(robot, poses_rad);
             let mut work = NormalWork::new(pf);
             let mut j = DMatrix::zeros(3 * m, pf);
             let cost = work.assemble_stacked(robot, &trig, points_mm, weights, free, &mut j);

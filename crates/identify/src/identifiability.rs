@@ -674,7 +674,7 @@ pub fn cholesky_certifies(
 ) -> bool {
     let m = poses_rad.len() / robot.n_joints();
     let pf = free.len();
-    let trig = PoseTrig::new(robot.n_joints(), poses_rad);
+    let trig = PoseTrig::for_robot(robot, poses_rad);
     let mut work = NormalWork::new(pf);
     let mut jac = DMatrix::zeros(3 * m, pf);
     let zeros = vec![nalgebra::Vector3::zeros(); m];
@@ -710,12 +710,8 @@ pub(crate) fn redundant_positions(
     // the SVD on the stacked Jacobian.
     match greedy_cholesky(a, &priority) {
         Some(gr) => Ok((0..pf).filter(|k| !gr.kp.contains(k)).collect()),
-        None if robot.is_extended() => {
-            let j = weighted_jacobian(robot, poses_rad, weights, free);
-            Ok(analyze_matrix(j, &priority, opts)?.dropped)
-        }
         None => {
-            let trig = PoseTrig::new(robot.n_joints(), poses_rad);
+            let trig = PoseTrig::for_robot(robot, poses_rad);
             let mut j = DMatrix::zeros(3 * m, pf);
             NormalWork::stacked_jacobian(robot, &trig, weights, free, &mut j);
             Ok(analyze_matrix(j, &priority, opts)?.dropped)

@@ -627,7 +627,7 @@ impl<'p> Assembler<'p> {
             weights: problem.weights(),
             free,
             trig: if fast {
-                PoseTrig::new(problem.robot().n_joints(), poses)
+                PoseTrig::for_robot(problem.robot(), poses)
             } else {
                 PoseTrig::default()
             },
@@ -783,13 +783,6 @@ fn solve_on(
     options: &LmOptions,
     ident: &IdentifiabilityOptions,
 ) -> Result<LmSolution, IdentifyError> {
-    // The lane kernels of the fast path evaluate the geometric chain only: an extended
-    // robot (non-geometric joint parameters) is solved on the reference path.
-    let path = if problem.robot().is_extended() {
-        Path::Reference
-    } else {
-        path
-    };
     solve_speculating(path, problem, options, ident, true)
 }
 

@@ -124,9 +124,6 @@ impl<'a> Problem<'a> {
     /// (3m × P) and `e` the weighted residual; returns the cost `‖e‖²`. This is what every
     /// accepted LM iteration assembles (exposed for benchmarks and tests).
     pub fn normal_equations(&self, a: &mut DMatrix<f64>, g: &mut DVector<f64>) -> f64 {
-        if self.robot.is_extended() {
-            return self.normal_equations_reference(a, g);
-        }
         let pf = self.free.len();
         if a.shape() != (pf, pf) {
             *a = DMatrix::zeros(pf, pf);
@@ -134,7 +131,7 @@ impl<'a> Problem<'a> {
         if g.len() != pf {
             *g = DVector::zeros(pf);
         }
-        let trig = PoseTrig::new(self.robot.n_joints(), self.poses_rad);
+        let trig = PoseTrig::for_robot(self.robot, self.poses_rad);
         let mut work = NormalWork::new(pf);
         let cost = work.assemble(self.robot, &trig, self.points_mm, self.weights, &self.free);
         work.copy_to(a, g);
@@ -413,8 +410,7 @@ fn rss_impl(
 ) -> f64 {
     let mut sum = 0.0;
     for block in 0..trig.n_blocks() {
-        let (s, c) = trig.lanes(block);
-        let p = robot.point_lanes(s, c);
+        let p = robot.point_lanes(trig.lanes(block));
         group_residuals(&p, points_mm, weights, block, &mut sum);
     }
     sum
@@ -757,8 +753,7 @@ fn weighted_blocks(
 ) -> [[f64; L]; 3] {
     let first = grp * L;
     let count = L.min(trig.n_poses() - first);
-    let (sin_q, cos_q) = trig.lanes(grp);
-    let p = robot.point_jacobian_lanes_to(sin_q, cos_q, &slot[..robot.n_params()], blocks);
+    let p = robot.point_jacobian_lanes_to(trig.lanes(grp), &slot[..robot.n_params()], blocks);
     if weights.is_some() {
         // w[r][t]: the weight of row r of pose t (zero past the last pose).
         let mut w = [[0.0; L]; 3];

@@ -340,3 +340,100 @@ fn covariance_at_solution_equals_covariance() {
         }
     }
 }
+
+/// The extended model (34 geometric + 6 compliance + 12 first-harmonic gear columns) on the
+/// fast path: the lane kernels from the weights of `PoseTrig::for_robot`. The normal
+/// equations, the solution and the covariance match the reference path's to rounding, and
+/// every vector width gives the same bits.
+#[test]
+fn extended_model_fast_path_matches_the_reference() {
+    let names: Vec<String> = (1..=6)
+        .map(|j| format!("compliance_{j}"))
+        .chain((1..=6).flat_map(|j| [format!("gear_{j}_h1_sin"), format!("gear_{j}_h1_cos")]))
+        .collect();
+    let geometric = kr1000(TOOL);
+    let nominal = geometric.with_extended(&names, "kr1000").unwrap();
+    let first = geometric.n_params();
+    let all: Vec<usize> = (0..nominal.n_params()).collect();
+    let opts = IdentifiabilityOptions::default();
+    for seed in 0..3 {
+        let truth_geo = perturbed(&geometric, &(0..first).collect::<Vec<_>>(), 70 + seed);
+        let mut x = truth_geo.params();
+        x.extend(std::iter::repeat_n(0.0, names.len()));
+        for (k, v) in x[first..].iter_mut().enumerate() {
+            let info = nominal.layout().get(first + k);
+            // 0.03–1 µrad/(N·m) and up to ±10″: the paper scenario's sizes.
+            let display = if info.unit == kinematics::Unit::MicroradPerNm {
+                [0.03, 0.03, 0.05, 0.5, 0.5, 1.0][k]
+            } else {
+                10.0 * ((((k + seed as usize) * 5) % 7) as f64 - 3.0) / 3.0
+            };
+            *v = info.from_display(display);
+        }
+        let truth = nominal.with_params(&x).unwrap();
+        let q = poses(&geometric, 50, 80 + seed);
+        let meas = noisy(&truth.points(&q), 0.02, 90 + seed);
+        let problem = Problem::new(&nominal, &q, &meas, all.clone()).unwrap();
+
+        let (mut a, mut g) = (DMatrix::zeros(0, 0), DVector::zeros(0));
+        let (mut ar, mut gr) = (DMatrix::zeros(0, 0), DVector::zeros(0));
+        let cost = problem.normal_equations(&mut a, &mut g);
+        let cost_ref = problem.normal_equations_reference(&mut ar, &mut gr);
+        assert!(
+            (cost - cost_ref).abs() <= 1e-12 * cost_ref,
+            "seed {seed}: cost"
+        );
+        for l in 0..all.len() {
+            for k in 0..all.len() {
+                let scale = (ar[(k, k)] * ar[(l, l)]).sqrt();
+                assert!(
+                    (a[(k, l)] - ar[(k, l)]).abs() <= 1e-12 * scale,
+                    "seed {seed}: ({k}, {l})"
+                );
+            }
+            let scale = (ar[(l, l)] * cost_ref).sqrt();
+            assert!((g[l] - gr[l]).abs() <= 1e-10 * scale, "seed {seed}: g {l}");
+        }
+
+        let lm = LmOptions::default();
+        let fast = solve(&problem, &lm).unwrap();
+        let reference = solve_reference(&problem, &lm).unwrap();
+        assert_close(
+            &fast,
+            &reference,
+            &problem,
+            &format!("extended seed {seed}"),
+        );
+        // The zero columns (compliance of the vertical axes 1 and 6) are held by both.
+        assert_eq!(fast.held, reference.held);
+
+        let fit = &fast.robot;
+        let solved: Vec<usize> = all
+            .iter()
+            .copied()
+            .filter(|k| !fast.held.contains(k))
+            .collect();
+        let cf = covariance(fit, &q, &meas, None, &solved, &opts, 0.9)
+            .unwrap()
+            .unwrap();
+        let cr = covariance_reference(fit, &q, &meas, None, &solved, &opts, 0.9)
+            .unwrap()
+            .unwrap();
+        assert_cov_close(&cf, &cr, &format!("extended seed {seed}"));
+
+        let levels: Vec<SimdLevel> = [SimdLevel::Portable, SimdLevel::Avx2, SimdLevel::Avx512]
+            .into_iter()
+            .filter(|l| *l <= SimdLevel::detect())
+            .collect();
+        let mut runs = Vec::new();
+        for level in &levels {
+            set_simd_level(Some(*level));
+            runs.push(solve(&problem, &lm).unwrap());
+        }
+        set_simd_level(None);
+        for (run, level) in runs.iter().zip(&levels).skip(1) {
+            assert_eq!(run.params, runs[0].params, "{level:?}: parameters");
+            assert_eq!(run.trace, runs[0].trace, "{level:?}: trace");
+        }
+    }
+}

@@ -15,6 +15,9 @@ use kinematics::Robot;
       --candidates data/ur10-ipa/series-b-joint-configurations.csv --poses 20 --criterion i
   kincal design --robot scenarios/robots/kr1000-titan.json \\
       --scenario scenarios/paper-kr1000.json --random 500 --poses 30 --out plan.csv
+  kincal design --robot scenarios/robots/kr1000-titan.json \\
+      --scenario scenarios/paper-kr1000.json --random 500 --poses 30 \\
+      --params minimal+compliance+gears --criterion i --out plan-extended.csv
   Writes the plan (joints-only measurement file, candidate ids kept) and prints the criterion,
   condition number and O1–O5 beside the median of 100 random sets of the same size.")]
 #[command(group(ArgGroup::new("pool").required(true).args(["candidates", "scenario"])))]
@@ -42,7 +45,9 @@ pub struct DesignArgs {
     /// Workspace poses of the I criterion (joint CSV) [the candidates].
     #[arg(long)]
     workspace: Option<PathBuf>,
-    /// Parameters: `minimal` (the minimal identifiable set) or comma-separated names.
+    /// Parameters: `minimal` (the minimal identifiable set), `paper` (all) or comma-separated
+    /// names; `+compliance`, `+gears` or `+name,name` add non-geometric parameters
+    /// (docs/extended-model.md), e.g. `minimal+compliance+gears`.
     #[arg(long, default_value = "minimal")]
     params: String,
     /// Output plan (joints-only measurement file, candidate ids kept) [plan.csv].
@@ -58,8 +63,16 @@ pub struct DesignArgs {
 
 /// Runs `design`.
 pub fn run(args: &DesignArgs) -> Result<()> {
-    let robot = Robot::from_file(&args.robot)
+    let geometric = Robot::from_file(&args.robot)
         .with_context(|| format!("loading {}", args.robot.display()))?;
+    let mut robot = geometric.clone();
+    // `--params BASE+FAMILY+…`: the extended families join the geometric parameters.
+    let (base_set, extended) = calibrate::split_params(&args.params, robot.n_joints());
+    if !extended.is_empty() {
+        robot = robot
+            .with_extended(&extended, &args.robot.display().to_string())
+            .with_context(|| format!("--params {}", args.params))?;
+    }
     let criterion: Criterion = args
         .criterion
         .parse()
@@ -69,8 +82,16 @@ pub fn run(args: &DesignArgs) -> Result<()> {
         (None, Some(path), Some(n)) => {
             let loaded = campaign::Scenario::from_file(path)
                 .with_context(|| format!("loading {}", path.display()))?;
-            Candidates::from_sampler(&robot, &loaded.virtual_robot(), loaded.scenario.seed, 0, n)
-                .with_context(|| format!("sampling candidates of {}", path.display()))?
+            // The virtual robot samples on the geometric model (its physics beyond geometry
+            // is the scenario's `unmodelled` section).
+            Candidates::from_sampler(
+                &geometric,
+                &loaded.virtual_robot(),
+                loaded.scenario.seed,
+                0,
+                n,
+            )
+            .with_context(|| format!("sampling candidates of {}", path.display()))?
         }
         _ => bail!("give --candidates FILE, or --scenario FILE with --random N"),
     };
@@ -79,9 +100,24 @@ pub fn run(args: &DesignArgs) -> Result<()> {
         .as_ref()
         .map(|p| Candidates::from_file(&robot, p))
         .transpose()?;
-    let params: Option<Vec<String>> = match args.params.trim() {
+    // `minimal` (of the extended robot, if extended) is decided by the design crate; `paper`
+    // and a list of names take the extended parameters along.
+    let params: Option<Vec<String>> = match base_set.trim() {
         "minimal" => None,
-        list => Some(list.split(',').map(|s| s.trim().to_string()).collect()),
+        "paper" => Some(
+            robot
+                .layout()
+                .params()
+                .iter()
+                .map(|p| p.name.clone())
+                .collect(),
+        ),
+        list => Some(
+            list.split(',')
+                .map(|s| s.trim().to_string())
+                .chain(extended.iter().cloned())
+                .collect(),
+        ),
     };
     let mut opts = DesignOptions::new(criterion, args.poses);
     opts.seed = args.seed;

@@ -15,7 +15,9 @@ use nalgebra::Vector3;
 #[command(after_help = "Examples:
   kincal identifiability --robot scenarios/robots/kr1000-titan.json --random-poses 50
   kincal identifiability --robot scenarios/robots/ur10.json \\
-      --data data/ur10-ipa/series-b-joint-configurations.csv --params minimal --json")]
+      --data data/ur10-ipa/series-b-joint-configurations.csv --params minimal --json
+  kincal identifiability --robot scenarios/robots/kr1000-titan.json --random-poses 50 \\
+      --params paper+compliance+gears")]
 #[command(group(ArgGroup::new("poses").required(true).args(["data", "scenario", "random_poses"])))]
 pub struct IdentifiabilityArgs {
     /// Robot model file (JSON).
@@ -35,7 +37,9 @@ pub struct IdentifiabilityArgs {
     /// Seed of --random-poses (ChaCha8).
     #[arg(long, default_value_t = 1, requires = "random_poses")]
     seed: u64,
-    /// Parameters to analyse: `paper` (all), `minimal`, or comma-separated names.
+    /// Parameters to analyse: `paper` (all), `minimal`, or comma-separated names; `+compliance`,
+    /// `+gears` or `+name,name` add non-geometric parameters (docs/extended-model.md), e.g.
+    /// `paper+compliance+gears`.
     #[arg(long, default_value = "paper")]
     params: String,
     /// Override the measured point (ball) in the flange frame, mm: `x,y,z`.
@@ -103,8 +107,15 @@ pub fn run(args: &IdentifiabilityArgs) -> Result<()> {
         (poses, format!("{n} random poses, seed {}", args.seed))
     };
 
+    // `--params BASE+FAMILY+…`: the extended families join the geometric parameters.
+    let (base_set, extended) = calibrate::split_params(&args.params, robot.n_joints());
+    if !extended.is_empty() {
+        robot = robot
+            .with_extended(&extended, &args.robot.display().to_string())
+            .with_context(|| format!("--params {}", args.params))?;
+    }
     let opts = IdentifiabilityOptions::default();
-    let set: ParamSet = args.params.parse().expect("infallible");
+    let set: ParamSet = base_set.parse().expect("infallible");
     let free = set
         .resolve(&robot, &poses, None, &opts)
         .with_context(|| format!("--params {}", args.params))?;

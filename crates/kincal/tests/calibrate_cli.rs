@@ -862,6 +862,113 @@ fn identifiability_json_has_rank_redundant_condition_and_observability() {
     assert_eq!(v["singular_values"].as_array().unwrap().len(), 34);
 }
 
+/// The extended families in `identifiability` (issue 19): on the KR1000 the compliance of
+/// the vertical axes 1 and 6 sees no gravity torque, so both are zero columns, reported as
+/// redundant and confounded with nothing; the other 43 of 52 are identifiable.
+#[test]
+fn identifiability_covers_the_extended_families() {
+    let out = kincal(&[
+        "identifiability",
+        "--robot",
+        s(kr1000()),
+        "--random-poses",
+        "50",
+        "--params",
+        "paper+compliance+gears",
+        "--json",
+    ]);
+    let text = ok(&out);
+    let v: serde_json::Value = serde_json::from_str(&text).expect("JSON on stdout");
+    assert_eq!(v["parameter_count"], 52, "{text}");
+    assert_eq!(v["rank"], 43, "{text}");
+    assert_eq!(
+        v["zero_columns"],
+        serde_json::json!(["compliance_1", "compliance_6"])
+    );
+    let redundant: Vec<&str> = v["redundant"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|r| r.as_str().unwrap())
+        .collect();
+    assert!(redundant.contains(&"compliance_1") && redundant.contains(&"compliance_6"));
+    let identifiable = v["identifiable"].as_array().unwrap();
+    assert!(identifiable.contains(&serde_json::json!("compliance_2")));
+    assert!(identifiable.contains(&serde_json::json!("gear_6_h1_cos")));
+    // A harmonic on a joint the robot does not have is refused by name.
+    let bad = kincal(&[
+        "identifiability",
+        "--robot",
+        s(kr1000()),
+        "--random-poses",
+        "50",
+        "--params",
+        "paper+gear_7_h1_sin",
+    ]);
+    assert!(!bad.status.success());
+    assert!(
+        stderr(&bad).contains("gear_7_h1_sin") && stderr(&bad).contains("joint 7 does not exist"),
+        "{}",
+        stderr(&bad)
+    );
+}
+
+/// The extended families in `design`: the minimal set of the extended model (43 of the 52)
+/// is designed for, and a bad family member leaves no plan behind.
+#[test]
+fn design_covers_the_extended_families() {
+    let tmp = tempfile::tempdir().unwrap();
+    let plan = tmp.path().join("plan.csv");
+    let scenario = root().join("scenarios/paper-kr1000.json");
+    let args = |params: &'static str| {
+        vec![
+            "design".to_string(),
+            "--robot".into(),
+            s(kr1000()).into(),
+            "--scenario".into(),
+            s(&scenario).into(),
+            "--random".into(),
+            "200".into(),
+            "--poses".into(),
+            "20".into(),
+            "--params".into(),
+            params.into(),
+            "--out".into(),
+            s(&plan).into(),
+        ]
+    };
+    let out = kincal(
+        &args("minimal+compliance+gears")
+            .iter()
+            .map(String::as_str)
+            .collect::<Vec<_>>(),
+    );
+    let text = ok(&out);
+    let set = line_with(&text, "minimal set (43 parameters)");
+    assert!(
+        set.contains("compliance_2") && set.contains("gear_1_h1_sin"),
+        "{text}"
+    );
+    assert!(
+        !set.contains("compliance_1,") && !set.contains("compliance_6"),
+        "{text}"
+    );
+    let rows = read_file(&plan, &ReadOptions::new(6).joints_only())
+        .unwrap()
+        .rows;
+    assert_eq!(rows.len(), 20);
+    std::fs::remove_file(&plan).unwrap();
+    let bad = kincal(
+        &args("minimal+compliance_9")
+            .iter()
+            .map(String::as_str)
+            .collect::<Vec<_>>(),
+    );
+    assert!(!bad.status.success());
+    assert!(stderr(&bad).contains("compliance_9"), "{}", stderr(&bad));
+    assert!(!plan.exists());
+}
+
 /// Real data with the extended model (issue 19): on the UR10 series B (every 15th row,
 /// validated on the 1,395 others), joint compliance lowers the validation mean below the
 /// geometric model's; `identified.json` carries the extended section, `predict` on it gives

@@ -310,6 +310,58 @@ fn the_extended_model_figures_in_the_docs_are_the_committed_results() {
             "scenarios/README.md should say {quoted:?}"
         );
     }
+    // The recovery table: each row's last four cells are the committed summary's, and the
+    // quoted z sd range spans the committed rows.
+    let recovery = doc
+        .split("### Recovery: honest standard errors")
+        .nth(1)
+        .expect("docs/extended-model.md has the recovery table");
+    let mut rows = 0;
+    for line in recovery.lines().take_while(|l| !l.starts_with("## ")) {
+        let cells: Vec<&str> = line.split('|').map(str::trim).collect();
+        let Some(name) = cells.get(1).and_then(|c| c.strip_prefix('`')) else {
+            continue;
+        };
+        let name = name.split('`').next().unwrap();
+        let committed = ext
+            .lines()
+            .find(|l| l.starts_with(&format!("| {name} |")))
+            .unwrap_or_else(|| panic!("{name} is not in the committed recovery table"));
+        let c: Vec<&str> = committed.split('|').map(str::trim).collect();
+        // The doc prints a typographic minus.
+        let doc_cells: Vec<String> = cells[3..7].iter().map(|v| v.replace('−', "-")).collect();
+        assert_eq!(
+            doc_cells,
+            &c[4..8],
+            "{name}: the doc row differs from {committed}"
+        );
+        rows += 1;
+    }
+    assert!(rows >= 5, "{rows} recovery rows checked");
+    let z_sd: Vec<f64> = ext
+        .split("## Parameter recovery")
+        .nth(1)
+        .unwrap()
+        .lines()
+        .filter_map(|l| {
+            let c: Vec<&str> = l.split('|').map(str::trim).collect();
+            (c.len() == 9).then(|| c[7].parse::<f64>().ok()).flatten()
+        })
+        .collect();
+    assert_eq!(z_sd.len(), 43);
+    let (lo, hi) = z_sd
+        .iter()
+        .fold((f64::MAX, f64::MIN), |(a, b), &z| (a.min(z), b.max(z)));
+    let range = format!("{lo:.2}–{hi:.2}");
+    for (file, text) in [
+        ("docs/extended-model.md", &doc),
+        ("scenarios/README.md", &scen),
+    ] {
+        assert!(
+            text.contains(&range),
+            "{file} should quote the z sd range {range}"
+        );
+    }
 }
 
 /// The sweep table of `docs/extended-model.md` is the committed `sweep.md`s': each row's

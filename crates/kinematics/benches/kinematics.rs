@@ -82,8 +82,7 @@ fn benches(c: &mut Criterion) {
         b.iter(|| {
             let mut s = [0.0; 3];
             for k in 0..trig.n_blocks() {
-                let (sq, cq) = trig.lanes(k);
-                let p = robot.point_lanes(black_box(sq), cq);
+                let p = robot.point_lanes(black_box(trig.lanes(k)));
                 s[0] += p[0][0];
                 s[1] += p[1][1];
                 s[2] += p[2][2];

@@ -23,4 +23,6 @@ pub use model::{
     BaseSpec, ExtendedParamSpec, JointSpec, LinkMassSpec, MAX_JOINTS, MassModelSpec, RobotSpec,
 };
 pub use params::{BETA_ALPHA_TOL_DEG, ParamInfo, ParamKind, ParamLayout, Unit};
-pub use robot::{Frame, MAX_PARAMS, POSE_LANES, PoseTrig, Robot, gram_of_axes, joint_sin_cos};
+pub use robot::{
+    Frame, MAX_PARAMS, POSE_LANES, PoseLanes, PoseTrig, Robot, gram_of_axes, joint_sin_cos,
+};

@@ -9,7 +9,7 @@ use crate::model::{BaseSpec, ExtendedParamSpec, JointSpec, MAX_JOINTS, MassModel
 use crate::params::{ParamKind, ParamLayout};
 
 mod fast;
-pub use fast::{POSE_LANES, PoseTrig, joint_sin_cos};
+pub use fast::{POSE_LANES, PoseLanes, PoseTrig, joint_sin_cos};
 
 /// Largest parameter-vector length: 5 per joint plus base and tool.
 pub const MAX_PARAMS: usize = 5 * MAX_JOINTS + 9;
@@ -184,6 +184,8 @@ struct ExtendedPart {
     first: usize,
     /// Layout index of θ_j for each extended parameter's joint j.
     theta_index: Vec<usize>,
+    /// Whether joint j carries an extended parameter (its effective joint moves).
+    joints: [bool; MAX_JOINTS],
 }
 
 impl ExtendedPart {
@@ -294,9 +296,9 @@ impl Robot {
     /// evaluated on this robot's geometry from then on (see [`ExtendedModel`] and
     /// `docs/extended-model.md`). Every commanded-joint entry point ([`Robot::point`],
     /// [`Robot::flange`], the `_trig` forms, IK) then evaluates the chain at the effective
-    /// joints q̃ = q + Σ w_k(q)·x_k, and the Jacobians carry the columns w_k·∂p/∂θ_j. The
-    /// vectorised lane kernels do not (they panic on an extended robot; the identification
-    /// takes its reference path for one). Errors name the field, as [`ExtendedModel::new`]'s.
+    /// joints q̃ = q + Σ w_k(q)·x_k, and the Jacobians carry the columns w_k·∂p/∂θ_j; the
+    /// vectorised lane kernels do too, from weights cached per pose
+    /// ([`PoseTrig::for_robot`]). Errors name the field, as [`ExtendedModel::new`]'s.
     pub fn with_extended<S: AsRef<str>>(
         &self,
         names: &[S],
@@ -336,6 +338,10 @@ impl Robot {
                     .expect("every joint has a θ parameter")
             })
             .collect();
+        let mut joints = [false; MAX_JOINTS];
+        for k in model.kinds() {
+            joints[k.joint()] = true;
+        }
         let mut r = geometric.clone();
         r.layout = layout;
         r.extended = Some(Box::new(ExtendedPart {
@@ -343,6 +349,7 @@ impl Robot {
             torque_robot: geometric,
             first,
             theta_index,
+            joints,
         }));
         Ok(r)
     }
@@ -360,7 +367,8 @@ impl Robot {
 
     /// `[sin q̃, cos q̃]` of the effective joints at the pose whose `[sin q, cos q]` are `sc`,
     /// and the weights `w_k` (a copy of `sc` and no weights for a geometric robot):
-    /// `sin(q + δ) = s·cos δ + c·sin δ`, `cos(q + δ) = c·cos δ − s·sin δ`.
+    /// `sin(q + δ) = s·cos δ + c·sin δ`, `cos(q + δ) = c·cos δ − s·sin δ` on the joints that
+    /// carry a parameter (sin δ, cos δ from [`crate::trig::sin_cos`], as the lane kernels).
     fn effective_trig_of(&self, sc: &[[f64; 2]]) -> ([[f64; 2]; MAX_JOINTS], [f64; MAX_EXTENDED]) {
         let mut out = [[0.0; 2]; MAX_JOINTS];
         let mut w = [0.0; MAX_EXTENDED];
@@ -369,8 +377,10 @@ impl Robot {
             let mut delta = [0.0; MAX_JOINTS];
             ext.offsets(sc, &mut w[..ext.model.len()], &mut delta);
             for (i, [s, c]) in sc.iter().enumerate() {
-                let (sd, cd) = delta[i].sin_cos();
-                out[i] = [s * cd + c * sd, c * cd - s * sd];
+                if ext.joints[i] {
+                    let (sd, cd) = crate::trig::sin_cos(delta[i]);
+                    out[i] = [s * cd + c * sd, c * cd - s * sd];
+                }
             }
         }
         (out, w)

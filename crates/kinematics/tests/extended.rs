@@ -419,3 +419,53 @@ fn the_robot_file_carries_the_extended_parameters() {
         .unwrap_err();
     assert!(err.to_string().contains("mass_model"), "{err}");
 }
+
+/// The pose-parallel kernels evaluate an extended robot from the weights cached by
+/// [`PoseTrig::for_robot`]: lane by lane the one-pose kernels' bits (point and every
+/// column, the extended ones included), on partial last blocks too; a `PoseTrig` without
+/// the weights is refused.
+#[test]
+fn lane_kernels_evaluate_an_extended_robot_bit_for_bit() {
+    use kinematics::{POSE_LANES, PoseTrig};
+    let mut s = 23;
+    for file in ["kr1000-titan.json", "ur10.json"] {
+        let (nominal, ext) = extended_robot(file, &mut s);
+        let n = ext.n_joints();
+        let np = ext.n_params();
+        for m in [5, 8, 19] {
+            let poses: Vec<f64> = (0..m).flat_map(|_| pose(&nominal, &mut s)).collect();
+            let trig = PoseTrig::for_robot(&ext, &poses);
+            let mut jac = vec![[[0.0; POSE_LANES]; 3]; np];
+            for b in 0..trig.n_blocks() {
+                let lanes = trig.lanes(b);
+                assert_eq!(lanes.weights.len(), 5 * n);
+                let p = ext.point_lanes(lanes);
+                assert_eq!(p, ext.point_jacobian_lanes(lanes, &mut jac));
+                for t in 0..POSE_LANES {
+                    let j = (b * POSE_LANES + t).min(m - 1);
+                    let (mut jx, mut jy, mut jz) = (vec![0.0; np], vec![0.0; np], vec![0.0; np]);
+                    let one = ext.point_jacobian_trig(trig.pose(j), &mut jx, &mut jy, &mut jz);
+                    assert_eq!(one, ext.point_trig(trig.pose(j)));
+                    assert_eq!([p[0][t], p[1][t], p[2][t]], [one.x, one.y, one.z]);
+                    // And the definition (effective joints by f64 sin/cos) to rounding.
+                    let q = &poses[j * n..(j + 1) * n];
+                    assert!((one - reference_point(&ext, &nominal, q)).norm() < 1e-9);
+                    for k in 0..np {
+                        assert_eq!(
+                            [jac[k][0][t], jac[k][1][t], jac[k][2][t]],
+                            [jx[k], jy[k], jz[k]],
+                            "{file}: column {}",
+                            ext.layout().get(k).name
+                        );
+                    }
+                }
+            }
+            let geometric_trig = PoseTrig::new(n, &poses);
+            let refused = std::panic::catch_unwind(|| ext.point_lanes(geometric_trig.lanes(0)));
+            assert!(
+                refused.is_err(),
+                "lanes without the weights must be refused"
+            );
+        }
+    }
+}

@@ -221,9 +221,9 @@ fn lane_kernels_match_the_one_pose_kernels_bit_for_bit() {
         let np = r.n_params();
         let mut jac = vec![[[0.0; POSE_LANES]; 3]; np];
         for b in 0..trig.n_blocks() {
-            let (s, c) = trig.lanes(b);
-            let p = r.point_lanes(s, c);
-            let pj = r.point_jacobian_lanes(s, c, &mut jac);
+            let lanes = trig.lanes(b);
+            let p = r.point_lanes(lanes);
+            let pj = r.point_jacobian_lanes(lanes, &mut jac);
             assert_eq!(p, pj);
             // The selected columns in the slots asked for, the others nowhere (a
             // sentinel stays in the spare slot).
@@ -234,7 +234,7 @@ fn lane_kernels_match_the_one_pose_kernels_bit_for_bit() {
             }
             let sentinel = [[f64::NAN; POSE_LANES]; 3];
             let mut out = vec![sentinel; chosen.len() + 1];
-            let pm = r.point_jacobian_lanes_to(s, c, &slot, &mut out);
+            let pm = r.point_jacobian_lanes_to(lanes, &slot, &mut out);
             assert_eq!(p, pm);
             for (c, &k) in chosen.iter().enumerate() {
                 assert_eq!(out[chosen.len() - 1 - c], jac[k], "column {k}");

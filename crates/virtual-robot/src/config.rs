@@ -40,6 +40,26 @@ impl VirtualRobotConfig {
     /// Checks every section against the nominal robot. Errors name the field by its path,
     /// e.g. `tracker.sigma_fraction`, `truth.explicit.thetaX`, `poses.validation`.
     pub fn validate(&self, nominal: &Robot) -> Result<(), ConfigError> {
+        // The virtual robot's physics beyond geometry is the `unmodelled` section; a nominal
+        // model with non-geometric parameters (an `extended` section) has no place here.
+        if let Some(model) = nominal.extended() {
+            return Err(ConfigError::invalid(
+                "robot",
+                format!(
+                    "the virtual robot's nominal model must be geometric, but `{}` carries the \
+                     non-geometric parameters {} (its `extended` section): inject joint \
+                     compliance and gear errors with `unmodelled.compliance` and \
+                     `unmodelled.gears` instead",
+                    nominal.name(),
+                    model
+                        .kinds()
+                        .iter()
+                        .map(|k| k.name())
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                ),
+            ));
+        }
         self.truth.validate(nominal.layout())?;
         self.tracker.validate(nominal)?;
         self.unmodelled.validate(nominal)?;

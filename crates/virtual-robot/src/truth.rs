@@ -258,8 +258,7 @@ fn mean_error_impl(robot: &Robot, trig: &PoseTrig, nominal_points: &[Vector3<f64
     let m = nominal_points.len();
     let mut sum = 0.0;
     for b in 0..trig.n_blocks() {
-        let (s, c) = trig.lanes(b);
-        let p = robot.point_lanes(s, c);
+        let p = robot.point_lanes(trig.lanes(b));
         let first = b * POSE_LANES;
         for (t, p0) in nominal_points[first..m.min(first + POSE_LANES)]
             .iter()

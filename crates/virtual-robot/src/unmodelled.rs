@@ -41,7 +41,7 @@
 
 use std::collections::BTreeMap;
 
-use kinematics::{Frame, Gravity, MAX_JOINTS, ParamLayout, Robot};
+use kinematics::{ExtendedKind, Frame, Gravity, MAX_JOINTS, MassModelSpec, ParamLayout, Robot};
 use nalgebra::Vector3;
 use rand::RngExt;
 use rand::rngs::ChaCha8Rng;
@@ -85,6 +85,26 @@ pub struct ComplianceConfig {
     /// compliance (1 − c_i)/k_i times it. Left out of summaries at 1.
     #[serde(skip_serializing_if = "is_one")]
     pub scale: f64,
+}
+
+impl ComplianceConfig {
+    /// The mass model of this configuration in the robot file's form (links, payload, g):
+    /// what a robot file must carry for its compliance parameters to see the same torques.
+    pub fn mass_model_spec(&self) -> MassModelSpec {
+        MassModelSpec {
+            gravity_m_per_s2: self.gravity_m_per_s2,
+            links: self
+                .links
+                .iter()
+                .map(|l| kinematics::LinkMassSpec {
+                    mass_kg: l.mass_kg,
+                    com_mm: l.com_mm,
+                })
+                .collect(),
+            payload_kg: self.payload_kg,
+            payload_com_mm: self.payload_com_mm,
+        }
+    }
 }
 
 /// `v == 1` (a default left out of summaries).
@@ -514,6 +534,37 @@ impl Unmodelled {
     /// The compliance model, if enabled.
     pub fn compliance(&self) -> Option<&ComplianceModel> {
         self.compliance.as_ref()
+    }
+
+    /// The values (internal units: rad/(N·m), rad) that the non-geometric parameters `kinds`
+    /// take for this model's compliance and gear terms: `compliance_j` is the gain
+    /// `(1 − c_j)/k_j` (× scale; 0 with compliance off), and a term `A·sin(k·q_j + φ)` of
+    /// integer harmonic k is `A·cos φ·sin(k q_j) + A·sin φ·cos(k q_j)`, so it adds `A·cos φ`
+    /// to `gear_j_hk_sin` and `A·sin φ` to `gear_j_hk_cos`. Terms the family does not contain
+    /// (another joint or harmonic) have no parameter: they stay outside the model.
+    pub fn extended_values(&self, kinds: &[ExtendedKind]) -> Vec<f64> {
+        kinds
+            .iter()
+            .map(|kind| match *kind {
+                ExtendedKind::Compliance(j) => self
+                    .compliance
+                    .as_ref()
+                    .and_then(|c| c.gain.get(j).copied())
+                    .unwrap_or(0.0),
+                ExtendedKind::GearSin { joint, harmonic }
+                | ExtendedKind::GearCos { joint, harmonic } => {
+                    let sin_term = matches!(kind, ExtendedKind::GearSin { .. });
+                    self.gears
+                        .iter()
+                        .filter(|g| g.joint == joint && g.harmonic == f64::from(harmonic))
+                        .map(|g| {
+                            let (s, c) = g.phase_rad.sin_cos();
+                            g.amplitude_rad * if sin_term { c } else { s }
+                        })
+                        .sum()
+                }
+            })
+            .collect()
     }
 
     /// Phases actually used by the gear terms, degrees (empty if gears are off).

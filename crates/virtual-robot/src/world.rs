@@ -2,7 +2,7 @@
 
 use std::sync::Arc;
 
-use kinematics::{Frame, MAX_JOINTS, PoseTrig, Robot, RobotSpec};
+use kinematics::{Frame, MAX_JOINTS, ModelError, PoseTrig, Robot, RobotSpec};
 use nalgebra::{Rotation3, Vector3};
 use rand::RngExt;
 use rand::rngs::ChaCha8Rng;
@@ -504,6 +504,29 @@ impl World {
     /// noise its `point` equals the measurements up to rounding.
     pub fn effective_true_robot(&self) -> &Robot {
         &self.effective_robot
+    }
+
+    /// The truth as an extended robot with the non-geometric parameters `names`
+    /// ([`Robot::with_extended`]): the geometry of [`World::effective_true_robot`], the
+    /// gravity torques on the true geometry with the compliance section's mass model (as
+    /// the virtual robot evaluates them), and the values of the injected compliance and gear
+    /// terms ([`crate::Unmodelled::extended_values`]). Without repeatability, tracker noise,
+    /// drift and the terms the family does not contain, its points are the measured ones up
+    /// to rounding. What recovery scoring compares an extended identification with.
+    pub fn extended_truth<S: AsRef<str>>(&self, names: &[S]) -> Result<Robot, ModelError> {
+        let mut spec = self.true_robot.to_spec();
+        spec.extended = None;
+        let compliance = &self.config.unmodelled.compliance;
+        if compliance.enabled {
+            spec.mass_model = Some(compliance.mass_model_spec());
+        }
+        let ext = Robot::from_spec(&spec)?.with_extended(names, "virtual robot")?;
+        let Some(model) = ext.extended() else {
+            return Ok(self.effective_robot.clone());
+        };
+        let mut x = self.effective_robot.params();
+        x.extend(self.unmodelled.extended_values(model.kinds()));
+        ext.with_params(&x)
     }
 
     /// Injected errors, internal units (rad, mm), layout order.

@@ -340,3 +340,75 @@ fn measuring_sampled_poses_gives_the_uncached_point_bit_for_bit() {
         );
     }
 }
+
+/// [`World::extended_truth`] is the injected physics in the extended family: with the
+/// compliance and first-harmonic gear terms (random phases, a counterbalance, a base-frame
+/// residual) its points are the world's true points to rounding, with a torque geometry
+/// and mass model of its own; a term the family lacks (a second harmonic) or a family
+/// without compliance leaves a difference of the size of the missing term.
+#[test]
+fn the_extended_truth_reaches_the_true_points() {
+    let robot = kr1000();
+    let mut cfg = everything();
+    cfg.unmodelled.drift.enabled = false;
+    cfg.unmodelled.compliance.counterbalance_fraction = vec![0.0, 0.58, 0.0, 0.0, 0.0, 0.0];
+    // A mass model unlike the robot file's: the truth must take the virtual robot's.
+    cfg.unmodelled.compliance.payload_kg = 250.0;
+    let w = World::new(&robot, &cfg, 5, 1).unwrap();
+    let mut names: Vec<String> = (1..=6).map(|j| format!("compliance_{j}")).collect();
+    for j in 1..=6 {
+        names.push(format!("gear_{j}_h1_sin"));
+        names.push(format!("gear_{j}_h1_cos"));
+    }
+    let truth = w.extended_truth(&names).unwrap();
+    let gears_only = w.extended_truth(&names[6..]).unwrap();
+    let poses = w.identification_poses_rad().to_vec();
+    let mut missing = 0.0_f64;
+    for q in poses.chunks(6) {
+        let p = w.true_point(q).unwrap();
+        assert!(
+            (truth.point(q) - p).norm() < 1e-9,
+            "{}",
+            (truth.point(q) - p).norm()
+        );
+        missing = missing.max((gears_only.point(q) - p).norm());
+    }
+    assert!(
+        missing > 0.1,
+        "compliance left out moves the point: {missing} mm"
+    );
+
+    // A second harmonic on joint 2 is outside the family: the difference is its size
+    // (10″ at the ~3.7 m reach of joint 2: up to ~0.2 mm).
+    cfg.unmodelled.gears.terms.push(virtual_robot::GearTerm {
+        joint: 2,
+        amplitude_arcsec: 10.0,
+        harmonic: 2.0,
+        phase_deg: 0.0,
+    });
+    let w = World::new(&robot, &cfg, 5, 1).unwrap();
+    let truth = w.extended_truth(&names).unwrap();
+    let worst = poses
+        .chunks(6)
+        .map(|q| (truth.point(q) - w.true_point(q).unwrap()).norm())
+        .fold(0.0, f64::max);
+    assert!(worst > 0.01 && worst < 0.3, "{worst} mm");
+}
+
+/// A nominal model with non-geometric parameters (an identified robot file with an
+/// `extended` section) is refused by the virtual robot, naming the field and the way out.
+#[test]
+fn an_extended_nominal_model_is_refused() {
+    let robot = kr1000()
+        .with_extended(&["compliance_2", "gear_1_h1_sin"], "kr1000")
+        .unwrap();
+    let Err(err) = Setup::new(&robot, &everything(), 1) else {
+        panic!("an extended nominal model was accepted");
+    };
+    let text = err.to_string();
+    assert!(text.starts_with("`robot`:"), "{text}");
+    assert!(
+        text.contains("compliance_2, gear_1_h1_sin") && text.contains("unmodelled"),
+        "{text}"
+    );
+}

@@ -30,7 +30,7 @@ use nalgebra::Vector3;
 
 use super::{Frame, Link, Robot};
 use crate::model::MAX_JOINTS;
-use crate::trig::sin_cos_slice;
+use crate::trig::{sin_cos_lanes, sin_cos_slice};
 
 /// Sines and cosines of the joint values of a pose set, `[sin q, cos q]` per joint, pose
 /// after pose, and the same in blocks of [`POSE_LANES`] poses for the pose-parallel kernels.
@@ -45,6 +45,25 @@ pub struct PoseTrig {
     /// padded with copies of the last pose).
     lane_sin: Vec<[f64; POSE_LANES]>,
     lane_cos: Vec<[f64; POSE_LANES]>,
+    /// Weights per pose of the extended robot this was built for ([`PoseTrig::for_robot`]):
+    /// none for a geometric one.
+    n_ext: usize,
+    /// Block b, parameter k at `b·n_ext + k`: the weights `w_k(q)` of the block's poses
+    /// (padded as `lane_sin`).
+    lane_w: Vec<[f64; POSE_LANES]>,
+}
+
+/// One block of [`POSE_LANES`] poses for the pose-parallel kernels ([`PoseTrig::lanes`]):
+/// lane t holds pose `block·POSE_LANES + t`.
+#[derive(Clone, Copy, Debug)]
+pub struct PoseLanes<'a> {
+    /// `sin q_i` per lane, one entry per joint.
+    pub sin_q: &'a [[f64; POSE_LANES]],
+    /// `cos q_i` per lane, one entry per joint.
+    pub cos_q: &'a [[f64; POSE_LANES]],
+    /// The weights `w_k(q)` of an extended robot's parameters per lane, one entry per
+    /// parameter ([`crate::ExtendedModel::weights`]); empty for a geometric robot.
+    pub weights: &'a [[f64; POSE_LANES]],
 }
 
 impl PoseTrig {
@@ -79,7 +98,37 @@ impl PoseTrig {
             sc,
             lane_sin,
             lane_cos,
+            n_ext: 0,
+            lane_w: Vec::new(),
         }
+    }
+
+    /// [`PoseTrig::new`] for `robot`: for an extended robot ([`Robot::with_extended`]) the
+    /// weights `w_k(q)` of its non-geometric parameters at every pose are computed too
+    /// (they depend on the pose and the robot's fixed torque geometry, not on the parameter
+    /// values), so that the lane kernels evaluate it at any parameter vector of the same
+    /// extended model. For a geometric robot this is [`PoseTrig::new`].
+    pub fn for_robot(robot: &Robot, poses_rad: &[f64]) -> Self {
+        let mut trig = PoseTrig::new(robot.n_joints(), poses_rad);
+        if let Some(ext) = &robot.extended {
+            let ne = ext.model.len();
+            let m = trig.n_poses();
+            let blocks = trig.n_blocks();
+            let mut w = vec![0.0; ne];
+            trig.lane_w = vec![[0.0; POSE_LANES]; blocks * ne];
+            for j in 0..m {
+                ext.model
+                    .weights_trig(&ext.torque_robot, trig.pose(j), &mut w);
+                // Pose j and, past the last pose, its copies in the padding lanes.
+                let (b, t) = (j / POSE_LANES, j % POSE_LANES);
+                let last = if j + 1 == m { POSE_LANES } else { t + 1 };
+                for (k, wk) in w.iter().enumerate() {
+                    trig.lane_w[b * ne + k][t..last].fill(*wk);
+                }
+            }
+            trig.n_ext = ne;
+        }
+        trig
     }
 
     /// Number of poses.
@@ -103,12 +152,17 @@ impl PoseTrig {
         self.n_poses().div_ceil(POSE_LANES)
     }
 
-    /// `(sin q_i, cos q_i)` of the poses `b·POSE_LANES + t`, lane t, for every joint i; lanes
-    /// past the last pose repeat it.
+    /// `(sin q_i, cos q_i)` of the poses `b·POSE_LANES + t`, lane t, for every joint i, and
+    /// the extended weights if built by [`PoseTrig::for_robot`]; lanes past the last pose
+    /// repeat it.
     #[inline]
-    pub fn lanes(&self, block: usize) -> (&[[f64; POSE_LANES]], &[[f64; POSE_LANES]]) {
+    pub fn lanes(&self, block: usize) -> PoseLanes<'_> {
         let r = block * self.n_joints..(block + 1) * self.n_joints;
-        (&self.lane_sin[r.clone()], &self.lane_cos[r])
+        PoseLanes {
+            sin_q: &self.lane_sin[r.clone()],
+            cos_q: &self.lane_cos[r],
+            weights: &self.lane_w[block * self.n_ext..(block + 1) * self.n_ext],
+        }
     }
 }
 
@@ -391,22 +445,25 @@ impl Robot {
         p
     }
 
-    /// [`Robot::point_trig`] for [`POSE_LANES`] poses at once: `sin_q[i][t]`, `cos_q[i][t]`
-    /// are sin and cos of joint i of pose t ([`PoseTrig::lanes`]); returns the lanes of
-    /// x, y, z. Each lane is bit for bit what the one-pose kernel gives for that pose (same
-    /// operations in the same order), at any vector width.
+    /// [`Robot::point_trig`] for [`POSE_LANES`] poses at once: `lanes.sin_q[i][t]`,
+    /// `lanes.cos_q[i][t]` are sin and cos of joint i of pose t ([`PoseTrig::lanes`]);
+    /// returns the lanes of x, y, z. Each lane is bit for bit what the one-pose kernel gives
+    /// for that pose (same operations in the same order), at any vector width. An extended
+    /// robot is evaluated at its effective joints, from the weights in `lanes` (build the
+    /// [`PoseTrig`] with [`PoseTrig::for_robot`]).
+    ///
+    /// Panics if the lanes do not fit the robot (joint count, weight count).
     #[inline(always)]
-    pub fn point_lanes(
-        &self,
-        sin_q: &[[f64; POSE_LANES]],
-        cos_q: &[[f64; POSE_LANES]],
-    ) -> [[f64; POSE_LANES]; 3] {
-        self.assert_geometric();
-        assert!(
-            sin_q.len() == self.links.len() && cos_q.len() == self.links.len(),
-            "joint vector length"
-        );
-        let p = self.point_generic(sin_q, cos_q);
+    pub fn point_lanes(&self, lanes: PoseLanes<'_>) -> [[f64; POSE_LANES]; 3] {
+        self.check_lanes(&lanes);
+        let p = match &self.extended {
+            None => self.point_generic(lanes.sin_q, lanes.cos_q),
+            Some(_) => {
+                let n = self.links.len();
+                let (s, c) = self.effective_lanes(&lanes);
+                self.point_generic(&s[..n], &c[..n])
+            }
+        };
         [p.x, p.y, p.z]
     }
 
@@ -416,43 +473,127 @@ impl Robot {
     #[inline(always)]
     pub fn point_jacobian_lanes(
         &self,
-        sin_q: &[[f64; POSE_LANES]],
-        cos_q: &[[f64; POSE_LANES]],
+        lanes: PoseLanes<'_>,
         jac: &mut [[[f64; POSE_LANES]; 3]],
     ) -> [[f64; POSE_LANES]; 3] {
-        self.assert_geometric();
-        assert!(
-            sin_q.len() == self.links.len() && cos_q.len() == self.links.len(),
-            "joint vector length"
-        );
-        let p = self.point_jacobian_generic(sin_q, cos_q, jac);
-        [p.x, p.y, p.z]
+        let np = self.layout.len();
+        assert!(jac.len() >= np, "Jacobian buffer length");
+        let mut slot = [usize::MAX; crate::robot::MAX_PARAMS];
+        for (k, s) in slot[..np].iter_mut().enumerate() {
+            *s = k;
+        }
+        self.point_jacobian_lanes_to(lanes, &slot[..np], jac)
     }
 
     /// [`Robot::point_jacobian_lanes`] for the columns `slot` selects: the lanes of
     /// `∂p/∂param_k` go to `out[slot[k]]`, or nowhere when `slot[k]` is out of range (e.g.
     /// `usize::MAX`; `slot` holds `n_params()` entries). Each column's values are bit for
-    /// bit those of [`Robot::point_jacobian_lanes`].
+    /// bit those of [`Robot::point_jacobian_lanes`]. An extended robot's columns are
+    /// `w_k · ∂p/∂θ_j` (see [`Robot::with_extended`]).
     #[inline(always)]
     pub fn point_jacobian_lanes_to(
         &self,
-        sin_q: &[[f64; POSE_LANES]],
-        cos_q: &[[f64; POSE_LANES]],
+        lanes: PoseLanes<'_>,
         slot: &[usize],
         out: &mut [[[f64; POSE_LANES]; 3]],
     ) -> [[f64; POSE_LANES]; 3] {
-        self.assert_geometric();
+        self.check_lanes(&lanes);
+        assert_eq!(slot.len(), self.layout.len(), "one slot per parameter");
+        let p = match &self.extended {
+            None => self.point_jacobian_each(lanes.sin_q, lanes.cos_q, |k, v| {
+                if let Some(dst) = out.get_mut(slot[k]) {
+                    *dst = [v.x, v.y, v.z];
+                }
+            }),
+            Some(ext) => {
+                let n = self.links.len();
+                let (s, c) = self.effective_lanes(&lanes);
+                // The θ columns (layout index 4i) are kept for the extended ones.
+                let mut theta = [[[0.0; POSE_LANES]; 3]; MAX_JOINTS];
+                let p = self.point_jacobian_each(&s[..n], &c[..n], |k, v| {
+                    if k < 4 * n && k % 4 == 0 {
+                        theta[k / 4] = [v.x, v.y, v.z];
+                    }
+                    if let Some(dst) = out.get_mut(slot[k]) {
+                        *dst = [v.x, v.y, v.z];
+                    }
+                });
+                for (k, (kind, w)) in ext.model.kinds().iter().zip(lanes.weights).enumerate() {
+                    debug_assert_eq!(ext.theta_index[k], 4 * kind.joint());
+                    if let Some(dst) = out.get_mut(slot[ext.first + k]) {
+                        let th = &theta[kind.joint()];
+                        *dst = std::array::from_fn(|r| std::array::from_fn(|t| th[r][t] * w[t]));
+                    }
+                }
+                p
+            }
+        };
+        [p.x, p.y, p.z]
+    }
+
+    /// Panics unless `lanes` fit this robot: one entry per joint, and the weights of its
+    /// extended parameters (none for a geometric robot).
+    #[inline(always)]
+    fn check_lanes(&self, lanes: &PoseLanes<'_>) {
+        let n = self.links.len();
         assert!(
-            sin_q.len() == self.links.len() && cos_q.len() == self.links.len(),
+            lanes.sin_q.len() == n && lanes.cos_q.len() == n,
             "joint vector length"
         );
-        assert_eq!(slot.len(), self.layout.len(), "one slot per parameter");
-        let p = self.point_jacobian_each(sin_q, cos_q, |k, v| {
-            if let Some(dst) = out.get_mut(slot[k]) {
-                *dst = [v.x, v.y, v.z];
+        let ne = self.extended.as_ref().map_or(0, |e| e.model.len());
+        assert!(
+            lanes.weights.len() == ne,
+            "the lanes carry {} extended weights, the robot has {ne} extended parameters: \
+             build the PoseTrig with PoseTrig::for_robot for this robot",
+            lanes.weights.len()
+        );
+    }
+
+    /// The effective joints' `sin q̃`, `cos q̃` per lane of an extended robot from the
+    /// commanded joints' and the weights in `lanes`: `δ_j = Σ_k w_k x_k`, then
+    /// `sin(q + δ) = s·cos δ + c·sin δ`, `cos(q + δ) = c·cos δ − s·sin δ` on the joints that
+    /// carry a parameter. Lane by lane the bits of `Robot::effective_trig_of`.
+    #[inline(always)]
+    fn effective_lanes(
+        &self,
+        lanes: &PoseLanes<'_>,
+    ) -> (
+        [[f64; POSE_LANES]; MAX_JOINTS],
+        [[f64; POSE_LANES]; MAX_JOINTS],
+    ) {
+        let n = self.links.len();
+        let mut s = [[0.0; POSE_LANES]; MAX_JOINTS];
+        let mut c = [[0.0; POSE_LANES]; MAX_JOINTS];
+        s[..n].copy_from_slice(lanes.sin_q);
+        c[..n].copy_from_slice(lanes.cos_q);
+        let Some(ext) = &self.extended else {
+            return (s, c);
+        };
+        let mut delta = [[0.0; POSE_LANES]; MAX_JOINTS];
+        for ((kind, w), x) in ext
+            .model
+            .kinds()
+            .iter()
+            .zip(lanes.weights)
+            .zip(ext.model.values())
+        {
+            let d = &mut delta[kind.joint()];
+            for t in 0..POSE_LANES {
+                d[t] += w[t] * x;
             }
-        });
-        [p.x, p.y, p.z]
+        }
+        for (i, carries) in ext.joints.iter().enumerate().take(n) {
+            if !carries {
+                continue;
+            }
+            let (sd, cd) = sin_cos_lanes(&delta[i]);
+            let (sq, cq) = (s[i], c[i]);
+            for t in 0..POSE_LANES {
+                s[i][t] = sq[t] * cd[t] + cq[t] * sd[t];
+                c[i][t] = cq[t] * cd[t] - sq[t] * sd[t];
+            }
+        }
+        (s, c)
     }
 
     /// The measured point at the pose whose `[sin q, cos q]` are `sc` (see [`PoseTrig`]):
@@ -577,17 +718,6 @@ impl Robot {
             jz[k] = z[0];
         }
         p.lane(0)
-    }
-
-    /// Panics on an extended robot: the lane kernels evaluate the geometric chain at the
-    /// joints given, which for an extended robot are not the effective ones.
-    #[inline(always)]
-    fn assert_geometric(&self) {
-        assert!(
-            !self.is_extended(),
-            "the lane kernels evaluate the geometric chain only; an extended robot takes the \
-             _trig forms"
-        );
     }
 
     /// [`Robot::point_trig`] of an extended robot: the chain at the effective joints.
