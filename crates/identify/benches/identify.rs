@@ -129,8 +129,8 @@ fn benches(c: &mut Criterion) {
     }
 
     // Issue 19: the extended model (34 geometric + 6 compliance + 12 first-harmonic gear
-    // columns, 50 poses), identified on the reference path (the lane kernels are
-    // geometric); its target is ≤ 2× identify_levenberg_50x34.
+    // columns, 50 poses), on the lane kernels like the geometric model (weights cached per
+    // pose by PoseTrig::for_robot); its target is ≤ 2× identify_levenberg_50x34.
     {
         let names: Vec<String> = (1..=6)
             .map(|j| format!("compliance_{j}"))
