@@ -964,10 +964,22 @@ fn render_report(o: &Calibration) -> String {
         }
         None => s.push_str("- registration: off (`--registration never`)\n"),
     }
-    s.push_str(
-        "- model: geometry only (docs/model.md §2–§3). Compliance, gear errors and other non-geometric \
-         effects are not identified; they stay in the residuals.\n",
-    );
+    match o.fit.robot.extended() {
+        None => s.push_str(
+            "- model: geometry only (docs/model.md §2–§3). Compliance, gear errors and other \
+             non-geometric effects are not identified; they stay in the residuals.\n",
+        ),
+        Some(model) => {
+            let names: Vec<String> = model.kinds().iter().map(|k| k.name()).collect();
+            let _ = writeln!(
+                s,
+                "- model: geometry (docs/model.md §2–§3) plus the non-geometric joint errors {} \
+                 (docs/extended-model.md: gravity torques from the robot file's mass model on \
+                 the start geometry). Other non-geometric effects stay in the residuals.",
+                names.join(", ")
+            );
+        }
+    }
 
     s.push_str("\n## Fit residuals\n\n");
     s.push_str("| model | poses | RMS 3-D (mm) | mean 3-D (mm) | max 3-D (mm) |\n|---|---:|---:|---:|---:|\n");

@@ -1010,6 +1010,12 @@ fn ur10_with_joint_compliance() {
     assert!(identified.contains("\"extended\"") && identified.contains("compliance_2"));
     let params = std::fs::read_to_string(cal.join("parameters.json")).unwrap();
     assert!(params.contains("urad/Nm"), "{params}");
+    // The report says which model was identified.
+    let report = std::fs::read_to_string(cal.join("report.md")).unwrap();
+    assert!(
+        report.contains("- model: geometry (docs/model.md §2–§3) plus the non-geometric joint errors compliance_1, compliance_2"),
+        "{report}"
+    );
     // predict on identified.json reproduces the validation mean identify printed.
     let pred = tmp.path().join("pred.csv");
     ok(&kincal(&[
