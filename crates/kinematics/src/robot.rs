@@ -186,6 +186,9 @@ struct ExtendedPart {
     theta_index: Vec<usize>,
     /// Whether joint j carries an extended parameter (its effective joint moves).
     joints: [bool; MAX_JOINTS],
+    /// The parameters of each joint that carries any: (joint, their indices in `model`
+    /// order), for the lane kernels' offsets.
+    by_joint: Vec<(usize, Vec<usize>)>,
 }
 
 impl ExtendedPart {
@@ -342,6 +345,18 @@ impl Robot {
         for k in model.kinds() {
             joints[k.joint()] = true;
         }
+        let by_joint = (0..geometric.n_joints())
+            .filter(|&j| joints[j])
+            .map(|j| {
+                let of_j = model.kinds().iter().enumerate();
+                (
+                    j,
+                    of_j.filter(|(_, k)| k.joint() == j)
+                        .map(|(i, _)| i)
+                        .collect(),
+                )
+            })
+            .collect();
         let mut r = geometric.clone();
         r.layout = layout;
         r.extended = Some(Box::new(ExtendedPart {
@@ -350,6 +365,7 @@ impl Robot {
             first,
             theta_index,
             joints,
+            by_joint,
         }));
         Ok(r)
     }
@@ -368,7 +384,8 @@ impl Robot {
     /// `[sin q̃, cos q̃]` of the effective joints at the pose whose `[sin q, cos q]` are `sc`,
     /// and the weights `w_k` (a copy of `sc` and no weights for a geometric robot):
     /// `sin(q + δ) = s·cos δ + c·sin δ`, `cos(q + δ) = c·cos δ − s·sin δ` on the joints that
-    /// carry a parameter (sin δ, cos δ from [`crate::trig::sin_cos`], as the lane kernels).
+    /// carry a parameter (sin δ, cos δ from [`crate::trig::sin_cos_small_lanes`], as the
+    /// lane kernels).
     fn effective_trig_of(&self, sc: &[[f64; 2]]) -> ([[f64; 2]; MAX_JOINTS], [f64; MAX_EXTENDED]) {
         let mut out = [[0.0; 2]; MAX_JOINTS];
         let mut w = [0.0; MAX_EXTENDED];
@@ -378,7 +395,8 @@ impl Robot {
             ext.offsets(sc, &mut w[..ext.model.len()], &mut delta);
             for (i, [s, c]) in sc.iter().enumerate() {
                 if ext.joints[i] {
-                    let (sd, cd) = crate::trig::sin_cos(delta[i]);
+                    let (sd, cd) = crate::trig::sin_cos_small_lanes(&[delta[i]]);
+                    let (sd, cd) = (sd[0], cd[0]);
                     out[i] = [s * cd + c * sd, c * cd - s * sd];
                 }
             }

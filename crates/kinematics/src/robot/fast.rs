@@ -30,7 +30,7 @@ use nalgebra::Vector3;
 
 use super::{Frame, Link, Robot};
 use crate::model::MAX_JOINTS;
-use crate::trig::{sin_cos_lanes, sin_cos_slice};
+use crate::trig::{sin_cos_slice, sin_cos_small_lanes};
 
 /// Sines and cosines of the joint values of a pose set, `[sin q, cos q]` per joint, pose
 /// after pose, and the same in blocks of [`POSE_LANES`] poses for the pose-parallel kernels.
@@ -458,11 +458,8 @@ impl Robot {
         self.check_lanes(&lanes);
         let p = match &self.extended {
             None => self.point_generic(lanes.sin_q, lanes.cos_q),
-            Some(_) => {
-                let n = self.links.len();
-                let (s, c) = self.effective_lanes(&lanes);
-                self.point_generic(&s[..n], &c[..n])
-            }
+            Some(_) if self.links.len() <= 8 => self.point_lanes_extended::<8>(&lanes),
+            Some(_) => self.point_lanes_extended::<MAX_JOINTS>(&lanes),
         };
         [p.x, p.y, p.z]
     }
@@ -505,28 +502,10 @@ impl Robot {
                     *dst = [v.x, v.y, v.z];
                 }
             }),
-            Some(ext) => {
-                let n = self.links.len();
-                let (s, c) = self.effective_lanes(&lanes);
-                // The θ columns (layout index 4i) are kept for the extended ones.
-                let mut theta = [[[0.0; POSE_LANES]; 3]; MAX_JOINTS];
-                let p = self.point_jacobian_each(&s[..n], &c[..n], |k, v| {
-                    if k < 4 * n && k % 4 == 0 {
-                        theta[k / 4] = [v.x, v.y, v.z];
-                    }
-                    if let Some(dst) = out.get_mut(slot[k]) {
-                        *dst = [v.x, v.y, v.z];
-                    }
-                });
-                for (k, (kind, w)) in ext.model.kinds().iter().zip(lanes.weights).enumerate() {
-                    debug_assert_eq!(ext.theta_index[k], 4 * kind.joint());
-                    if let Some(dst) = out.get_mut(slot[ext.first + k]) {
-                        let th = &theta[kind.joint()];
-                        *dst = std::array::from_fn(|r| std::array::from_fn(|t| th[r][t] * w[t]));
-                    }
-                }
-                p
+            Some(_) if self.links.len() <= 8 => {
+                self.point_jacobian_lanes_extended::<8>(&lanes, slot, out)
             }
+            Some(_) => self.point_jacobian_lanes_extended::<MAX_JOINTS>(&lanes, slot, out),
         };
         [p.x, p.y, p.z]
     }
@@ -549,48 +528,84 @@ impl Robot {
         );
     }
 
-    /// The effective joints' `sin q̃`, `cos q̃` per lane of an extended robot from the
-    /// commanded joints' and the weights in `lanes`: `δ_j = Σ_k w_k x_k`, then
-    /// `sin(q + δ) = s·cos δ + c·sin δ`, `cos(q + δ) = c·cos δ − s·sin δ` on the joints that
-    /// carry a parameter. Lane by lane the bits of `Robot::effective_trig_of`.
+    /// [`Robot::point_lanes`] of an extended robot, with effective-joint buffers of `J` ≥ n
+    /// joints (8 for the usual chains: they are written once per block of poses).
     #[inline(always)]
-    fn effective_lanes(
+    fn point_lanes_extended<const J: usize>(&self, lanes: &PoseLanes<'_>) -> V3<POSE_LANES> {
+        let n = self.links.len();
+        let (s, c) = self.effective_lanes::<J>(lanes);
+        self.point_generic(&s[..n], &c[..n])
+    }
+
+    /// [`Robot::point_jacobian_lanes_to`] of an extended robot: the geometric columns at the
+    /// effective joints, then the extended columns `w_k · ∂p/∂θ_j`, with buffers of `J` ≥ n
+    /// joints.
+    #[inline(always)]
+    fn point_jacobian_lanes_extended<const J: usize>(
         &self,
         lanes: &PoseLanes<'_>,
-    ) -> (
-        [[f64; POSE_LANES]; MAX_JOINTS],
-        [[f64; POSE_LANES]; MAX_JOINTS],
-    ) {
-        let n = self.links.len();
-        let mut s = [[0.0; POSE_LANES]; MAX_JOINTS];
-        let mut c = [[0.0; POSE_LANES]; MAX_JOINTS];
-        s[..n].copy_from_slice(lanes.sin_q);
-        c[..n].copy_from_slice(lanes.cos_q);
+        slot: &[usize],
+        out: &mut [[[f64; POSE_LANES]; 3]],
+    ) -> V3<POSE_LANES> {
         let Some(ext) = &self.extended else {
-            return (s, c);
+            unreachable!("called for extended robots only");
         };
-        let mut delta = [[0.0; POSE_LANES]; MAX_JOINTS];
-        for ((kind, w), x) in ext
-            .model
-            .kinds()
-            .iter()
-            .zip(lanes.weights)
-            .zip(ext.model.values())
-        {
-            let d = &mut delta[kind.joint()];
-            for t in 0..POSE_LANES {
-                d[t] += w[t] * x;
+        let n = self.links.len();
+        let (s, c) = self.effective_lanes::<J>(lanes);
+        // The θ columns (layout index 4i) are kept for the extended ones.
+        let mut theta = [[[0.0; POSE_LANES]; 3]; J];
+        let p = self.point_jacobian_each(&s[..n], &c[..n], |k, v| {
+            if k < 4 * n && k % 4 == 0 {
+                theta[k / 4] = [v.x, v.y, v.z];
+            }
+            if let Some(dst) = out.get_mut(slot[k]) {
+                *dst = [v.x, v.y, v.z];
+            }
+        });
+        for (k, (kind, w)) in ext.model.kinds().iter().zip(lanes.weights).enumerate() {
+            debug_assert_eq!(ext.theta_index[k], 4 * kind.joint());
+            if let Some(dst) = out.get_mut(slot[ext.first + k]) {
+                let th = &theta[kind.joint()];
+                *dst = std::array::from_fn(|r| std::array::from_fn(|t| th[r][t] * w[t]));
             }
         }
-        for (i, carries) in ext.joints.iter().enumerate().take(n) {
-            if !carries {
-                continue;
-            }
-            let (sd, cd) = sin_cos_lanes(&delta[i]);
-            let (sq, cq) = (s[i], c[i]);
-            for t in 0..POSE_LANES {
-                s[i][t] = sq[t] * cd[t] + cq[t] * sd[t];
-                c[i][t] = cq[t] * cd[t] - sq[t] * sd[t];
+        p
+    }
+
+    /// The effective joints' `sin q̃`, `cos q̃` per lane of an extended robot (entries
+    /// `..n` of buffers of `J` ≥ n joints), from the commanded joints' and the weights in
+    /// `lanes`: `δ_j = Σ_k w_k x_k`, then `sin(q + δ) = s·cos δ + c·sin δ`,
+    /// `cos(q + δ) = c·cos δ − s·sin δ` on the joints that carry a parameter (sin δ, cos δ
+    /// by [`crate::trig::sin_cos_small_lanes`]). Lane by lane the bits of
+    /// `Robot::effective_trig_of`.
+    #[inline(always)]
+    fn effective_lanes<const J: usize>(
+        &self,
+        lanes: &PoseLanes<'_>,
+    ) -> ([[f64; POSE_LANES]; J], [[f64; POSE_LANES]; J]) {
+        let n = self.links.len();
+        let mut s = [[0.0; POSE_LANES]; J];
+        let mut c = [[0.0; POSE_LANES]; J];
+        s[..n].copy_from_slice(lanes.sin_q);
+        c[..n].copy_from_slice(lanes.cos_q);
+        if let Some(ext) = &self.extended {
+            let x = ext.model.values();
+            for (i, params) in &ext.by_joint {
+                let i = *i;
+                // δ_i in a register, its parameters in layout order (as `offsets` adds them).
+                let mut delta = [0.0; POSE_LANES];
+                for &k in params {
+                    let (w, xk) = (&lanes.weights[k], x[k]);
+                    for t in 0..POSE_LANES {
+                        delta[t] += w[t] * xk;
+                    }
+                }
+                let (sd, cd) = sin_cos_small_lanes(&delta);
+                let (sq, cq) = (s[i], c[i]);
+                for t in 0..POSE_LANES {
+                    s[i][t] = sq[t] * cd[t] + cq[t] * sd[t];
+                    c[i][t] = cq[t] * cd[t] - sq[t] * sd[t];
+                }
             }
         }
         (s, c)
