@@ -189,6 +189,9 @@ struct ExtendedPart {
     /// The parameters of each joint that carries any: (joint, their indices in `model`
     /// order), for the lane kernels' offsets.
     by_joint: Vec<(usize, Vec<usize>)>,
+    /// What the weights depend on (parameter kinds, mass model, torque geometry), hashed:
+    /// the lane kernels check that the weights of a [`PoseTrig`] are this model's. Never 0.
+    fingerprint: u64,
 }
 
 impl ExtendedPart {
@@ -357,6 +360,13 @@ impl Robot {
                 )
             })
             .collect();
+        // FNV-1a over the weights' inputs (their Debug forms print every f64 exactly).
+        let fingerprint = format!("{:?} {:?} {:?}", model.kinds(), model.gravity(), geometric)
+            .bytes()
+            .fold(0xcbf2_9ce4_8422_2325_u64, |h, b| {
+                (h ^ u64::from(b)).wrapping_mul(0x0000_0100_0000_01b3)
+            })
+            .max(1);
         let mut r = geometric.clone();
         r.layout = layout;
         r.extended = Some(Box::new(ExtendedPart {
@@ -366,6 +376,7 @@ impl Robot {
             theta_index,
             joints,
             by_joint,
+            fingerprint,
         }));
         Ok(r)
     }

@@ -466,6 +466,22 @@ fn lane_kernels_evaluate_an_extended_robot_bit_for_bit() {
                 refused.is_err(),
                 "lanes without the weights must be refused"
             );
+            // Weights of the same parameters on another torque geometry are refused too; a
+            // new parameter vector of the same model is not.
+            let mut x = nominal.params();
+            x[1] += 1.0;
+            let other = nominal
+                .with_params(&x)
+                .unwrap()
+                .with_extended(&all_names(n), file)
+                .unwrap();
+            let refused = std::panic::catch_unwind(|| other.point_lanes(trig.lanes(0)));
+            assert!(
+                refused.is_err(),
+                "weights of another torque geometry must be refused"
+            );
+            let scaled: Vec<f64> = ext.params().iter().map(|v| v * 1.001).collect();
+            let _ = ext.with_params(&scaled).unwrap().point_lanes(trig.lanes(0));
         }
     }
 }

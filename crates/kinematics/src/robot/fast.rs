@@ -51,6 +51,8 @@ pub struct PoseTrig {
     /// Block b, parameter k at `b·n_ext + k`: the weights `w_k(q)` of the block's poses
     /// (padded as `lane_sin`).
     lane_w: Vec<[f64; POSE_LANES]>,
+    /// The fingerprint of the extended model the weights belong to (0: none).
+    weights_of: u64,
 }
 
 /// One block of [`POSE_LANES`] poses for the pose-parallel kernels ([`PoseTrig::lanes`]):
@@ -64,6 +66,10 @@ pub struct PoseLanes<'a> {
     /// The weights `w_k(q)` of an extended robot's parameters per lane, one entry per
     /// parameter ([`crate::ExtendedModel::weights`]); empty for a geometric robot.
     pub weights: &'a [[f64; POSE_LANES]],
+    /// Which weights these are: the fingerprint of the extended model (parameters, mass
+    /// model, torque geometry) they were computed for; 0 without weights. The kernels refuse
+    /// weights of another model.
+    pub weights_of: u64,
 }
 
 impl PoseTrig {
@@ -100,6 +106,7 @@ impl PoseTrig {
             lane_cos,
             n_ext: 0,
             lane_w: Vec::new(),
+            weights_of: 0,
         }
     }
 
@@ -127,6 +134,7 @@ impl PoseTrig {
                 }
             }
             trig.n_ext = ne;
+            trig.weights_of = ext.fingerprint;
         }
         trig
     }
@@ -162,6 +170,7 @@ impl PoseTrig {
             sin_q: &self.lane_sin[r.clone()],
             cos_q: &self.lane_cos[r],
             weights: &self.lane_w[block * self.n_ext..(block + 1) * self.n_ext],
+            weights_of: self.weights_of,
         }
     }
 }
@@ -519,12 +528,17 @@ impl Robot {
             lanes.sin_q.len() == n && lanes.cos_q.len() == n,
             "joint vector length"
         );
-        let ne = self.extended.as_ref().map_or(0, |e| e.model.len());
+        let (ne, of) = self
+            .extended
+            .as_ref()
+            .map_or((0, 0), |e| (e.model.len(), e.fingerprint));
         assert!(
-            lanes.weights.len() == ne,
-            "the lanes carry {} extended weights, the robot has {ne} extended parameters: \
-             build the PoseTrig with PoseTrig::for_robot for this robot",
-            lanes.weights.len()
+            lanes.weights.len() == ne && lanes.weights_of == of,
+            "the lanes carry {} extended weights of model {:#x}, the robot has {ne} extended \
+             parameters of model {of:#x}: build the PoseTrig with PoseTrig::for_robot for this \
+             robot",
+            lanes.weights.len(),
+            lanes.weights_of
         );
     }
 
