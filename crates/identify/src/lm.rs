@@ -687,7 +687,8 @@ impl<'p> Assembler<'p> {
     /// returns). With `speculate` (fast path), the whole system there is assembled on the
     /// way, so that an accepted step needs no second pass over the poses
     /// ([`Assembler::accept_scaled`]); a rejected one then wasted an assembly, so the caller
-    /// speculates only after an accepted step.
+    /// speculates only after an accepted step, and not on a step predicted to change the cost
+    /// by no more than `cost_rel_tol` (rounding level: rejected about as often as accepted).
     fn trial_cost(&mut self, robot: &Robot, speculate: bool) -> f64 {
         self.spare_valid = false;
         match (&mut self.spare, speculate) {
@@ -934,13 +935,6 @@ fn solve_free(
                 xt[k] = x[k] + scale[c] * step[c];
             }
             trial.set_params(&xt)?;
-            let cost_trial = asm.trial_cost(&trial, rejections == 0);
-            if !cost_trial.is_finite() {
-                return Err(IdentifyError::NonFiniteStep {
-                    iteration: iterations,
-                    what: "cost at the trial point",
-                });
-            }
             match path {
                 Path::Fast => {
                     linalg::mat_vec(sys.a.as_slice(), pf, step.as_slice(), a_step.as_mut_slice())
@@ -948,6 +942,19 @@ fn solve_free(
                 Path::Reference => sys.a.mul_to(&step, &mut a_step),
             }
             let predicted = 2.0 * step.dot(&sys.g) - step.dot(&a_step);
+            // The system at the trial point is assembled on the way (speculatively) after an
+            // accepted step, unless the step is predicted to change the cost by no more than
+            // the cost-change tolerance: such a step is at rounding level, is as likely
+            // rejected as accepted, and ends the solve either way. (Either choice gives the
+            // same bits; this one spares the assembly a rejected last step would waste.)
+            let speculate = rejections == 0 && predicted > options.cost_rel_tol * cost;
+            let cost_trial = asm.trial_cost(&trial, speculate);
+            if !cost_trial.is_finite() {
+                return Err(IdentifyError::NonFiniteStep {
+                    iteration: iterations,
+                    what: "cost at the trial point",
+                });
+            }
             let actual = cost - cost_trial;
             let accepted = actual > 0.0 && predicted > 0.0;
             let gain_ratio = if predicted > 0.0 {

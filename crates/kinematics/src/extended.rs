@@ -329,6 +329,19 @@ impl ExtendedModel {
     /// [`ExtendedModel::weights`] at the pose whose `[sin q, cos q]` are `sc`: τ from the
     /// frames of `nominal` there, `sin(kq)`/`cos(kq)` by angle addition.
     pub fn weights_trig(&self, nominal: &Robot, sc: &[[f64; 2]], out: &mut [f64]) {
+        let mut frames = [Frame::identity(); MAX_JOINTS + 1];
+        self.weights_trig_in(nominal, sc, &mut frames, out);
+    }
+
+    /// [`ExtendedModel::weights_trig`] with a scratch buffer for the frames (the same bits;
+    /// for loops over many poses, which then set it up once).
+    pub fn weights_trig_in(
+        &self,
+        nominal: &Robot,
+        sc: &[[f64; 2]],
+        frames: &mut [Frame; MAX_JOINTS + 1],
+        out: &mut [f64],
+    ) {
         let mut tau = [0.0; MAX_JOINTS];
         if let Some(g) = &self.gravity
             && self
@@ -336,9 +349,8 @@ impl ExtendedModel {
                 .iter()
                 .any(|k| matches!(k, ExtendedKind::Compliance(_)))
         {
-            let mut frames = [Frame::identity(); MAX_JOINTS + 1];
-            nominal.frames_trig(sc, &mut frames);
-            g.torques_from_frames(&frames, &mut tau);
+            nominal.frames_trig(sc, frames);
+            g.torques_from_frames(frames, &mut tau);
         }
         for (w, k) in out.iter_mut().zip(&self.kinds) {
             *w = match *k {

@@ -122,10 +122,11 @@ impl PoseTrig {
             let m = trig.n_poses();
             let blocks = trig.n_blocks();
             let mut w = vec![0.0; ne];
+            let mut frames = [Frame::identity(); MAX_JOINTS + 1];
             trig.lane_w = vec![[0.0; POSE_LANES]; blocks * ne];
             for j in 0..m {
                 ext.model
-                    .weights_trig(&ext.torque_robot, trig.pose(j), &mut w);
+                    .weights_trig_in(&ext.torque_robot, trig.pose(j), &mut frames, &mut w);
                 // Pose j and, past the last pose, its copies in the padding lanes.
                 let (b, t) = (j / POSE_LANES, j % POSE_LANES);
                 let last = if j + 1 == m { POSE_LANES } else { t + 1 };
