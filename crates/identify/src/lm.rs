@@ -944,8 +944,8 @@ fn solve_free(
             let predicted = 2.0 * step.dot(&sys.g) - step.dot(&a_step);
             // The system at the trial point is assembled on the way (speculatively) after an
             // accepted step, unless the step is predicted to change the cost by no more than
-            // the cost-change tolerance: such a step is at rounding level, is as likely
-            // rejected as accepted, and ends the solve either way. (Either choice gives the
+            // the cost-change tolerance: such a step is at rounding level, is about as likely
+            // rejected as accepted, and usually ends the solve. (Either choice gives the
             // same bits; this one spares the assembly a rejected last step would waste.)
             let speculate = rejections == 0 && predicted > options.cost_rel_tol * cost;
             let cost_trial = asm.trial_cost(&trial, speculate);
