@@ -408,7 +408,8 @@ struct Greedy {
 /// band left to the SVD, or `a` is not finite.
 fn greedy_cholesky(a: &DMatrix<f64>, priority: &[usize]) -> Option<Greedy> {
     let p = a.ncols();
-    if p == 0 || !a.as_slice().iter().all(|v| v.is_finite()) {
+    // (A fold, not `all`: no early exit, so it vectorises.)
+    if p == 0 || !a.as_slice().iter().fold(true, |ok, v| ok & v.is_finite()) {
         return None;
     }
     // Column norms and the zero test of analyze_matrix, with a factor-2 margin.
@@ -461,24 +462,32 @@ fn greedy_cholesky(a: &DMatrix<f64>, priority: &[usize]) -> Option<Greedy> {
     let mut pivots: Vec<usize> = Vec::with_capacity(p);
     let mut inv_d = vec![0.0; p];
     let mut drops: Vec<usize> = Vec::new();
-    for (b, &k) in order.iter().enumerate() {
-        let s = m[b * ld + b];
-        if s > CHOL_KEEP_S {
-            let d = s.sqrt();
-            let inv = 1.0 / d;
-            m[b * ld + b] = d;
-            for v in &mut m[b * ld + b + 1..b * ld + n] {
-                *v *= inv;
+    // Panels of columns: a kept pivot updates the rest of its panel at once, and the
+    // panel's kept pivots update the trailing columns together (the same operations in
+    // the same order for every entry, see `linalg::downdate`).
+    for b0 in (0..n).step_by(crate::linalg::PANEL_COLS) {
+        let end = (b0 + crate::linalg::PANEL_COLS).min(n);
+        let first = pivots.len();
+        for (b, &k) in order.iter().enumerate().take(end).skip(b0) {
+            let s = m[b * ld + b];
+            if s > CHOL_KEEP_S {
+                let d = s.sqrt();
+                let inv = 1.0 / d;
+                m[b * ld + b] = d;
+                for v in &mut m[b * ld + b + 1..b * ld + n] {
+                    *v *= inv;
+                }
+                inv_d[kp.len()] = inv;
+                kp.push(k);
+                pivots.push(b);
+                crate::linalg::downdate(&mut m, n, ld, &[b], b + 1..end);
+            } else if s < CHOL_DROP_S {
+                drops.push(k);
+            } else {
+                return None;
             }
-            inv_d[kp.len()] = inv;
-            kp.push(k);
-            pivots.push(b);
-            crate::linalg::rank1_downdate(&mut m, n, ld, b);
-        } else if s < CHOL_DROP_S {
-            drops.push(k);
-        } else {
-            return None;
         }
+        crate::linalg::downdate(&mut m, n, ld, &pivots[first..], end..n);
     }
     // `l` row-major (row i at i·p): row i holds L's entries of the i-th kept column.
     let mut l = vec![0.0; p * p];
@@ -533,52 +542,17 @@ pub(crate) fn kept_by_cholesky(
         return None;
     }
 
-    // 2. L⁻¹ column by column (`li` column-major: column c at c·r) and the bound on σ_min.
-    let mut li = vec![0.0; r * r];
-    for c in 0..r {
-        let x = &mut li[c * r..(c + 1) * r];
-        x[c] = inv_d[c];
-        for i in c + 1..r {
-            let mut v = 0.0;
-            for (lij, xj) in l[i * p + c..i * p + i].iter().zip(&x[c..i]) {
-                v -= lij * xj;
-            }
-            x[i] = v * inv_d[i];
-        }
-    }
+    // 2. L⁻¹ (`li` column-major: column c at c·r) and (J̃_KᵀJ̃_K)⁻¹ = L⁻ᵀL⁻¹ (priority
+    //    order, symmetric, row i at i·r), by the documented sums of
+    //    [`crate::linalg::lower_inverse_gram`]; the bound on σ_min.
+    let (mut li, mut ginv) = (vec![0.0; r * r], vec![0.0; r * r]);
+    crate::linalg::lower_inverse_gram(&l, p, &inv_d, r, &mut li, &mut ginv);
     let frob = li.iter().map(|v| v * v).sum::<f64>().sqrt();
     let sigma_lower = 1.0 / frob;
     if !(sigma_lower >= CHOL_MIN_SIGMA && sigma_lower > 10.0 * opts.rank_rtol * (p as f64).sqrt()) {
         return None;
     }
-    // (J̃_KᵀJ̃_K)⁻¹ = L⁻ᵀL⁻¹ (priority order, symmetric, row i at i·r).
-    // Entry (i, j ≤ i) is the sum over t = i..r, in that order, of L⁻¹_ti·L⁻¹_tj (the
-    // order of a sequential dot product, started as `Iterator::sum` starts): computed for
-    // all j of a row at once from the rows of L⁻¹ (`lt`, row t at t·r), element-wise, so
-    // the sums vectorise without changing a bit.
     let sum0: f64 = std::iter::empty::<f64>().sum();
-    let mut lt = vec![0.0; r * r];
-    for (c, col) in li.chunks_exact(r).enumerate() {
-        for (t, v) in col.iter().enumerate() {
-            lt[t * r + c] = *v;
-        }
-    }
-    let mut ginv = vec![0.0; r * r];
-    let mut acc = vec![0.0; r];
-    for i in 0..r {
-        let acc = &mut acc[..=i];
-        acc.fill(sum0);
-        for t in i..r {
-            let u = li[i * r + t];
-            for (a, w) in acc.iter_mut().zip(&lt[t * r..t * r + i + 1]) {
-                *a += u * w;
-            }
-        }
-        for (j, v) in acc.iter().enumerate() {
-            ginv[i * r + j] = *v;
-            ginv[j * r + i] = *v;
-        }
-    }
 
     // 3. Residual of the dropped (non-zero) columns in the 3m-space: J̃_d − J̃_K c with
     //    L Lᵀ c = J̃_KᵀJ̃_d (all kept columns: a redundancy may involve columns of lower

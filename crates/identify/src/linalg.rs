@@ -133,7 +133,7 @@ fn chol_avx2(a: &mut [f64], n: usize, ld: usize) -> bool {
 
 /// Columns factored together before the trailing matrix is updated (one pass over the trailing
 /// matrix per panel instead of per column).
-const PANEL_COLS: usize = 4;
+pub(crate) const PANEL_COLS: usize = 8;
 
 /// Updates `col_j` (rows `start..ld`) by the columns `cols` (each `ld` long) in order:
 /// `v -= l_j,k · col_k` for every k — the per-entry sequence of the column-by-column method.
@@ -198,6 +198,34 @@ fn chol_impl(a: &mut [f64], n: usize, ld: usize) -> bool {
 /// Solves `L Lᵀ x = b` in place (`b` becomes x) with the factor from [`cholesky_padded`]
 /// (leading dimension `ld`).
 pub(crate) fn cholesky_solve_padded(l: &[f64], n: usize, ld: usize, b: &mut [f64]) {
+    use kinematics::simd::{SimdLevel, simd_level};
+    match simd_level() {
+        #[cfg(target_arch = "x86_64")]
+        // SAFETY: simd_level() never returns a level the CPU does not support.
+        SimdLevel::Avx512 => unsafe { solve_avx512(l, n, ld, b) },
+        #[cfg(target_arch = "x86_64")]
+        // SAFETY: as above.
+        SimdLevel::Avx2 => unsafe { solve_avx2(l, n, ld, b) },
+        _ => solve_impl(l, n, ld, b),
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+fn solve_avx512(l: &[f64], n: usize, ld: usize, b: &mut [f64]) {
+    solve_impl(l, n, ld, b)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn solve_avx2(l: &[f64], n: usize, ld: usize, b: &mut [f64]) {
+    solve_impl(l, n, ld, b)
+}
+
+/// The forward substitution as element-wise updates (vectorised), the back substitution as
+/// sequential dot products: the same bits at every width.
+#[inline(always)]
+fn solve_impl(l: &[f64], n: usize, ld: usize, b: &mut [f64]) {
     for k in 0..n {
         let col = &l[k * ld..k * ld + n];
         b[k] /= col[k];
@@ -242,46 +270,180 @@ pub(crate) fn cholesky_solve(l: &[f64], n: usize, b: &mut [f64]) {
     }
 }
 
-/// The trailing update of a right-looking Cholesky step at pivot `b` of the n × n
+/// The trailing update of right-looking Cholesky steps at the pivots `pivots` (ascending, at
+/// most [`PANEL_COLS`], each below `cols.start`) on the columns `cols` of the n × n
 /// column-major matrix `m` with leading dimension `ld` = [`padded_ld`]`(n)` (lower
-/// triangle): `m_aj −= l_ab·l_jb` for b < j ≤ a < n, where column b already holds L's
-/// column. Vectorised at the run-time SIMD level over whole blocks of 8 rows, from the block
-/// that holds row j (as in [`cholesky_padded`]: the rows above the diagonal inside it, and
-/// the padding rows, receive values that are never read); each lower entry gets one
-/// multiplication and one subtraction, so the bits do not depend on the width.
-pub(crate) fn rank1_downdate(m: &mut [f64], n: usize, ld: usize, b: usize) {
+/// triangle): `m_aj −= l_ab·l_jb` for every pivot b in order, j ∈ `cols`, j ≤ a < n, where
+/// column b already holds L's column. A rank-1 step at pivot b is `downdate(m, n, ld, &[b],
+/// b + 1..n)`; a panel of pivots applied at once gives every entry the same operations in
+/// the same order as one step after the other (one pass over the trailing columns instead of
+/// one per pivot). Vectorised at the run-time SIMD level over whole blocks of 8 rows, from
+/// the block that holds row j (as in [`cholesky_padded`]: the rows above the diagonal inside
+/// it, and the padding rows, receive values that are never read); each lower entry gets one
+/// multiplication and one subtraction per pivot, so the bits do not depend on the width.
+pub(crate) fn downdate(
+    m: &mut [f64],
+    n: usize,
+    ld: usize,
+    pivots: &[usize],
+    cols: std::ops::Range<usize>,
+) {
     use kinematics::simd::{SimdLevel, simd_level};
-    debug_assert!(ld == padded_ld(n) && m.len() >= ld * n);
+    assert!(ld == padded_ld(n) && m.len() >= ld * n && cols.end <= n);
+    assert!(pivots.len() <= PANEL_COLS && pivots.is_sorted());
+    assert!(pivots.last().is_none_or(|&b| b < cols.start));
     match simd_level() {
         #[cfg(target_arch = "x86_64")]
         // SAFETY: simd_level() never returns a level the CPU does not support.
-        SimdLevel::Avx512 => unsafe { rank1_avx512(m, n, ld, b) },
+        SimdLevel::Avx512 => unsafe { downdate_avx512(m, ld, pivots, cols) },
         #[cfg(target_arch = "x86_64")]
         // SAFETY: as above.
-        SimdLevel::Avx2 => unsafe { rank1_avx2(m, n, ld, b) },
-        _ => rank1_impl(m, n, ld, b),
+        SimdLevel::Avx2 => unsafe { downdate_avx2(m, ld, pivots, cols) },
+        _ => downdate_impl(m, ld, pivots, cols),
     }
 }
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f")]
-fn rank1_avx512(m: &mut [f64], n: usize, ld: usize, b: usize) {
-    rank1_impl(m, n, ld, b)
+fn downdate_avx512(m: &mut [f64], ld: usize, pivots: &[usize], cols: std::ops::Range<usize>) {
+    downdate_impl(m, ld, pivots, cols)
 }
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-fn rank1_avx2(m: &mut [f64], n: usize, ld: usize, b: usize) {
-    rank1_impl(m, n, ld, b)
+fn downdate_avx2(m: &mut [f64], ld: usize, pivots: &[usize], cols: std::ops::Range<usize>) {
+    downdate_impl(m, ld, pivots, cols)
 }
 
 #[inline(always)]
-fn rank1_impl(m: &mut [f64], n: usize, ld: usize, b: usize) {
-    let (head, tail) = m.split_at_mut((b + 1) * ld);
-    let col_b = &head[b * ld..];
-    for (jj, col_j) in tail.chunks_exact_mut(ld).take(n - b - 1).enumerate() {
-        let j = b + 1 + jj;
-        update_column(col_j, &[col_b], &[col_b[j]], j / BLOCK * BLOCK, ld);
+fn downdate_impl(m: &mut [f64], ld: usize, pivots: &[usize], cols: std::ops::Range<usize>) {
+    if pivots.is_empty() || cols.is_empty() {
+        return;
+    }
+    let (head, tail) = m.split_at_mut(cols.start * ld);
+    let mut panel: [&[f64]; PANEL_COLS] = [&[]; PANEL_COLS];
+    for (c, &b) in panel.iter_mut().zip(pivots) {
+        *c = &head[b * ld..(b + 1) * ld];
+    }
+    let kb = pivots.len();
+    for (jj, col_j) in tail.chunks_exact_mut(ld).take(cols.len()).enumerate() {
+        let j = cols.start + jj;
+        let mut ljk = [0.0; PANEL_COLS];
+        for (l, c) in ljk.iter_mut().zip(&panel).take(kb) {
+            *l = c[j];
+        }
+        update_column(col_j, &panel[..kb], &ljk[..kb], j / BLOCK * BLOCK, ld);
+    }
+}
+
+/// Columns of L⁻¹ computed together by [`lower_inverse_gram`] (two AVX-512 vectors: two
+/// independent dependency chains).
+const INV_LANES: usize = 16;
+
+/// `L⁻¹` and `L⁻ᵀL⁻¹` of a lower-triangular `r × r` factor: `l` row-major with row stride
+/// `p` (row i at `i·p`, entries 0..=i read), `inv_d` the reciprocals of its diagonal.
+/// Writes `li` (column-major, column c at `c·r`: `L⁻¹_ic`, zero above the diagonal) and the
+/// symmetric `ginv` (row i at `i·r`).
+///
+/// The documented sums, whatever the SIMD level:
+/// - `L⁻¹_cc = 1/L_cc`, and for i > c `L⁻¹_ic = (−Σ_{j=c}^{i−1} L_ij·L⁻¹_jc)·(1/L_ii)`,
+///   the sum started at +0 and taken in j order (forward substitution, column by column);
+/// - `(L⁻ᵀL⁻¹)_ij` (j ≤ i) = `Σ_{t=i}^{r−1} L⁻¹_ti·L⁻¹_tj` in t order, started at the
+///   empty sum of `Iterator::sum`.
+///
+/// The forward substitutions of [`INV_LANES`] columns run together, lane by lane (each
+/// column's sum is a sequential chain; together they fill the vector): a column's lane sums
+/// from the batch's first column on, and the extra terms `L_ij·0` (j < c) leave its sum at
+/// exactly +0 until its own first term, so every entry has the bits of the one-column
+/// substitution (L is finite: it is the factor of a finite matrix).
+pub(crate) fn lower_inverse_gram(
+    l: &[f64],
+    p: usize,
+    inv_d: &[f64],
+    r: usize,
+    li: &mut [f64],
+    ginv: &mut [f64],
+) {
+    use kinematics::simd::{SimdLevel, simd_level};
+    assert!(r <= p && l.len() >= r * p && inv_d.len() >= r);
+    assert!(li.len() >= r * r && ginv.len() >= r * r);
+    match simd_level() {
+        #[cfg(target_arch = "x86_64")]
+        // SAFETY: simd_level() never returns a level the CPU does not support.
+        SimdLevel::Avx512 => unsafe { inv_avx512(l, p, inv_d, r, li, ginv) },
+        #[cfg(target_arch = "x86_64")]
+        // SAFETY: as above.
+        SimdLevel::Avx2 => unsafe { inv_avx2(l, p, inv_d, r, li, ginv) },
+        _ => inv_impl(l, p, inv_d, r, li, ginv),
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+fn inv_avx512(l: &[f64], p: usize, inv_d: &[f64], r: usize, li: &mut [f64], ginv: &mut [f64]) {
+    inv_impl(l, p, inv_d, r, li, ginv)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn inv_avx2(l: &[f64], p: usize, inv_d: &[f64], r: usize, li: &mut [f64], ginv: &mut [f64]) {
+    inv_impl(l, p, inv_d, r, li, ginv)
+}
+
+#[inline(always)]
+fn inv_impl(l: &[f64], p: usize, inv_d: &[f64], r: usize, li: &mut [f64], ginv: &mut [f64]) {
+    const H: usize = INV_LANES / 2;
+    // xb[i] = L⁻¹_{i, c0..c0+16} of the current batch, as two halves (one vector each).
+    let mut xb = vec![[[0.0; H]; 2]; r];
+    // L⁻¹ row-major with the row stride padded to whole vectors (row t at t·rr), zero
+    // past column r.
+    let rr = r.div_ceil(H) * H;
+    let mut lt = vec![0.0; r * rr];
+    for c0 in (0..r).step_by(INV_LANES) {
+        for i in c0..r {
+            let row = &l[i * p + c0..i * p + i];
+            let (mut v0, mut v1) = ([0.0; H], [0.0; H]);
+            for (lij, xj) in row.iter().zip(&xb[c0..i]) {
+                for t in 0..H {
+                    v0[t] -= lij * xj[0][t];
+                    v1[t] -= lij * xj[1][t];
+                }
+            }
+            let d = inv_d[i];
+            let mut x = [[0.0; H]; 2];
+            for t in 0..H {
+                x[0][t] = if c0 + t == i { d } else { v0[t] * d };
+                x[1][t] = if c0 + H + t == i { d } else { v1[t] * d };
+            }
+            xb[i] = x;
+        }
+        for (t, c) in (c0..r.min(c0 + INV_LANES)).enumerate() {
+            li[c * r..c * r + c].fill(0.0);
+            for (i, x) in xb.iter().enumerate().skip(c) {
+                li[c * r + i] = x[t / H][t % H];
+                lt[i * rr + c] = x[t / H][t % H];
+            }
+        }
+    }
+    // Row i of the Gram matrix, eight entries j at a time, each summed over t in order in
+    // a register.
+    let sum0: f64 = std::iter::empty::<f64>().sum();
+    for i in 0..r {
+        for j0 in (0..=i).step_by(H) {
+            let mut acc = [sum0; H];
+            for t in i..r {
+                let u = li[i * r + t];
+                let w: &[f64; H] = lt[t * rr + j0..t * rr + j0 + H].try_into().expect("H");
+                for q in 0..H {
+                    acc[q] += u * w[q];
+                }
+            }
+            for (q, v) in acc.iter().enumerate().take(i + 1 - j0) {
+                let j = j0 + q;
+                ginv[i * r + j] = *v;
+                ginv[j * r + i] = *v;
+            }
+        }
     }
 }
 
@@ -308,23 +470,32 @@ mod tests {
         }
     }
 
-    /// The padded, block-wise rank-1 downdate gives every lower entry the bits of the plain
-    /// column-by-column one, reading nothing above the diagonal or in the padding rows (NaN
-    /// there would spread into the lower triangle).
+    /// The padded, block-wise downdates give every lower entry the bits of the plain
+    /// column-by-column update, one pivot after the other or a panel of pivots at once (with
+    /// skipped pivots, as the greedy factorisation skips dropped columns), reading nothing
+    /// above the diagonal or in the padding rows (NaN there would spread into the lower
+    /// triangle).
     #[test]
-    fn rank1_downdate_matches_the_plain_update() {
+    fn downdates_match_the_plain_update() {
         for n in 1..=35 {
             let ld = padded_ld(n);
             let value = |r: usize, c: usize| ((r * 31 + c * 17) as f64 * 0.7).sin() * 3.0;
             let mut plain = vec![0.0; n * n];
-            let mut padded = vec![f64::NAN; ld * n];
             for c in 0..n {
                 for r in c..n {
                     plain[c * n + r] = value(r, c);
-                    padded[c * ld + r] = value(r, c);
                 }
             }
-            for b in 0..n {
+            let padded0 = {
+                let mut m = vec![f64::NAN; ld * n];
+                for c in 0..n {
+                    m[c * ld..c * ld + n].copy_from_slice(&plain[c * n..(c + 1) * n]);
+                    m[c * ld..c * ld + c].fill(f64::NAN);
+                }
+                m
+            };
+            let pivot = |b: usize| b % 5 != 3;
+            for b in (0..n).filter(|&b| pivot(b)) {
                 for j in b + 1..n {
                     let ljb = plain[b * n + j];
                     for a in j..n {
@@ -332,16 +503,88 @@ mod tests {
                         plain[j * n + a] -= lab * ljb;
                     }
                 }
-                rank1_downdate(&mut padded, n, ld, b);
+            }
+            // One pivot after the other.
+            let mut one = padded0.clone();
+            for b in (0..n).filter(|&b| pivot(b)) {
+                downdate(&mut one, n, ld, &[b], b + 1..n);
+            }
+            // Panels: each pivot on the rest of its panel, then the panel's pivots at once
+            // on the trailing columns.
+            let mut panels = padded0.clone();
+            for b0 in (0..n).step_by(PANEL_COLS) {
+                let end = (b0 + PANEL_COLS).min(n);
+                let kept: Vec<usize> = (b0..end).filter(|&b| pivot(b)).collect();
+                for &b in &kept {
+                    downdate(&mut panels, n, ld, &[b], b + 1..end);
+                }
+                downdate(&mut panels, n, ld, &kept, end..n);
             }
             for c in 0..n {
                 for r in c..n {
-                    assert_eq!(
-                        padded[c * ld + r].to_bits(),
-                        plain[c * n + r].to_bits(),
-                        "n {n} ({r}, {c})"
-                    );
+                    let want = plain[c * n + r].to_bits();
+                    assert_eq!(one[c * ld + r].to_bits(), want, "n {n} ({r}, {c})");
+                    assert_eq!(panels[c * ld + r].to_bits(), want, "n {n} ({r}, {c})");
                 }
+            }
+        }
+    }
+
+    /// The batched forward substitutions and the Gram matrix have the bits of the
+    /// one-column loops, at every SIMD level and size (across batch boundaries).
+    #[test]
+    fn lower_inverse_gram_is_the_documented_sums() {
+        use kinematics::simd::SimdLevel;
+        let p = 50;
+        for r in [1, 2, 15, 16, 17, 33, 43, 50] {
+            // A well-conditioned lower factor with mixed signs (row stride p; NaN where it
+            // must not be read).
+            let mut l = vec![f64::NAN; r * p];
+            let mut inv_d = vec![0.0; r];
+            for i in 0..r {
+                for j in 0..i {
+                    l[i * p + j] = ((i * 13 + j * 7) as f64 * 0.91).sin() * 0.4;
+                }
+                l[i * p + i] = 1.0 + 0.3 * ((i as f64) * 1.7).cos();
+                inv_d[i] = 1.0 / l[i * p + i];
+            }
+            // The plain loops.
+            let mut li0 = vec![0.0; r * r];
+            for c in 0..r {
+                li0[c * r + c] = inv_d[c];
+                for i in c + 1..r {
+                    let mut v = 0.0;
+                    for j in c..i {
+                        v -= l[i * p + j] * li0[c * r + j];
+                    }
+                    li0[c * r + i] = v * inv_d[i];
+                }
+            }
+            let mut g0 = vec![0.0; r * r];
+            for i in 0..r {
+                for j in 0..=i {
+                    let v: f64 = (i..r).map(|t| li0[i * r + t] * li0[j * r + t]).sum();
+                    g0[i * r + j] = v;
+                    g0[j * r + i] = v;
+                }
+            }
+            for level in [SimdLevel::Portable, SimdLevel::Avx2, SimdLevel::Avx512] {
+                if level > SimdLevel::detect() {
+                    continue;
+                }
+                let (mut li, mut g) = (vec![7.0; r * r], vec![7.0; r * r]);
+                match level {
+                    #[cfg(target_arch = "x86_64")]
+                    // SAFETY: the CPU supports the level (checked above).
+                    SimdLevel::Avx512 => unsafe { inv_avx512(&l, p, &inv_d, r, &mut li, &mut g) },
+                    #[cfg(target_arch = "x86_64")]
+                    // SAFETY: as above.
+                    SimdLevel::Avx2 => unsafe { inv_avx2(&l, p, &inv_d, r, &mut li, &mut g) },
+                    _ => inv_impl(&l, p, &inv_d, r, &mut li, &mut g),
+                }
+                let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+                assert_eq!(bits(&li), bits(&li0), "{level:?} r {r}: L⁻¹");
+                assert_eq!(bits(&g), bits(&g0), "{level:?} r {r}: L⁻ᵀL⁻¹");
             }
         }
     }
