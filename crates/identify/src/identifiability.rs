@@ -405,8 +405,35 @@ struct Greedy {
 }
 
 /// [`Greedy`] of `a`; `None` when a column's zero test or a keep/drop decision falls in the
-/// band left to the SVD, or `a` is not finite.
+/// band left to the SVD, or `a` is not finite. Compiled for the run-time SIMD level (the
+/// same operations, hence the same bits, at every level: no FMA).
 fn greedy_cholesky(a: &DMatrix<f64>, priority: &[usize]) -> Option<Greedy> {
+    use kinematics::simd::{SimdLevel, simd_level};
+    match simd_level() {
+        #[cfg(target_arch = "x86_64")]
+        // SAFETY: simd_level() never returns a level the CPU does not support.
+        SimdLevel::Avx512 => unsafe { greedy_avx512(a, priority) },
+        #[cfg(target_arch = "x86_64")]
+        // SAFETY: as above.
+        SimdLevel::Avx2 => unsafe { greedy_avx2(a, priority) },
+        _ => greedy_impl(a, priority),
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+fn greedy_avx512(a: &DMatrix<f64>, priority: &[usize]) -> Option<Greedy> {
+    greedy_impl(a, priority)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn greedy_avx2(a: &DMatrix<f64>, priority: &[usize]) -> Option<Greedy> {
+    greedy_impl(a, priority)
+}
+
+#[inline(always)]
+fn greedy_impl(a: &DMatrix<f64>, priority: &[usize]) -> Option<Greedy> {
     let p = a.ncols();
     // (A fold, not `all`: no early exit, so it vectorises.)
     if p == 0 || !a.as_slice().iter().fold(true, |ok, v| ok & v.is_finite()) {
