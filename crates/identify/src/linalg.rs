@@ -159,8 +159,7 @@ fn chol_impl(a: &mut [f64], n: usize, ld: usize) -> bool {
         let kb = PANEL_COLS.min(n - k0);
         // The panel's columns, one after the other (each updates the later ones).
         for k in k0..k0 + kb {
-            let (head, tail) = a.split_at_mut((k + 1) * ld);
-            let col_k = &mut head[k * ld..];
+            let col_k = &mut a[k * ld..(k + 1) * ld];
             let d = col_k[k];
             if !(d > 0.0 && d.is_finite()) {
                 return false;
@@ -170,26 +169,11 @@ fn chol_impl(a: &mut [f64], n: usize, ld: usize) -> bool {
             for v in &mut col_k[k + 1..n] {
                 *v /= lkk;
             }
-            let col_k = &col_k[..ld];
-            for (jj, col_j) in tail.chunks_exact_mut(ld).take(k0 + kb - k - 1).enumerate() {
-                let j = k + 1 + jj;
-                update_column(col_j, &[col_k], &[col_k[j]], j / BLOCK * BLOCK, ld);
-            }
+            downdate_impl(a, ld, &[k], k + 1..k0 + kb);
         }
         // The trailing columns, by the whole panel in one pass.
-        let (head, tail) = a.split_at_mut((k0 + kb) * ld);
-        let mut cols: [&[f64]; PANEL_COLS] = [&[]; PANEL_COLS];
-        for (i, c) in cols.iter_mut().enumerate().take(kb) {
-            *c = &head[(k0 + i) * ld..(k0 + i + 1) * ld];
-        }
-        for (jj, col_j) in tail.chunks_exact_mut(ld).take(n - k0 - kb).enumerate() {
-            let j = k0 + kb + jj;
-            let mut ljk = [0.0; PANEL_COLS];
-            for (l, c) in ljk.iter_mut().zip(&cols).take(kb) {
-                *l = c[j];
-            }
-            update_column(col_j, &cols[..kb], &ljk[..kb], j / BLOCK * BLOCK, ld);
-        }
+        let panel: [usize; PANEL_COLS] = std::array::from_fn(|i| k0 + i);
+        downdate_impl(a, ld, &panel[..kb], k0 + kb..n);
         k0 += kb;
     }
     true
