@@ -408,28 +408,10 @@ struct Greedy {
 /// band left to the SVD, or `a` is not finite. Compiled for the run-time SIMD level (the
 /// same operations, hence the same bits, at every level: no FMA).
 fn greedy_cholesky(a: &DMatrix<f64>, priority: &[usize]) -> Option<Greedy> {
-    use kinematics::simd::{SimdLevel, simd_level};
-    match simd_level() {
-        #[cfg(target_arch = "x86_64")]
-        // SAFETY: simd_level() never returns a level the CPU does not support.
-        SimdLevel::Avx512 => unsafe { greedy_avx512(a, priority) },
-        #[cfg(target_arch = "x86_64")]
-        // SAFETY: as above.
-        SimdLevel::Avx2 => unsafe { greedy_avx2(a, priority) },
-        _ => greedy_impl(a, priority),
-    }
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f")]
-fn greedy_avx512(a: &DMatrix<f64>, priority: &[usize]) -> Option<Greedy> {
-    greedy_impl(a, priority)
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-fn greedy_avx2(a: &DMatrix<f64>, priority: &[usize]) -> Option<Greedy> {
-    greedy_impl(a, priority)
+    kinematics::simd::vectorised(
+        #[inline(always)]
+        || greedy_impl(a, priority),
+    )
 }
 
 #[inline(always)]

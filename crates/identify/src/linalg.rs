@@ -49,30 +49,12 @@ pub(crate) fn combination_norm_sq(
     terms: &[(usize, f64)],
     buf: &mut Vec<f64>,
 ) -> f64 {
-    use kinematics::simd::{SimdLevel, simd_level};
     buf.clear();
     buf.resize(rows, 0.0);
-    match simd_level() {
-        #[cfg(target_arch = "x86_64")]
-        // SAFETY: simd_level() never returns a level the CPU does not support.
-        SimdLevel::Avx512 => unsafe { comb_avx512(js, rows, terms, buf) },
-        #[cfg(target_arch = "x86_64")]
-        // SAFETY: as above.
-        SimdLevel::Avx2 => unsafe { comb_avx2(js, rows, terms, buf) },
-        _ => comb_impl(js, rows, terms, buf),
-    }
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f")]
-fn comb_avx512(js: &[f64], rows: usize, terms: &[(usize, f64)], buf: &mut [f64]) -> f64 {
-    comb_impl(js, rows, terms, buf)
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-fn comb_avx2(js: &[f64], rows: usize, terms: &[(usize, f64)], buf: &mut [f64]) -> f64 {
-    comb_impl(js, rows, terms, buf)
+    kinematics::simd::vectorised(
+        #[inline(always)]
+        || comb_impl(js, rows, terms, buf),
+    )
 }
 
 #[inline(always)]
@@ -107,28 +89,10 @@ pub(crate) fn padded_ld(n: usize) -> usize {
 /// same operations in the same order as in [`cholesky_in_place`], so the factor L is
 /// bit for bit the same at any width.
 pub(crate) fn cholesky_padded(a: &mut [f64], n: usize, ld: usize) -> bool {
-    use kinematics::simd::{SimdLevel, simd_level};
-    match simd_level() {
-        #[cfg(target_arch = "x86_64")]
-        // SAFETY: simd_level() never returns a level the CPU does not support.
-        SimdLevel::Avx512 => unsafe { chol_avx512(a, n, ld) },
-        #[cfg(target_arch = "x86_64")]
-        // SAFETY: as above.
-        SimdLevel::Avx2 => unsafe { chol_avx2(a, n, ld) },
-        _ => chol_impl(a, n, ld),
-    }
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f")]
-fn chol_avx512(a: &mut [f64], n: usize, ld: usize) -> bool {
-    chol_impl(a, n, ld)
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-fn chol_avx2(a: &mut [f64], n: usize, ld: usize) -> bool {
-    chol_impl(a, n, ld)
+    kinematics::simd::vectorised(
+        #[inline(always)]
+        || chol_impl(a, n, ld),
+    )
 }
 
 /// Columns factored together before the trailing matrix is updated (one pass over the trailing
@@ -182,28 +146,10 @@ fn chol_impl(a: &mut [f64], n: usize, ld: usize) -> bool {
 /// Solves `L Lᵀ x = b` in place (`b` becomes x) with the factor from [`cholesky_padded`]
 /// (leading dimension `ld`).
 pub(crate) fn cholesky_solve_padded(l: &[f64], n: usize, ld: usize, b: &mut [f64]) {
-    use kinematics::simd::{SimdLevel, simd_level};
-    match simd_level() {
-        #[cfg(target_arch = "x86_64")]
-        // SAFETY: simd_level() never returns a level the CPU does not support.
-        SimdLevel::Avx512 => unsafe { solve_avx512(l, n, ld, b) },
-        #[cfg(target_arch = "x86_64")]
-        // SAFETY: as above.
-        SimdLevel::Avx2 => unsafe { solve_avx2(l, n, ld, b) },
-        _ => solve_impl(l, n, ld, b),
-    }
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f")]
-fn solve_avx512(l: &[f64], n: usize, ld: usize, b: &mut [f64]) {
-    solve_impl(l, n, ld, b)
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-fn solve_avx2(l: &[f64], n: usize, ld: usize, b: &mut [f64]) {
-    solve_impl(l, n, ld, b)
+    kinematics::simd::vectorised(
+        #[inline(always)]
+        || solve_impl(l, n, ld, b),
+    )
 }
 
 /// The forward substitution as element-wise updates (vectorised), the back substitution as
@@ -272,31 +218,13 @@ pub(crate) fn downdate(
     pivots: &[usize],
     cols: std::ops::Range<usize>,
 ) {
-    use kinematics::simd::{SimdLevel, simd_level};
     assert!(ld == padded_ld(n) && m.len() >= ld * n && cols.end <= n);
     assert!(pivots.len() <= PANEL_COLS && pivots.is_sorted());
     assert!(pivots.last().is_none_or(|&b| b < cols.start));
-    match simd_level() {
-        #[cfg(target_arch = "x86_64")]
-        // SAFETY: simd_level() never returns a level the CPU does not support.
-        SimdLevel::Avx512 => unsafe { downdate_avx512(m, ld, pivots, cols) },
-        #[cfg(target_arch = "x86_64")]
-        // SAFETY: as above.
-        SimdLevel::Avx2 => unsafe { downdate_avx2(m, ld, pivots, cols) },
-        _ => downdate_impl(m, ld, pivots, cols),
-    }
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f")]
-fn downdate_avx512(m: &mut [f64], ld: usize, pivots: &[usize], cols: std::ops::Range<usize>) {
-    downdate_impl(m, ld, pivots, cols)
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-fn downdate_avx2(m: &mut [f64], ld: usize, pivots: &[usize], cols: std::ops::Range<usize>) {
-    downdate_impl(m, ld, pivots, cols)
+    kinematics::simd::vectorised(
+        #[inline(always)]
+        || downdate_impl(m, ld, pivots, cols),
+    )
 }
 
 #[inline(always)]
@@ -348,30 +276,12 @@ pub(crate) fn lower_inverse_gram(
     li: &mut [f64],
     ginv: &mut [f64],
 ) {
-    use kinematics::simd::{SimdLevel, simd_level};
     assert!(r <= p && l.len() >= r * p && inv_d.len() >= r);
     assert!(li.len() >= r * r && ginv.len() >= r * r);
-    match simd_level() {
-        #[cfg(target_arch = "x86_64")]
-        // SAFETY: simd_level() never returns a level the CPU does not support.
-        SimdLevel::Avx512 => unsafe { inv_avx512(l, p, inv_d, r, li, ginv) },
-        #[cfg(target_arch = "x86_64")]
-        // SAFETY: as above.
-        SimdLevel::Avx2 => unsafe { inv_avx2(l, p, inv_d, r, li, ginv) },
-        _ => inv_impl(l, p, inv_d, r, li, ginv),
-    }
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f")]
-fn inv_avx512(l: &[f64], p: usize, inv_d: &[f64], r: usize, li: &mut [f64], ginv: &mut [f64]) {
-    inv_impl(l, p, inv_d, r, li, ginv)
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-fn inv_avx2(l: &[f64], p: usize, inv_d: &[f64], r: usize, li: &mut [f64], ginv: &mut [f64]) {
-    inv_impl(l, p, inv_d, r, li, ginv)
+    kinematics::simd::vectorised(
+        #[inline(always)]
+        || inv_impl(l, p, inv_d, r, li, ginv),
+    )
 }
 
 #[inline(always)]
@@ -557,15 +467,7 @@ mod tests {
                     continue;
                 }
                 let (mut li, mut g) = (vec![7.0; r * r], vec![7.0; r * r]);
-                match level {
-                    #[cfg(target_arch = "x86_64")]
-                    // SAFETY: the CPU supports the level (checked above).
-                    SimdLevel::Avx512 => unsafe { inv_avx512(&l, p, &inv_d, r, &mut li, &mut g) },
-                    #[cfg(target_arch = "x86_64")]
-                    // SAFETY: as above.
-                    SimdLevel::Avx2 => unsafe { inv_avx2(&l, p, &inv_d, r, &mut li, &mut g) },
-                    _ => inv_impl(&l, p, &inv_d, r, &mut li, &mut g),
-                }
+                kinematics::simd::at_level(level, || inv_impl(&l, p, &inv_d, r, &mut li, &mut g));
                 let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
                 assert_eq!(bits(&li), bits(&li0), "{level:?} r {r}: L⁻¹");
                 assert_eq!(bits(&g), bits(&g0), "{level:?} r {r}: L⁻ᵀL⁻¹");

@@ -367,37 +367,10 @@ pub(crate) fn weighted_rss_trig(
     points_mm: &[Vector3<f64>],
     weights: Option<&[f64]>,
 ) -> f64 {
-    match simd_level() {
-        #[cfg(target_arch = "x86_64")]
-        // SAFETY: simd_level() never returns a level the CPU does not support.
-        SimdLevel::Avx512 => unsafe { rss_avx512(robot, trig, points_mm, weights) },
-        #[cfg(target_arch = "x86_64")]
-        // SAFETY: as above.
-        SimdLevel::Avx2 => unsafe { rss_avx2(robot, trig, points_mm, weights) },
-        _ => rss_impl(robot, trig, points_mm, weights),
-    }
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f")]
-fn rss_avx512(
-    robot: &Robot,
-    trig: &PoseTrig,
-    points_mm: &[Vector3<f64>],
-    weights: Option<&[f64]>,
-) -> f64 {
-    rss_impl(robot, trig, points_mm, weights)
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-fn rss_avx2(
-    robot: &Robot,
-    trig: &PoseTrig,
-    points_mm: &[Vector3<f64>],
-    weights: Option<&[f64]>,
-) -> f64 {
-    rss_impl(robot, trig, points_mm, weights)
+    kinematics::simd::vectorised(
+        #[inline(always)]
+        || rss_impl(robot, trig, points_mm, weights),
+    )
 }
 
 /// The points [`POSE_LANES`] at a time, the sum in pose order.
@@ -588,47 +561,10 @@ impl NormalWork {
         if self.b.len() < groups * self.pp {
             self.b.resize(groups * self.pp, [[0.0; L]; 3]);
         }
-        match simd_level() {
-            #[cfg(target_arch = "x86_64")]
-            SimdLevel::Avx512 => {
-                // SAFETY: simd_level() never returns a level the CPU does not support.
-                unsafe { self.assemble_avx512(robot, trig, points_mm, weights, free, stack) }
-            }
-            #[cfg(target_arch = "x86_64")]
-            SimdLevel::Avx2 => {
-                // SAFETY: as above.
-                unsafe { self.assemble_avx2(robot, trig, points_mm, weights, free, stack) }
-            }
-            _ => self.assemble_impl(robot, trig, points_mm, weights, free, stack),
-        }
-    }
-
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx512f")]
-    fn assemble_avx512(
-        &mut self,
-        robot: &Robot,
-        trig: &PoseTrig,
-        points_mm: &[Vector3<f64>],
-        weights: Option<&[f64]>,
-        free: &[usize],
-        stack: Option<&mut [f64]>,
-    ) -> f64 {
-        self.assemble_impl(robot, trig, points_mm, weights, free, stack)
-    }
-
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2")]
-    fn assemble_avx2(
-        &mut self,
-        robot: &Robot,
-        trig: &PoseTrig,
-        points_mm: &[Vector3<f64>],
-        weights: Option<&[f64]>,
-        free: &[usize],
-        stack: Option<&mut [f64]>,
-    ) -> f64 {
-        self.assemble_impl(robot, trig, points_mm, weights, free, stack)
+        kinematics::simd::vectorised(
+            #[inline(always)]
+            || self.assemble_impl(robot, trig, points_mm, weights, free, stack),
+        )
     }
 
     #[inline(always)]

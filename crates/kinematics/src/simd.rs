@@ -100,3 +100,40 @@ pub fn simd_level() -> SimdLevel {
 pub fn set_simd_level(level: Option<SimdLevel>) {
     FORCED.store(level.map_or(UNSET, encode), Ordering::Relaxed);
 }
+
+/// Runs `f` with its body compiled for the run-time [`simd_level`]: how a kernel written
+/// once is built three times (see the module docs). `f` should be a closure that calls an
+/// `#[inline(always)]` kernel: it is inlined into a function built for AVX-512F, for AVX2,
+/// or the baseline, and so vectorised at that width. (Kernels whose code differs by level,
+/// such as the normal-equation products written with AVX-512 intrinsics, dispatch
+/// themselves.)
+#[inline(always)]
+pub fn vectorised<R>(f: impl FnOnce() -> R) -> R {
+    at_level(simd_level(), f)
+}
+
+/// [`vectorised`] at `level`, lowered to what the CPU supports (tests compare the levels).
+#[inline(always)]
+pub fn at_level<R>(level: SimdLevel, f: impl FnOnce() -> R) -> R {
+    match level.min(SimdLevel::detect()) {
+        #[cfg(target_arch = "x86_64")]
+        // SAFETY: the CPU supports AVX-512F (checked just above).
+        SimdLevel::Avx512 => unsafe { run_avx512(f) },
+        #[cfg(target_arch = "x86_64")]
+        // SAFETY: the CPU supports AVX2 (checked just above).
+        SimdLevel::Avx2 => unsafe { run_avx2(f) },
+        _ => f(),
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+fn run_avx512<R>(f: impl FnOnce() -> R) -> R {
+    f()
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn run_avx2<R>(f: impl FnOnce() -> R) -> R {
+    f()
+}

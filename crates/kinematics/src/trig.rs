@@ -201,34 +201,16 @@ fn slice_impl(x: &[f64], s: &mut [f64], c: &mut [f64]) {
     }
 }
 
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f")]
-fn slice_avx512(x: &[f64], s: &mut [f64], c: &mut [f64]) {
-    slice_impl(x, s, c)
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-fn slice_avx2(x: &[f64], s: &mut [f64], c: &mut [f64]) {
-    slice_impl(x, s, c)
-}
-
 /// `s[i], c[i] = sin_cos(x[i])` ([`sin_cos`]'s bits), eight values per block at the
 /// run-time [`crate::simd::simd_level`].
 ///
 /// Panics if `s` or `c` is shorter than `x`.
 pub fn sin_cos_slice(x: &[f64], s: &mut [f64], c: &mut [f64]) {
     assert!(s.len() >= x.len() && c.len() >= x.len(), "output length");
-    use crate::simd::{SimdLevel, simd_level};
-    match simd_level() {
-        #[cfg(target_arch = "x86_64")]
-        // SAFETY: simd_level() never returns a level the CPU does not support.
-        SimdLevel::Avx512 => unsafe { slice_avx512(x, s, c) },
-        #[cfg(target_arch = "x86_64")]
-        // SAFETY: as above.
-        SimdLevel::Avx2 => unsafe { slice_avx2(x, s, c) },
-        _ => slice_impl(x, s, c),
-    }
+    crate::simd::vectorised(
+        #[inline(always)]
+        || slice_impl(x, s, c),
+    )
 }
 
 #[cfg(test)]

@@ -229,28 +229,10 @@ pub(crate) fn mean_error_mm(
     trig: &PoseTrig,
     nominal_points: &[Vector3<f64>],
 ) -> f64 {
-    use kinematics::simd::{SimdLevel, simd_level};
-    match simd_level() {
-        #[cfg(target_arch = "x86_64")]
-        // SAFETY: simd_level() never returns a level the CPU does not support.
-        SimdLevel::Avx512 => unsafe { mean_error_avx512(robot, trig, nominal_points) },
-        #[cfg(target_arch = "x86_64")]
-        // SAFETY: as above.
-        SimdLevel::Avx2 => unsafe { mean_error_avx2(robot, trig, nominal_points) },
-        _ => mean_error_impl(robot, trig, nominal_points),
-    }
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f")]
-fn mean_error_avx512(robot: &Robot, trig: &PoseTrig, nominal_points: &[Vector3<f64>]) -> f64 {
-    mean_error_impl(robot, trig, nominal_points)
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-fn mean_error_avx2(robot: &Robot, trig: &PoseTrig, nominal_points: &[Vector3<f64>]) -> f64 {
-    mean_error_impl(robot, trig, nominal_points)
+    kinematics::simd::vectorised(
+        #[inline(always)]
+        || mean_error_impl(robot, trig, nominal_points),
+    )
 }
 
 #[inline(always)]
