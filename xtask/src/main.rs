@@ -7,6 +7,7 @@ mod bench;
 mod check_cmd;
 mod regenerate;
 mod slurm_cmd;
+mod tidy;
 
 use anyhow::{Context, Result};
 use clap::{Parser, Subcommand};
