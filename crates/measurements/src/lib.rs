@@ -70,42 +70,94 @@
 
 mod error;
 mod read;
+mod rotation;
 mod write;
 
-pub use error::MeasurementError;
+pub use error::{EulerConventionError, MeasurementError};
 pub use read::{read_file, read_str};
+pub use rotation::{
+    EulerConvention, QUATERNION_NORM_TOLERANCE, quaternion_product, quaternion_to_matrix,
+};
 pub use write::{to_csv_string, write_all_atomically, write_atomically, write_file};
 
-/// One measured pose: the commanded joint values and (usually) the measured point.
-#[derive(Debug, Clone, PartialEq)]
+/// One measured row: the commanded joint values and (usually) the measured point, optionally
+/// the measured orientation, standard deviations and the name of the target measured.
+///
+/// Rows are usually one pose each; with targets, rows with the same id are one pose
+/// ([`MeasurementSet::poses`]). Build rows not read from a file with [`Measurement::new`] and
+/// the `with_…` methods, or with `Measurement { q_deg, point_mm, ..Default::default() }`.
+#[derive(Debug, Clone, PartialEq, Default)]
 pub struct Measurement {
     /// Physical 1-based line of this row in the file it was read from; 0 if it was not read
     /// from a file (e.g. produced by a simulation).
     pub line: usize,
     /// Optional pose label from the `id` column (`None` if the column is absent or the field
-    /// is empty).
+    /// is empty). With targets, the rows of one pose share it.
     pub id: Option<String>,
     /// Joint values `q1…qN` in degrees, as the controller reports them.
     pub q_deg: Vec<f64>,
     /// Measured point `(x, y, z)` in millimetres in the measurement frame; `None` in the
     /// joints-only form.
     pub point_mm: Option<[f64; 3]>,
+    /// Name of the target (reflector) measured, from the `target` column; `None` if the file
+    /// has none (one target per pose).
+    pub target: Option<String>,
+    /// Measured orientation as a unit quaternion `[w, x, y, z]`, scalar first: the
+    /// orientation of the measured frame in the measurement frame (the columns of its
+    /// rotation matrix are the measured frame's axes in measurement coordinates). As given in
+    /// the file (`qw,qx,qy,qz`), not renormalised: its norm is within
+    /// [`QUATERNION_NORM_TOLERANCE`] of 1. Euler angles (`rx,ry,rz`) are converted on reading
+    /// ([`EulerConvention::to_quaternion`], `w ≥ 0`). `None` if the file has no orientation.
+    pub orientation: Option<[f64; 4]>,
+    /// Standard deviations of the point's `x, y, z` in millimetres (`sx,sy,sz`), positive;
+    /// `None` if not given.
+    pub sigma_mm: Option<[f64; 3]>,
+    /// Standard deviations of the orientation in degrees (`srx,sry,srz`), positive: those of
+    /// the components of the small rotation vector of the orientation error about the
+    /// measurement frame's x, y and z axes (`R_measured = exp([δ]×)·R_true`, σ of δx, δy, δz),
+    /// whatever form the orientation was given in. `None` if not given.
+    pub sigma_deg: Option<[f64; 3]>,
 }
 
 impl Measurement {
-    /// A measurement not read from a file (`line = 0`, no id).
+    /// A measurement not read from a file (`line = 0`, no id, no target, orientation or
+    /// standard deviations).
     pub fn new(q_deg: Vec<f64>, point_mm: Option<[f64; 3]>) -> Self {
         Self {
-            line: 0,
-            id: None,
             q_deg,
             point_mm,
+            ..Default::default()
         }
     }
 
     /// The same measurement with the given id.
     pub fn with_id(mut self, id: impl Into<String>) -> Self {
         self.id = Some(id.into());
+        self
+    }
+
+    /// The same measurement with the given target name.
+    pub fn with_target(mut self, target: impl Into<String>) -> Self {
+        self.target = Some(target.into());
+        self
+    }
+
+    /// The same measurement with the given orientation (unit quaternion `[w, x, y, z]`).
+    pub fn with_orientation(mut self, quaternion: [f64; 4]) -> Self {
+        self.orientation = Some(quaternion);
+        self
+    }
+
+    /// The same measurement with the given standard deviations of the point (mm).
+    pub fn with_sigma_mm(mut self, sigma_mm: [f64; 3]) -> Self {
+        self.sigma_mm = Some(sigma_mm);
+        self
+    }
+
+    /// The same measurement with the given standard deviations of the orientation (degrees,
+    /// about the measurement axes, see [`Measurement::sigma_deg`]).
+    pub fn with_sigma_deg(mut self, sigma_deg: [f64; 3]) -> Self {
+        self.sigma_deg = Some(sigma_deg);
         self
     }
 }
@@ -138,6 +190,62 @@ impl MeasurementSet {
     pub fn has_points(&self) -> bool {
         !self.rows.is_empty() && self.rows.iter().all(|r| r.point_mm.is_some())
     }
+
+    /// True if the set has at least one row and every row has a measured orientation.
+    pub fn has_orientation(&self) -> bool {
+        !self.rows.is_empty() && self.rows.iter().all(|r| r.orientation.is_some())
+    }
+
+    /// True if some row names a target (the set has a `target` column).
+    pub fn has_targets(&self) -> bool {
+        self.rows.iter().any(|r| r.target.is_some())
+    }
+
+    /// The distinct target names, in order of first appearance (empty without targets).
+    pub fn targets(&self) -> Vec<&str> {
+        let mut names: Vec<&str> = Vec::new();
+        for t in self.rows.iter().filter_map(|r| r.target.as_deref()) {
+            if !names.contains(&t) {
+                names.push(t);
+            }
+        }
+        names
+    }
+
+    /// The poses, each as the indices into [`rows`](Self::rows) of its rows, in file order.
+    ///
+    /// Without targets ([`has_targets`](Self::has_targets) false) every row is a pose of its
+    /// own. With targets, rows with the same [`id`](Measurement::id) form one pose (a row
+    /// without an id is a pose of its own); poses are ordered by their first row. The reader
+    /// guarantees that the rows of a pose share their joint values and name each target at
+    /// most once.
+    ///
+    /// ```
+    /// use measurements::{Measurement, MeasurementSet};
+    /// let row = |id: &str, t: &str| Measurement::new(vec![1.0], Some([0.0; 3])).with_id(id).with_target(t);
+    /// let set = MeasurementSet::new("mem", 1, vec![row("p1", "A"), row("p1", "B"), row("p2", "A")]);
+    /// assert_eq!(set.poses(), vec![vec![0, 1], vec![2]]);
+    /// ```
+    pub fn poses(&self) -> Vec<Vec<usize>> {
+        if !self.has_targets() {
+            return (0..self.rows.len()).map(|i| vec![i]).collect();
+        }
+        let mut first: std::collections::HashMap<&str, usize> = Default::default();
+        let mut poses: Vec<Vec<usize>> = Vec::new();
+        for (i, r) in self.rows.iter().enumerate() {
+            match r.id.as_deref() {
+                Some(id) => match first.get(id) {
+                    Some(&p) => poses[p].push(i),
+                    None => {
+                        first.insert(id, poses.len());
+                        poses.push(vec![i]);
+                    }
+                },
+                None => poses.push(vec![i]),
+            }
+        }
+        poses
+    }
 }
 
 /// What the caller expects of a measurement file.
@@ -154,6 +262,10 @@ pub struct ReadOptions {
     /// Minimum number of data rows, typically the number of free parameters to identify
     /// divided by 3; fewer is an error ([`MeasurementError::TooFewRows`]).
     pub min_rows: usize,
+    /// The convention of Euler-angle columns `rx,ry,rz`, if the file may have them; a file
+    /// with them and no convention is an error ([`MeasurementError::EulerConventionMissing`]).
+    /// Unused for files without Euler columns.
+    pub euler: Option<EulerConvention>,
 }
 
 impl ReadOptions {
@@ -164,6 +276,7 @@ impl ReadOptions {
             limits_deg: None,
             require_points: true,
             min_rows: 0,
+            euler: None,
         }
     }
 
@@ -182,6 +295,13 @@ impl ReadOptions {
     /// Require at least `min_rows` data rows.
     pub fn with_min_rows(mut self, min_rows: usize) -> Self {
         self.min_rows = min_rows;
+        self
+    }
+
+    /// Read Euler-angle columns `rx,ry,rz` (degrees) in this convention, e.g.
+    /// `"XYZ".parse()?` (intrinsic) or `"xyz".parse()?` (extrinsic).
+    pub fn with_euler(mut self, convention: EulerConvention) -> Self {
+        self.euler = Some(convention);
         self
     }
 }
