@@ -264,7 +264,12 @@ pub struct ReadOptions {
     pub min_rows: usize,
     /// The convention of Euler-angle columns `rx,ry,rz`, if the file may have them; a file
     /// with them and no convention is an error ([`MeasurementError::EulerConventionMissing`]).
-    /// Unused for files without Euler columns.
+    /// Unused for files without Euler columns. The columns hold the sequence's first, second
+    /// and third angle, in degrees: a row's orientation is
+    /// [`EulerConvention::to_quaternion`]`([rx, ry, rz])`, as SciPy's
+    /// `Rotation.from_euler(convention, [rx, ry, rz], degrees=True)`. For `XYZ` and `xyz` these
+    /// are the angles about x, y and z; for other sequences they are not (with `ZYX`, `rx` is
+    /// the angle about z).
     pub euler: Option<EulerConvention>,
 }
 

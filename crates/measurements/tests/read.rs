@@ -440,3 +440,291 @@ fn real_ur10_series_b_file() {
     assert_eq!(first.point_mm, Some([383.762940, -3240.873400, 201.931570]));
     assert_eq!(set.rows.last().unwrap().line, 1496);
 }
+
+/// The optional columns of issue 31: orientation, standard deviations, several targets.
+mod six_dof_and_targets {
+    use measurements::{EulerConvention, MeasurementError, ReadOptions, read_str};
+
+    fn opts2() -> ReadOptions {
+        ReadOptions::new(2)
+    }
+
+    fn euler(text: &str) -> EulerConvention {
+        text.parse().unwrap()
+    }
+
+    #[track_caller]
+    fn err(text: &str, opts: &ReadOptions) -> MeasurementError {
+        read_str(text, "m.csv", opts).unwrap_err()
+    }
+
+    #[track_caller]
+    fn assert_at(e: &MeasurementError, line: usize, column: &str, words: &str) {
+        let msg = e.to_string();
+        assert!(
+            msg.starts_with(&format!("m.csv:{line}: column \"{column}\": ")),
+            "{msg}"
+        );
+        assert!(msg.contains(words), "{msg} lacks {words}");
+        assert_eq!(e.file(), "m.csv");
+        assert_eq!(e.line(), Some(line));
+        assert_eq!(e.column(), Some(column));
+    }
+
+    #[test]
+    fn quaternion_columns_are_read_as_given() {
+        let h = (0.5f64).sqrt();
+        let text =
+            format!("q1,q2,x,y,z,qz,qw,qx,qy\n1,2,3,4,5,{h},{h},0,0\n1,2,3,4,5,0.0000005,1,0,0\n");
+        let set = read_str(&text, "m.csv", &opts2()).unwrap();
+        assert_eq!(set.rows[0].orientation, Some([h, 0.0, 0.0, h]));
+        // Within the tolerance: kept as given, not renormalised.
+        assert_eq!(set.rows[1].orientation, Some([1.0, 0.0, 0.0, 0.0000005]));
+        assert!(set.has_orientation());
+        assert!(set.notices.is_empty(), "{:?}", set.notices);
+        assert_eq!(set.rows[0].sigma_mm, None);
+        assert_eq!(set.rows[0].target, None);
+    }
+
+    #[test]
+    fn a_non_unit_quaternion_is_refused() {
+        for q in [
+            "1,0,0,0.002",
+            "0.5,0.5,0.5,0.4",
+            "0,0,0,0",
+            "1.000002,0,0,0",
+        ] {
+            let text = format!("q1,q2,x,y,z,qw,qx,qy,qz\n1,2,3,4,5,1,0,0,0\n\n1,2,3,4,5,{q}\n");
+            let e = err(&text, &opts2());
+            assert!(
+                matches!(e, MeasurementError::NotUnitQuaternion { .. }),
+                "{e:?}"
+            );
+            assert_at(&e, 4, "qw", "not 1 (|norm - 1| must be at most 0.000001)");
+        }
+    }
+
+    #[test]
+    fn orientation_groups_are_all_or_nothing() {
+        let e = err("q1,q2,x,y,z,qw,qx,qy\n1,2,3,4,5,1,0,0\n", &opts2());
+        assert!(matches!(e, MeasurementError::MissingColumn { .. }), "{e:?}");
+        assert_eq!(e.to_string(), "m.csv:1: missing required column \"qz\"");
+        let e = err(
+            "q1,q2,x,y,z,rz\n1,2,3,4,5,1\n",
+            &opts2().with_euler(euler("XYZ")),
+        );
+        assert_eq!(e.to_string(), "m.csv:1: missing required column \"rx\"");
+        let e = err("q1,q2,x,y,z,sx,sz\n1,2,3,4,5,1,1\n", &opts2());
+        assert_eq!(e.to_string(), "m.csv:1: missing required column \"sy\"");
+    }
+
+    #[test]
+    fn euler_columns_need_a_convention() {
+        let text = "q1,q2,x,y,z,rx,ry,rz\n1,2,3,4,5,10,20,30\n";
+        let e = err(text, &opts2());
+        assert!(
+            matches!(e, MeasurementError::EulerConventionMissing { .. }),
+            "{e:?}"
+        );
+        assert_at(&e, 1, "rx", "ReadOptions::euler");
+        assert!(e.to_string().contains("\"XYZ\""), "{e}");
+        assert!(e.to_string().contains("qw,qx,qy,qz"), "{e}");
+    }
+
+    #[test]
+    fn euler_columns_are_converted_with_the_convention() {
+        let text = "q1,q2,x,y,z,rx,ry,rz\n1,2,3,4,5,30,-45,60\n";
+        for conv in ["XYZ", "xyz", "ZYX", "zyx", "ZYZ", "zyz"] {
+            let c = euler(conv);
+            let set = read_str(text, "m.csv", &opts2().with_euler(c)).unwrap();
+            assert_eq!(
+                set.rows[0].orientation,
+                Some(c.to_quaternion([30.0, -45.0, 60.0])),
+                "{conv}"
+            );
+        }
+        // Intrinsic XYZ, SciPy's value (see rotation.rs).
+        let set = read_str(text, "m.csv", &opts2().with_euler(euler("XYZ"))).unwrap();
+        let want = [
+            0.8223631719059994,
+            0.022260026714733816,
+            -0.43967973954090955,
+            0.3604234056503559,
+        ];
+        let q = set.rows[0].orientation.unwrap();
+        assert!((0..4).all(|k| (q[k] - want[k]).abs() < 1e-15), "{q:?}");
+        // The columns are the sequence's angles in order, whatever their names: with ZYX,
+        // rx is about z.
+        let set = read_str(
+            "q1,q2,x,y,z,rx,ry,rz\n1,2,3,4,5,90,0,0\n",
+            "m.csv",
+            &opts2().with_euler(euler("ZYX")),
+        )
+        .unwrap();
+        let q = set.rows[0].orientation.unwrap();
+        assert!(
+            (q[0] - q[3]).abs() < 1e-15 && q[1] == 0.0 && q[2] == 0.0,
+            "{q:?}"
+        );
+        // A convention for a file without Euler columns is unused.
+        let set = read_str(
+            "q1,q2,x,y,z\n1,2,3,4,5\n",
+            "m.csv",
+            &opts2().with_euler(euler("zyz")),
+        )
+        .unwrap();
+        assert_eq!(set.rows[0].orientation, None);
+    }
+
+    #[test]
+    fn quaternion_and_euler_together_are_refused() {
+        let text = "q1,q2,x,y,z,qw,qx,qy,qz,rx,ry,rz\n1,2,3,4,5,1,0,0,0,0,0,0\n";
+        let e = err(text, &opts2().with_euler(euler("XYZ")));
+        assert!(
+            matches!(e, MeasurementError::ColumnConflict { .. }),
+            "{e:?}"
+        );
+        assert_at(&e, 1, "rx", "give one of the two");
+    }
+
+    #[test]
+    fn standard_deviations() {
+        let text = "q1,q2,x,y,z,sx,sy,sz,qw,qx,qy,qz,srx,sry,srz\n\
+                    1,2,3,4,5,0.01,0.02,0.03,1,0,0,0,0.001,0.002,0.003\n";
+        let set = read_str(text, "m.csv", &opts2()).unwrap();
+        assert_eq!(set.rows[0].sigma_mm, Some([0.01, 0.02, 0.03]));
+        assert_eq!(set.rows[0].sigma_deg, Some([0.001, 0.002, 0.003]));
+
+        for (bad, col) in [
+            ("0,0.02,0.03", "sx"),
+            ("0.01,-1,0.03", "sy"),
+            ("0.01,0.02,-0", "sz"),
+        ] {
+            let t = format!("q1,q2,x,y,z,sx,sy,sz\n1,2,3,4,5,{bad}\n");
+            let e = err(&t, &opts2());
+            assert!(matches!(e, MeasurementError::InvalidField { .. }), "{e:?}");
+            assert_at(&e, 2, col, "is not positive");
+        }
+        let e = err("q1,q2,x,y,z,sx,sy,sz\n1,2,3,4,5,1,nan,1\n", &opts2());
+        assert!(matches!(e, MeasurementError::NonFinite { .. }), "{e:?}");
+
+        // Standard deviations without the values they belong to.
+        let e = err("q1,q2,sx,sy,sz\n1,2,1,1,1\n", &opts2().joints_only());
+        assert_at(&e, 1, "sx", "without the point columns");
+        let e = err("q1,q2,x,y,z,srx,sry,srz\n1,2,3,4,5,1,1,1\n", &opts2());
+        assert_at(&e, 1, "srx", "without orientation columns");
+    }
+
+    const TARGETS: &str = "# two poses, three reflectors\n\
+        id,target,q1,q2,x,y,z\n\
+        p1,A,10,20,1,2,3\n\
+        p1,B,10,20,4,5,6\n\
+        p2,A,11,21,7,8,9\n\
+        p1,C,10,20,0,0,0\n\
+        p2,B_2,11,21,1,1,1\n";
+
+    #[test]
+    fn rows_with_the_same_id_form_one_pose() {
+        let set = read_str(TARGETS, "m.csv", &opts2()).unwrap();
+        assert!(set.has_targets());
+        assert_eq!(set.targets(), vec!["A", "B", "C", "B_2"]);
+        assert_eq!(set.poses(), vec![vec![0, 1, 3], vec![2, 4]]);
+        assert_eq!(set.rows[1].target.as_deref(), Some("B"));
+        assert_eq!(set.rows[1].id.as_deref(), Some("p1"));
+        assert_eq!(set.rows[1].line, 4);
+        // Without a target column every row is a pose, whatever its id.
+        let plain = read_str(
+            "id,q1,q2,x,y,z\na,1,2,3,4,5\na,1,2,3,4,5\n",
+            "m.csv",
+            &opts2(),
+        )
+        .unwrap();
+        assert_eq!(plain.poses(), vec![vec![0], vec![1]]);
+        assert!(!plain.has_targets());
+    }
+
+    #[test]
+    fn target_errors_name_file_lines_and_column() {
+        let base = "id,target,q1,q2,x,y,z\np1,A,10,20,1,2,3\n";
+        // Joints that disagree within a pose.
+        let e = err(
+            &format!("{base}p2,A,0,0,0,0,0\np1,B,10,20.5,1,2,3\n"),
+            &opts2(),
+        );
+        assert!(
+            matches!(
+                e,
+                MeasurementError::PoseJointsDisagree { first_line: 2, .. }
+            ),
+            "{e:?}"
+        );
+        assert_at(&e, 4, "q2", "pose \"p1\" has 20.5 here but 20 on line 2");
+        // A target twice in one pose.
+        let e = err(
+            &format!("{base}p2,A,0,0,0,0,0\np1,A,10,20,1,2,3\n"),
+            &opts2(),
+        );
+        assert!(
+            matches!(e, MeasurementError::DuplicateTarget { .. }),
+            "{e:?}"
+        );
+        assert_at(
+            &e,
+            4,
+            "target",
+            "target \"A\" appears twice in pose \"p1\" (lines 2 and 4)",
+        );
+        // One reflector named two ways.
+        let e = err(&format!("{base}p2,a,0,0,0,0,0\n"), &opts2());
+        assert!(
+            matches!(e, MeasurementError::InconsistentTarget { .. }),
+            "{e:?}"
+        );
+        assert_at(
+            &e,
+            3,
+            "target",
+            "differs from target \"A\" (line 2) only in letter case",
+        );
+        // Bad names.
+        for (name, words) in [
+            ("", "is empty"),
+            ("a b", "not a simple name"),
+            ("tä", "not a simple name"),
+            ("-a", "does not start with"),
+            (".a", "does not start with"),
+        ] {
+            let e = err(&format!("{base}p2,{name},0,0,0,0,0\n"), &opts2());
+            assert!(matches!(e, MeasurementError::InvalidField { .. }), "{e:?}");
+            assert_at(&e, 3, "target", words);
+        }
+        // An empty id.
+        let e = err(&format!("{base},B,0,0,0,0,0\n"), &opts2());
+        assert_at(&e, 3, "id", "every row needs one");
+        // No id column.
+        let e = err("target,q1,q2,x,y,z\nA,1,2,3,4,5\n", &opts2());
+        assert!(
+            matches!(e, MeasurementError::ColumnConflict { .. }),
+            "{e:?}"
+        );
+        assert_at(&e, 1, "target", "needs an id column");
+        // Joints equal as numbers agree, whatever their spelling.
+        let ok = read_str(&format!("{base}p1,B,1e1,20.000,1,2,3\n"), "m.csv", &opts2()).unwrap();
+        assert_eq!(ok.poses(), vec![vec![0, 1]]);
+    }
+
+    #[test]
+    fn wrongly_cased_new_columns_get_the_hint() {
+        let set = read_str(
+            "q1,q2,x,y,z,QW,Target,SX\n1,2,3,4,5,1,A,1\n",
+            "m.csv",
+            &opts2(),
+        )
+        .unwrap();
+        assert_eq!(set.notices.len(), 3);
+        for n in &set.notices {
+            assert!(n.contains("case-sensitive"), "{n}");
+        }
+        assert_eq!(set.rows[0].orientation, None);
+    }
+}
