@@ -728,3 +728,166 @@ mod six_dof_and_targets {
         assert_eq!(set.rows[0].orientation, None);
     }
 }
+
+/// The vendored IPA series B with orientation (`data/ur10-ipa/`), checked against the raw
+/// published file and against the position-only conversion.
+mod ipa_series_b {
+    use measurements::{EulerConvention, ReadOptions, read_file, read_str, to_csv_string};
+    use std::path::{Path, PathBuf};
+
+    fn data(name: &str) -> PathBuf {
+        Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../../data/ur10-ipa")
+            .join(name)
+    }
+
+    fn opts() -> ReadOptions {
+        ReadOptions::new(6).with_limits_deg(vec![[-360.0, 360.0]; 6])
+    }
+
+    /// The raw file's rows: field name -> value (`;`-separated, `,` decimals, CRLF).
+    fn raw_rows() -> Vec<Vec<(String, f64)>> {
+        let text =
+            std::fs::read_to_string(data("raw/measurements_joint_configurations.csv")).unwrap();
+        let mut lines = text.lines();
+        let header: Vec<String> = lines
+            .next()
+            .unwrap()
+            .split(';')
+            .map(str::to_owned)
+            .collect();
+        lines
+            .map(|l| {
+                header
+                    .iter()
+                    .cloned()
+                    .zip(
+                        l.split(';')
+                            .map(|f| f.replace(',', ".").parse::<f64>().unwrap()),
+                    )
+                    .collect()
+            })
+            .collect()
+    }
+
+    fn get(row: &[(String, f64)], name: &str) -> f64 {
+        row.iter().find(|(n, _)| n == name).unwrap().1
+    }
+
+    #[test]
+    fn six_dof_file_reads_and_is_canonical() {
+        let path = data("series-b-6dof.csv");
+        let set = read_file(&path, &opts()).unwrap();
+        assert_eq!(set.rows.len(), 1495);
+        assert!(set.notices.is_empty(), "{:?}", set.notices);
+        assert!(set.has_points() && set.has_orientation() && !set.has_targets());
+        assert!(
+            set.rows
+                .iter()
+                .all(|r| r.sigma_mm.is_some() && r.sigma_deg.is_some())
+        );
+        assert_eq!(set.rows[0].id.as_deref(), Some("b0001"));
+        assert_eq!(set.rows[1494].id.as_deref(), Some("b1495"));
+        // The writer gives back the file's bytes after its comment lines.
+        let text = std::fs::read_to_string(&path).unwrap();
+        let body: String = text
+            .split_inclusive('\n')
+            .filter(|l| !l.starts_with('#'))
+            .collect();
+        assert_eq!(to_csv_string(&set, None).unwrap(), body);
+    }
+
+    /// Same poses, same order as the position-only file, which rounded degrees and
+    /// millimetres to 6 decimals (`%.6f`): joints and points agree within 5e-7.
+    #[test]
+    fn agrees_with_the_position_only_file() {
+        let six = read_file(&data("series-b-6dof.csv"), &opts()).unwrap();
+        let three = read_file(&data("series-b-joint-configurations.csv"), &opts()).unwrap();
+        assert_eq!(six.rows.len(), three.rows.len());
+        let (mut dq, mut dp) = (0.0f64, 0.0f64);
+        for (a, b) in six.rows.iter().zip(&three.rows) {
+            for (x, y) in a.q_deg.iter().zip(&b.q_deg) {
+                dq = dq.max((x - y).abs());
+            }
+            for (x, y) in a.point_mm.unwrap().iter().zip(&b.point_mm.unwrap()) {
+                dp = dp.max((x - y).abs());
+            }
+            // Rounded to 6 decimals, exactly.
+            for (x, y) in a.q_deg.iter().zip(&b.q_deg) {
+                assert_eq!(format!("{x:.6}"), format!("{y:.6}"), "line {}", a.line);
+            }
+        }
+        assert!(dq <= 5.0e-7 + 1e-12, "max joint difference {dq} deg");
+        assert!(dp <= 5.0e-7 + 1e-12, "max point difference {dp} mm");
+        assert!(
+            dq > 1e-7 && dp > 1e-7,
+            "the roundings are visible: {dq} {dp}"
+        );
+    }
+
+    /// The committed values against the raw file, converted again here (the Rust Euler
+    /// conversion against the script's own): joints, points, sigmas, the quaternion of
+    /// intrinsic XYZ and the propagated orientation sigmas.
+    #[test]
+    fn agrees_with_the_raw_file() {
+        let six = read_file(&data("series-b-6dof.csv"), &opts()).unwrap();
+        let raw = raw_rows();
+        assert_eq!(raw.len(), six.rows.len());
+        let xyz = EulerConvention::parse("XYZ").unwrap();
+        let joints = [
+            "shoulder_pan_joint",
+            "shoulder_lift_joint",
+            "elbow_joint",
+            "wrist_1_joint",
+            "wrist_2_joint",
+            "wrist_3_joint",
+        ];
+        for (r, m) in raw.iter().zip(&six.rows) {
+            for (j, name) in joints.iter().enumerate() {
+                assert!((get(r, name).to_degrees() - m.q_deg[j]).abs() < 1e-12);
+            }
+            let p = ["x", "y", "z"].map(|c| get(r, &format!("measurement_{c}")));
+            assert_eq!(m.point_mm, Some(p));
+            let s = ["x", "y", "z"].map(|c| get(r, &format!("measurement_std_{c}")));
+            assert_eq!(m.sigma_mm, Some(s));
+            let e = ["x", "y", "z"].map(|c| get(r, &format!("measurement_r{c}")));
+            let q = xyz.to_quaternion(e);
+            let got = m.orientation.unwrap();
+            assert!(
+                (0..4).all(|k| (q[k] - got[k]).abs() < 1e-15),
+                "line {}: {q:?} vs {got:?}",
+                m.line
+            );
+            // σ about the tracker axes: columns e_x, Rx(a)·e_y, Rx(a)·Ry(b)·e_z.
+            let se = ["x", "y", "z"].map(|c| get(r, &format!("measurement_std_r{c}")));
+            let (sa, ca) = e[0].to_radians().sin_cos();
+            let (sb, cb) = e[1].to_radians().sin_cos();
+            let cols = [[1.0, 0.0, 0.0], [0.0, ca, sa], [sb, -sa * cb, ca * cb]];
+            let sd = m.sigma_deg.unwrap();
+            for k in 0..3 {
+                let want = (0..3)
+                    .map(|j| (cols[j][k] * se[j]).powi(2))
+                    .sum::<f64>()
+                    .sqrt();
+                assert!((want - sd[k]).abs() < 1e-15, "line {}", m.line);
+            }
+        }
+    }
+
+    /// The same file with Euler columns reads to the same quaternions (the raw angles, given
+    /// to the reader as `rx,ry,rz` with `XYZ`).
+    #[test]
+    fn euler_form_reads_to_the_same_quaternions() {
+        let raw = raw_rows();
+        let mut text = String::from("q1,q2,q3,q4,q5,q6,x,y,z,rx,ry,rz\n");
+        for r in raw.iter().take(50) {
+            let e = ["x", "y", "z"].map(|c| get(r, &format!("measurement_r{c}")));
+            text.push_str(&format!("0,0,0,0,0,0,1,2,3,{},{},{}\n", e[0], e[1], e[2]));
+        }
+        let set = read_str(&text, "e.csv", &opts().with_euler("XYZ".parse().unwrap())).unwrap();
+        let six = read_file(&data("series-b-6dof.csv"), &opts()).unwrap();
+        for (a, b) in set.rows.iter().zip(&six.rows) {
+            assert_eq!(a.orientation, b.orientation);
+        }
+    }
+}
