@@ -1,4 +1,6 @@
-//! Reading and writing the kincal measurement file (`docs/model.md` §5).
+//! Reading and writing the kincal measurement file (`docs/model.md` §5): joint values and
+//! measured points, optionally the measured orientation, per-row standard deviations and
+//! several targets per pose.
 //!
 //! This is the only crate that parses or produces measurement CSV files. It knows nothing
 //! about kinematics and uses no randomness. It also provides [`write_atomically`], which every
@@ -27,7 +29,26 @@
 //!   * `x`, `y`, `z` — the measured point in the measurement (tracker) frame, **millimetres**;
 //!     required unless the caller reads the joints-only form ([`ReadOptions::require_points`]
 //!     `= false`), in which case they are read when present (all three or none).
-//!   * `id` — optional free-text pose label; an empty field means "no id".
+//!   * `id` — optional free-text pose label; an empty field means "no id". Required, and
+//!     non-empty on every row, with a `target` column.
+//!   * `qw`, `qx`, `qy`, `qz` — optional (all four or none): the orientation of the measured
+//!     frame in the measurement frame as a unit quaternion, scalar first (the columns of its
+//!     rotation matrix are the measured frame's axes in measurement coordinates). The norm
+//!     must be 1 within [`QUATERNION_NORM_TOLERANCE`] (10⁻⁶); values are kept as given.
+//!   * `rx`, `ry`, `rz` — optional (all three or none), instead of `qw…qz`: the orientation as
+//!     Euler angles in degrees, the first, second and third angle of the caller's convention
+//!     ([`ReadOptions::euler`], [`EulerConvention`]: `XYZ` intrinsic … `xyz` extrinsic, as
+//!     SciPy's `Rotation.from_euler`), converted to a quaternion on reading. Without a
+//!     convention such a file is an error; both forms in one file are an error.
+//!   * `sx`, `sy`, `sz` — optional standard deviations of `x, y, z` in millimetres;
+//!     `srx`, `sry`, `srz` — of the orientation in degrees, about the measurement axes (see
+//!     [`Measurement::sigma_deg`]). All three or none, positive, only with the values they
+//!     belong to.
+//!   * `target` — optional name of the target (reflector) measured: a simple name (ASCII
+//!     letters, digits, `_`, `-`, `.`). With it, the rows with the same `id` form one pose
+//!     ([`MeasurementSet::poses`]): their joint values must be equal, each target appears at
+//!     most once per pose, and no two target names differ only in letter case. Without it,
+//!     every row is a pose.
 //!   * Any other column is ignored and named in [`MeasurementSet::notices`]. A column that looks
 //!     like a joint (`q` followed by digits) but is not one of `q1`…`qN` is not "unknown": it
 //!     means the file is for a different robot and is a [`MeasurementError::JointCountMismatch`].
@@ -42,7 +63,9 @@
 //! failure aborts and no partial set is returned.
 //!
 //! Writing ([`to_csv_string`], [`write_file`]) produces the header `id,q1,…,qN,x,y,z` (`id`
-//! only if some row has one, `x,y,z` only if the rows have points) and formats numbers with
+//! only if some row has one, `x,y,z` only if the rows have points; `target` after `id`, and
+//! `qw,qx,qy,qz`, `sx,sy,sz`, `srx,sry,srz` after `z`, when the rows have them — orientations
+//! always as quaternions) and formats numbers with
 //! Rust's shortest round-trip `{}` formatting, so files are byte-deterministic and reading
 //! them back gives bit-identical values (including `-0`).
 //!
@@ -63,6 +86,26 @@
 //! let bad = "q1,q2,x,y,z\n1,abc,3,4,5\n";
 //! let err = read_str(bad, "poses.csv", &opts).unwrap_err();
 //! assert_eq!(err.to_string(), r#"poses.csv:2: column "q2": "abc" is not a number"#);
+//! # Ok::<(), measurements::MeasurementError>(())
+//! ```
+//!
+//! Several targets per pose, and Euler angles:
+//!
+//! ```
+//! use measurements::{read_str, EulerConvention, ReadOptions};
+//!
+//! let text = "id,target,q1,x,y,z\np1,A,10,1,2,3\np1,B,10,4,5,6\np2,A,20,7,8,9\n";
+//! let set = read_str(text, "t.csv", &ReadOptions::new(1))?;
+//! assert_eq!(set.poses(), vec![vec![0, 1], vec![2]]);
+//!
+//! let text = "q1,x,y,z,rx,ry,rz\n10,1,2,3,0,0,90\n";
+//! let err = read_str(text, "e.csv", &ReadOptions::new(1)).unwrap_err();
+//! assert!(err.to_string().contains("ReadOptions::euler"));
+//! let xyz: EulerConvention = "XYZ".parse().unwrap();
+//! let set = read_str(text, "e.csv", &ReadOptions::new(1).with_euler(xyz))?;
+//! let h = 0.5f64.sqrt();
+//! let q = set.rows[0].orientation.unwrap(); // 90° about z
+//! assert!((q[0] - h).abs() < 1e-15 && (q[3] - h).abs() < 1e-15);
 //! # Ok::<(), measurements::MeasurementError>(())
 //! ```
 

@@ -891,3 +891,43 @@ mod ipa_series_b {
         }
     }
 }
+
+/// The example files of `docs/model.md` §5 read as the text says.
+mod docs_examples {
+    use measurements::{ReadOptions, read_str};
+
+    #[test]
+    fn model_md_section_5_examples_read() {
+        let md =
+            std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../../docs/model.md"))
+                .unwrap();
+        let start = md
+            .find("# two poses of a 6-DoF probe")
+            .expect("the §5 example block");
+        let block = &md[start..start + md[start..].find("```").unwrap()];
+        let files: Vec<&str> = block.split("\n\n").collect();
+        assert_eq!(files.len(), 3);
+        let opts = ReadOptions::new(6).with_limits_deg(vec![[-360.0, 360.0]; 6]);
+
+        let quat = read_str(files[0], "quat.csv", &opts).unwrap();
+        assert!(quat.has_orientation() && quat.notices.is_empty());
+        assert!(quat.rows.iter().all(|r| r.sigma_deg.is_some()));
+
+        let euler = read_str(
+            files[1],
+            "euler.csv",
+            &opts.clone().with_euler("XYZ".parse().unwrap()),
+        )
+        .unwrap();
+        let (a, b) = (
+            euler.rows[0].orientation.unwrap(),
+            quat.rows[0].orientation.unwrap(),
+        );
+        assert!((0..4).all(|k| (a[k] - b[k]).abs() < 1e-8), "{a:?} {b:?}");
+        assert!(read_str(files[1], "euler.csv", &opts).is_err());
+
+        let targets = read_str(files[2], "targets.csv", &opts).unwrap();
+        assert_eq!(targets.poses(), vec![vec![0, 1, 2], vec![3, 4]]);
+        assert_eq!(targets.targets(), vec!["A", "B", "C"]);
+    }
+}
