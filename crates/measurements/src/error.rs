@@ -201,7 +201,8 @@ pub enum MeasurementError {
     /// The quaternion `qw,qx,qy,qz` of a row is not of unit norm within
     /// [`QUATERNION_NORM_TOLERANCE`](crate::QUATERNION_NORM_TOLERANCE).
     #[error(
-        "{file}:{line}: column \"{column}\": the quaternion (qw,qx,qy,qz) has norm {norm}, not 1 (|norm - 1| must be at most {tolerance})"
+        "{file}:{line}: column \"{column}\": the quaternion (qw,qx,qy,qz) has norm {}, not 1 (|norm - 1| must be at most {tolerance})",
+        short(*.norm)
     )]
     NotUnitQuaternion {
         /// File path or label.
@@ -233,7 +234,8 @@ pub enum MeasurementError {
     /// Two rows of one pose (same `id` in a file with a `target` column) disagree in a joint
     /// value.
     #[error(
-        "{file}:{line}: column \"{column}\": pose \"{id}\" has {value} here but {first_value} on line {first_line}; rows with the same id are one pose and must have the same joint values"
+        "{file}:{line}: column \"{column}\": pose \"{id}\" has {} here but {} on line {first_line}; rows with the same id are one pose and must have the same joint values",
+        short(*.value), short(*.first_value)
     )]
     PoseJointsDisagree {
         /// File path or label.
@@ -399,6 +401,17 @@ fn describe_joint_columns(found: &[String]) -> String {
         "none".to_owned()
     } else {
         found.join(", ")
+    }
+}
+
+/// A number for a message: Rust's shortest form, in exponent notation when that would be long
+/// (`1e308`, not 309 digits).
+pub(crate) fn short(v: f64) -> String {
+    let a = v.abs();
+    if a != 0.0 && !(1e-6..1e15).contains(&a) {
+        format!("{v:e}")
+    } else {
+        format!("{v}")
     }
 }
 

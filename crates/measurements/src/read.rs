@@ -3,6 +3,7 @@
 
 use std::path::Path;
 
+use crate::error::short;
 use crate::{
     Measurement, MeasurementError, MeasurementSet, QUATERNION_NORM_TOLERANCE, ReadOptions,
 };
@@ -400,7 +401,7 @@ fn parse_row(
                 if v <= 0.0 {
                     return Err(invalid(
                         name,
-                        format!("standard deviation {v} is not positive"),
+                        format!("standard deviation {} is not positive", short(v)),
                     ));
                 }
                 if matches!(role, Role::SigmaMm(_)) {
@@ -542,8 +543,8 @@ impl PoseProblem {
                     "pose {:?}: q{} is {} here but {} in row {} (rows with the same id are one pose)",
                     id(row),
                     joint + 1,
-                    rows[row].q_deg[joint],
-                    rows[first].q_deg[joint],
+                    short(rows[row].q_deg[joint]),
+                    short(rows[first].q_deg[joint]),
                     first + 1
                 ),
             ),

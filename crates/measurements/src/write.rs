@@ -6,6 +6,7 @@ use std::io::{self, Write as _};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
 
+use crate::error::short;
 use crate::read::{check_poses, target_problem};
 use crate::{MeasurementError, MeasurementSet, QUATERNION_NORM_TOLERANCE};
 
@@ -249,7 +250,10 @@ fn format_set(
             if name.starts_with('s') && *v <= 0.0 {
                 return Err(unwritable(
                     row,
-                    format!("column \"{name}\": standard deviation {v} is not positive"),
+                    format!(
+                        "column \"{name}\": standard deviation {} is not positive",
+                        short(*v)
+                    ),
                 ));
             }
         }
@@ -258,7 +262,7 @@ fn format_set(
             if (norm - 1.0).abs() > QUATERNION_NORM_TOLERANCE {
                 return Err(unwritable(
                     row,
-                    format!("the orientation quaternion has norm {norm}, not 1"),
+                    format!("the orientation quaternion has norm {}, not 1", short(norm)),
                 ));
             }
         }

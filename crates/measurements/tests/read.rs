@@ -4,6 +4,8 @@ use std::path::PathBuf;
 
 use measurements::{MeasurementError, ReadOptions, read_file, read_str};
 
+mod mutate;
+
 const HEADER6: &str = "q1,q2,q3,q4,q5,q6,x,y,z";
 const ROW6: &str = "1,2,3,4,5,6,100,200,300";
 
@@ -929,5 +931,110 @@ mod docs_examples {
         let targets = read_str(files[2], "targets.csv", &opts).unwrap();
         assert_eq!(targets.poses(), vec![vec![0, 1, 2], vec![3, 4]]);
         assert_eq!(targets.targets(), vec!["A", "B", "C"]);
+    }
+}
+
+/// Mutation fuzzing (as `fuzz.rs`) of files with the new columns: no panic, every rejection
+/// names the file and its line, and whatever is accepted writes back and reads identically.
+mod fuzz_new_columns {
+    use std::cell::RefCell;
+
+    use measurements::{ReadOptions, read_str, to_csv_string};
+    use proptest::test_runner::TestRunner;
+
+    use crate::mutate::{self, Tally, apply, mutations};
+
+    const QUAT: &str = "# targets and a probe\n\
+        id,target,q1,q2,q3,x,y,z,qw,qx,qy,qz,sx,sy,sz,srx,sry,srz\n\
+        p1,A,10,20,30,1.5,2.5,3.5,0.5,0.5,0.5,0.5,0.01,0.02,0.03,0.001,0.002,0.003\n\
+        p1,B,10,20,30,4,5,6,0.5,0.5,0.5,0.5,0.01,0.02,0.03,0.001,0.002,0.003\n\
+        p2,A,-1,-2.25,3e1,7,8,9,1,0,0,0,0.5,0.5,0.5,0.1,0.1,0.1\n\
+        p2,C_1,-1,-2.25,3e1,7,8,9,0.7071067811865476,0,0,0.7071067811865476,0.5,0.5,0.5,0.1,0.1,0.1\n";
+    const EULER: &str = "id,target,q1,q2,q3,x,y,z,rx,ry,rz,srx,sry,srz\n\
+        p1,A,10,20,30,1.5,2.5,3.5,10,20,30,0.001,0.002,0.003\n\
+        p1,B,10,20,30,4,5,6,-170,80,15.5,0.001,0.002,0.003\n\
+        p2,A,-1,-2,3,7,8,9,0,0,0,0.1,0.1,0.1\n";
+
+    fn read(bytes: &[u8], opts: &ReadOptions) -> Result<(), String> {
+        let Ok(text) = std::str::from_utf8(bytes) else {
+            return Err("not UTF-8".to_owned());
+        };
+        match read_str(text, "f.csv", opts) {
+            // An empty set writes as a bare joint header (the writer cannot know the rest).
+            Ok(set) if set.rows.is_empty() => Ok(()),
+            Ok(set) => {
+                // The reader takes ids the writer refuses (quotes; as before the new columns).
+                let out = match to_csv_string(&set, None) {
+                    Ok(out) => out,
+                    Err(e) if e.to_string().contains(": id \"") => return Ok(()),
+                    Err(e) => return Err(format!("BAD unwritable: {e}")),
+                };
+                let back = read_str(&out, "f.csv", opts)
+                    .map_err(|e| format!("BAD written file does not read: {e}"))?;
+                if back.rows.iter().zip(&set.rows).any(|(a, b)| {
+                    (
+                        a.id.as_ref(),
+                        &a.target,
+                        &a.q_deg,
+                        a.point_mm,
+                        a.orientation,
+                        a.sigma_mm,
+                        a.sigma_deg,
+                    ) != (
+                        b.id.as_ref(),
+                        &b.target,
+                        &b.q_deg,
+                        b.point_mm,
+                        b.orientation,
+                        b.sigma_mm,
+                        b.sigma_deg,
+                    )
+                }) || back.poses() != set.poses()
+                {
+                    return Err("BAD round trip differs".to_owned());
+                }
+                Ok(())
+            }
+            Err(e) => {
+                let msg = e.to_string();
+                if e.file() != "f.csv" || !msg.starts_with("f.csv") {
+                    return Err(format!("BAD does not name the file: {msg}"));
+                }
+                if let Some(l) = e.line()
+                    && !msg.starts_with(&format!("f.csv:{l}:"))
+                {
+                    return Err(format!("BAD line {l} not in the message: {msg}"));
+                }
+                if msg.contains("00000000000000000000000000000000") {
+                    return Err(format!("BAD a number written out in full: {msg}"));
+                }
+                Err(msg)
+            }
+        }
+    }
+
+    #[test]
+    fn mutated_files_with_new_columns_are_read_or_refused_clearly() {
+        let opts = ReadOptions::new(3).with_euler("XYZ".parse().unwrap());
+        for seed in [QUAT, EULER] {
+            read(seed.as_bytes(), &opts).expect("the seed is valid");
+            let tally = RefCell::new(Tally::default());
+            let mut runner = TestRunner::new(mutate::config(1500));
+            runner
+                .run(&mutations(), |muts| {
+                    let input = apply(seed.as_bytes(), &muts);
+                    let i = input.clone();
+                    let o = opts.clone();
+                    tally.borrow_mut().case(
+                        &input,
+                        move || read(&i, &o),
+                        |msg| msg.starts_with("BAD").then(|| msg.to_string()),
+                    )
+                })
+                .unwrap();
+            let t = tally.into_inner();
+            eprintln!("new columns fuzz: {t:?}");
+            assert!(t.rejected > t.cases / 4 && t.accepted > 0, "{t:?}");
+        }
     }
 }
