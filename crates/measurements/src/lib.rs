@@ -303,7 +303,9 @@ pub struct ReadOptions {
     /// (`q1…qN` and optionally `id`) is accepted; `x, y, z` are still read if all present.
     pub require_points: bool,
     /// Minimum number of data rows, typically the number of free parameters to identify
-    /// divided by 3; fewer is an error ([`MeasurementError::TooFewRows`]).
+    /// divided by the equations per row (3 for a point; a row with an orientation gives 6);
+    /// fewer is an error ([`MeasurementError::TooFewRows`]). Rows, not poses: with targets
+    /// each row counts.
     pub min_rows: usize,
     /// The convention of Euler-angle columns `rx,ry,rz`, if the file may have them; a file
     /// with them and no convention is an error ([`MeasurementError::EulerConventionMissing`]).
