@@ -45,6 +45,7 @@ pub fn predict(robot: &LoadedRobot, joints: &Path, out_label: &str) -> Result<Pr
             id: r.id.clone(),
             q_deg: r.q_deg.clone(),
             point_mm: Some([p.x, p.y, p.z]),
+            ..Default::default()
         });
     }
     let n = rows.len();
@@ -175,6 +176,7 @@ pub fn compensate_targets(
                     id: Some(r.id.clone().unwrap_or_else(|| format!("L{}", r.line))),
                     q_deg,
                     point_mm: Some([target.x, target.y, target.z]),
+                    ..Default::default()
                 });
             }
             Err(e) => unreachable.push(format!(

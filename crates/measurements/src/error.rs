@@ -169,6 +169,126 @@ pub enum MeasurementError {
         reason: String,
     },
 
+    /// The header's columns contradict each other or the options: both quaternion and Euler
+    /// orientation columns, standard deviations without the values they belong to, a `target`
+    /// column without an `id` column.
+    #[error("{file}:{line}: column \"{column}\": {reason}")]
+    ColumnConflict {
+        /// File path or label.
+        file: String,
+        /// Line of the header.
+        line: usize,
+        /// The column the conflict is reported at.
+        column: String,
+        /// What is wrong and how to fix it.
+        reason: String,
+    },
+
+    /// The file has Euler-angle columns `rx,ry,rz` but the caller gave no convention
+    /// ([`ReadOptions::euler`](crate::ReadOptions::euler)).
+    #[error(
+        "{file}:{line}: column \"{column}\": Euler angles rx,ry,rz need a convention, and none was given: set ReadOptions::euler (ReadOptions::with_euler, e.g. \"XYZ\" for intrinsic X-Y-Z, \"xyz\" for extrinsic), or give the orientation as a quaternion qw,qx,qy,qz"
+    )]
+    EulerConventionMissing {
+        /// File path or label.
+        file: String,
+        /// Line of the header.
+        line: usize,
+        /// The first Euler column in the header.
+        column: String,
+    },
+
+    /// The quaternion `qw,qx,qy,qz` of a row is not of unit norm within
+    /// [`QUATERNION_NORM_TOLERANCE`](crate::QUATERNION_NORM_TOLERANCE).
+    #[error(
+        "{file}:{line}: column \"{column}\": the quaternion (qw,qx,qy,qz) has norm {}, not 1 (|norm - 1| must be at most {tolerance})",
+        short(*.norm)
+    )]
+    NotUnitQuaternion {
+        /// File path or label.
+        file: String,
+        /// Line of the row.
+        line: usize,
+        /// Column name (`qw`).
+        column: String,
+        /// The norm found.
+        norm: f64,
+        /// The tolerance applied.
+        tolerance: f64,
+    },
+
+    /// A field holds a value this column does not accept: a standard deviation that is not
+    /// positive, an invalid target name, an empty id where a `target` column needs one.
+    #[error("{file}:{line}: column \"{column}\": {reason}")]
+    InvalidField {
+        /// File path or label.
+        file: String,
+        /// Line of the row.
+        line: usize,
+        /// Column name.
+        column: String,
+        /// What is wrong.
+        reason: String,
+    },
+
+    /// Two rows of one pose (same `id` in a file with a `target` column) disagree in a joint
+    /// value.
+    #[error(
+        "{file}:{line}: column \"{column}\": pose \"{id}\" has {} here but {} on line {first_line}; rows with the same id are one pose and must have the same joint values",
+        short(*.value), short(*.first_value)
+    )]
+    PoseJointsDisagree {
+        /// File path or label.
+        file: String,
+        /// Line of the disagreeing row.
+        line: usize,
+        /// The pose's first row.
+        first_line: usize,
+        /// The pose id.
+        id: String,
+        /// The first joint column that disagrees.
+        column: String,
+        /// Its value on `line`, degrees.
+        value: f64,
+        /// Its value on `first_line`, degrees.
+        first_value: f64,
+    },
+
+    /// A target is named twice in one pose.
+    #[error(
+        "{file}:{line}: column \"target\": target \"{target}\" appears twice in pose \"{id}\" (lines {first_line} and {line})"
+    )]
+    DuplicateTarget {
+        /// File path or label.
+        file: String,
+        /// Line of the second occurrence.
+        line: usize,
+        /// Line of the first occurrence.
+        first_line: usize,
+        /// The pose id.
+        id: String,
+        /// The target name.
+        target: String,
+    },
+
+    /// A target name differs from an earlier one only in letter case (`T1` and `t1`): one
+    /// reflector named two ways, or two reflectors named too alike.
+    #[error(
+        "{file}:{line}: column \"target\": target \"{target}\" differs from target \"{earlier}\" (line {first_line}) only in letter case; name each reflector one way"
+    )]
+    InconsistentTarget {
+        /// File path or label.
+        file: String,
+        /// Line of this name.
+        line: usize,
+        /// Line where the earlier spelling appears first.
+        first_line: usize,
+        /// The name on `line`.
+        target: String,
+        /// The earlier spelling.
+        earlier: String,
+    },
+
     /// A set cannot be written as a valid measurement file (the result would not read back
     /// identically).
     #[error("{file}: cannot write row {row}: {reason}")]
@@ -199,7 +319,14 @@ impl MeasurementError {
             | Self::JointOutOfLimits { file, .. }
             | Self::TooFewRows { file, .. }
             | Self::InvalidOptions { file, .. }
-            | Self::Unwritable { file, .. } => file,
+            | Self::Unwritable { file, .. }
+            | Self::ColumnConflict { file, .. }
+            | Self::EulerConventionMissing { file, .. }
+            | Self::NotUnitQuaternion { file, .. }
+            | Self::InvalidField { file, .. }
+            | Self::PoseJointsDisagree { file, .. }
+            | Self::DuplicateTarget { file, .. }
+            | Self::InconsistentTarget { file, .. } => file,
         }
     }
 
@@ -213,7 +340,14 @@ impl MeasurementError {
             | Self::NotANumber { line, .. }
             | Self::NonFinite { line, .. }
             | Self::RaggedRow { line, .. }
-            | Self::JointOutOfLimits { line, .. } => Some(*line),
+            | Self::JointOutOfLimits { line, .. }
+            | Self::ColumnConflict { line, .. }
+            | Self::EulerConventionMissing { line, .. }
+            | Self::NotUnitQuaternion { line, .. }
+            | Self::InvalidField { line, .. }
+            | Self::PoseJointsDisagree { line, .. }
+            | Self::DuplicateTarget { line, .. }
+            | Self::InconsistentTarget { line, .. } => Some(*line),
             _ => None,
         }
     }
@@ -226,7 +360,13 @@ impl MeasurementError {
             | Self::JointCountMismatch { column, .. }
             | Self::NotANumber { column, .. }
             | Self::NonFinite { column, .. }
-            | Self::JointOutOfLimits { column, .. } => Some(column),
+            | Self::JointOutOfLimits { column, .. }
+            | Self::ColumnConflict { column, .. }
+            | Self::EulerConventionMissing { column, .. }
+            | Self::NotUnitQuaternion { column, .. }
+            | Self::InvalidField { column, .. }
+            | Self::PoseJointsDisagree { column, .. } => Some(column),
+            Self::DuplicateTarget { .. } | Self::InconsistentTarget { .. } => Some("target"),
             Self::RaggedRow {
                 first_missing_column,
                 ..
@@ -234,6 +374,18 @@ impl MeasurementError {
             _ => None,
         }
     }
+}
+
+/// An unusable Euler-angle convention name ([`EulerConvention::parse`](crate::EulerConvention::parse)).
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error(
+    "invalid Euler convention \"{text}\": {reason}; expected three axis letters, upper case for intrinsic (rotating) axes as in XYZ, ZYX, ZYZ, lower case for extrinsic (fixed) axes as in xyz, zyx, zyz, no axis twice in a row"
+)]
+pub struct EulerConventionError {
+    /// The text given.
+    pub text: String,
+    /// What is wrong with it.
+    pub reason: &'static str,
 }
 
 /// `q1..q5` if the columns are exactly `q1…qk`, else a comma-separated list.
@@ -249,6 +401,17 @@ fn describe_joint_columns(found: &[String]) -> String {
         "none".to_owned()
     } else {
         found.join(", ")
+    }
+}
+
+/// A number for a message: Rust's shortest form, in exponent notation when that would be long
+/// (`1e308`, not 309 digits).
+pub(crate) fn short(v: f64) -> String {
+    let a = v.abs();
+    if a != 0.0 && !(1e-6..1e15).contains(&a) {
+        format!("{v:e}")
+    } else {
+        format!("{v}")
     }
 }
 

@@ -1,4 +1,6 @@
-//! Reading and writing the kincal measurement file (`docs/model.md` §5).
+//! Reading and writing the kincal measurement file (`docs/model.md` §5): joint values and
+//! measured points, optionally the measured orientation, per-row standard deviations and
+//! several targets per pose.
 //!
 //! This is the only crate that parses or produces measurement CSV files. It knows nothing
 //! about kinematics and uses no randomness. It also provides [`write_atomically`], which every
@@ -27,7 +29,26 @@
 //!   * `x`, `y`, `z` — the measured point in the measurement (tracker) frame, **millimetres**;
 //!     required unless the caller reads the joints-only form ([`ReadOptions::require_points`]
 //!     `= false`), in which case they are read when present (all three or none).
-//!   * `id` — optional free-text pose label; an empty field means "no id".
+//!   * `id` — optional free-text pose label; an empty field means "no id". Required, and
+//!     non-empty on every row, with a `target` column.
+//!   * `qw`, `qx`, `qy`, `qz` — optional (all four or none): the orientation of the measured
+//!     frame in the measurement frame as a unit quaternion, scalar first (the columns of its
+//!     rotation matrix are the measured frame's axes in measurement coordinates). The norm
+//!     must be 1 within [`QUATERNION_NORM_TOLERANCE`] (10⁻⁶); values are kept as given.
+//!   * `rx`, `ry`, `rz` — optional (all three or none), instead of `qw…qz`: the orientation as
+//!     Euler angles in degrees, the first, second and third angle of the caller's convention
+//!     ([`ReadOptions::euler`], [`EulerConvention`]: `XYZ` intrinsic … `xyz` extrinsic, as
+//!     SciPy's `Rotation.from_euler`), converted to a quaternion on reading. Without a
+//!     convention such a file is an error; both forms in one file are an error.
+//!   * `sx`, `sy`, `sz` — optional standard deviations of `x, y, z` in millimetres;
+//!     `srx`, `sry`, `srz` — of the orientation in degrees, about the measurement axes (see
+//!     [`Measurement::sigma_deg`]). All three or none, positive, only with the values they
+//!     belong to.
+//!   * `target` — optional name of the target (reflector) measured: a simple name (ASCII
+//!     letters, digits, `_`, `-`, `.`). With it, the rows with the same `id` form one pose
+//!     ([`MeasurementSet::poses`]): their joint values must be equal, each target appears at
+//!     most once per pose, and no two target names differ only in letter case. Without it,
+//!     every row is a pose.
 //!   * Any other column is ignored and named in [`MeasurementSet::notices`]. A column that looks
 //!     like a joint (`q` followed by digits) but is not one of `q1`…`qN` is not "unknown": it
 //!     means the file is for a different robot and is a [`MeasurementError::JointCountMismatch`].
@@ -42,7 +63,9 @@
 //! failure aborts and no partial set is returned.
 //!
 //! Writing ([`to_csv_string`], [`write_file`]) produces the header `id,q1,…,qN,x,y,z` (`id`
-//! only if some row has one, `x,y,z` only if the rows have points) and formats numbers with
+//! only if some row has one, `x,y,z` only if the rows have points; `target` after `id`, and
+//! `qw,qx,qy,qz`, `sx,sy,sz`, `srx,sry,srz` after `z`, when the rows have them — orientations
+//! always as quaternions) and formats numbers with
 //! Rust's shortest round-trip `{}` formatting, so files are byte-deterministic and reading
 //! them back gives bit-identical values (including `-0`).
 //!
@@ -65,47 +88,119 @@
 //! assert_eq!(err.to_string(), r#"poses.csv:2: column "q2": "abc" is not a number"#);
 //! # Ok::<(), measurements::MeasurementError>(())
 //! ```
+//!
+//! Several targets per pose, and Euler angles:
+//!
+//! ```
+//! use measurements::{read_str, EulerConvention, ReadOptions};
+//!
+//! let text = "id,target,q1,x,y,z\np1,A,10,1,2,3\np1,B,10,4,5,6\np2,A,20,7,8,9\n";
+//! let set = read_str(text, "t.csv", &ReadOptions::new(1))?;
+//! assert_eq!(set.poses(), vec![vec![0, 1], vec![2]]);
+//!
+//! let text = "q1,x,y,z,rx,ry,rz\n10,1,2,3,0,0,90\n";
+//! let err = read_str(text, "e.csv", &ReadOptions::new(1)).unwrap_err();
+//! assert!(err.to_string().contains("ReadOptions::euler"));
+//! let xyz: EulerConvention = "XYZ".parse().unwrap();
+//! let set = read_str(text, "e.csv", &ReadOptions::new(1).with_euler(xyz))?;
+//! let h = 0.5f64.sqrt();
+//! let q = set.rows[0].orientation.unwrap(); // 90° about z
+//! assert!((q[0] - h).abs() < 1e-15 && (q[3] - h).abs() < 1e-15);
+//! # Ok::<(), measurements::MeasurementError>(())
+//! ```
 
 #![warn(missing_docs)]
 
 mod error;
 mod read;
+mod rotation;
 mod write;
 
-pub use error::MeasurementError;
+pub use error::{EulerConventionError, MeasurementError};
 pub use read::{read_file, read_str};
+pub use rotation::{
+    EulerConvention, QUATERNION_NORM_TOLERANCE, quaternion_product, quaternion_to_matrix,
+};
 pub use write::{to_csv_string, write_all_atomically, write_atomically, write_file};
 
-/// One measured pose: the commanded joint values and (usually) the measured point.
-#[derive(Debug, Clone, PartialEq)]
+/// One measured row: the commanded joint values and (usually) the measured point, optionally
+/// the measured orientation, standard deviations and the name of the target measured.
+///
+/// Rows are usually one pose each; with targets, rows with the same id are one pose
+/// ([`MeasurementSet::poses`]). Build rows not read from a file with [`Measurement::new`] and
+/// the `with_…` methods, or with `Measurement { q_deg, point_mm, ..Default::default() }`.
+#[derive(Debug, Clone, PartialEq, Default)]
 pub struct Measurement {
     /// Physical 1-based line of this row in the file it was read from; 0 if it was not read
     /// from a file (e.g. produced by a simulation).
     pub line: usize,
     /// Optional pose label from the `id` column (`None` if the column is absent or the field
-    /// is empty).
+    /// is empty). With targets, the rows of one pose share it.
     pub id: Option<String>,
     /// Joint values `q1…qN` in degrees, as the controller reports them.
     pub q_deg: Vec<f64>,
     /// Measured point `(x, y, z)` in millimetres in the measurement frame; `None` in the
     /// joints-only form.
     pub point_mm: Option<[f64; 3]>,
+    /// Name of the target (reflector) measured, from the `target` column; `None` if the file
+    /// has none (one target per pose).
+    pub target: Option<String>,
+    /// Measured orientation as a unit quaternion `[w, x, y, z]`, scalar first: the
+    /// orientation of the measured frame in the measurement frame (the columns of its
+    /// rotation matrix are the measured frame's axes in measurement coordinates). As given in
+    /// the file (`qw,qx,qy,qz`), not renormalised: its norm is within
+    /// [`QUATERNION_NORM_TOLERANCE`] of 1. Euler angles (`rx,ry,rz`) are converted on reading
+    /// ([`EulerConvention::to_quaternion`], `w ≥ 0`). `None` if the file has no orientation.
+    pub orientation: Option<[f64; 4]>,
+    /// Standard deviations of the point's `x, y, z` in millimetres (`sx,sy,sz`), positive;
+    /// `None` if not given.
+    pub sigma_mm: Option<[f64; 3]>,
+    /// Standard deviations of the orientation in degrees (`srx,sry,srz`), positive: those of
+    /// the components of the small rotation vector of the orientation error about the
+    /// measurement frame's x, y and z axes (`R_measured = exp([δ]×)·R_true`, σ of δx, δy, δz),
+    /// whatever form the orientation was given in. `None` if not given.
+    pub sigma_deg: Option<[f64; 3]>,
 }
 
 impl Measurement {
-    /// A measurement not read from a file (`line = 0`, no id).
+    /// A measurement not read from a file (`line = 0`, no id, no target, orientation or
+    /// standard deviations).
     pub fn new(q_deg: Vec<f64>, point_mm: Option<[f64; 3]>) -> Self {
         Self {
-            line: 0,
-            id: None,
             q_deg,
             point_mm,
+            ..Default::default()
         }
     }
 
     /// The same measurement with the given id.
     pub fn with_id(mut self, id: impl Into<String>) -> Self {
         self.id = Some(id.into());
+        self
+    }
+
+    /// The same measurement with the given target name.
+    pub fn with_target(mut self, target: impl Into<String>) -> Self {
+        self.target = Some(target.into());
+        self
+    }
+
+    /// The same measurement with the given orientation (unit quaternion `[w, x, y, z]`).
+    pub fn with_orientation(mut self, quaternion: [f64; 4]) -> Self {
+        self.orientation = Some(quaternion);
+        self
+    }
+
+    /// The same measurement with the given standard deviations of the point (mm).
+    pub fn with_sigma_mm(mut self, sigma_mm: [f64; 3]) -> Self {
+        self.sigma_mm = Some(sigma_mm);
+        self
+    }
+
+    /// The same measurement with the given standard deviations of the orientation (degrees,
+    /// about the measurement axes, see [`Measurement::sigma_deg`]).
+    pub fn with_sigma_deg(mut self, sigma_deg: [f64; 3]) -> Self {
+        self.sigma_deg = Some(sigma_deg);
         self
     }
 }
@@ -138,6 +233,62 @@ impl MeasurementSet {
     pub fn has_points(&self) -> bool {
         !self.rows.is_empty() && self.rows.iter().all(|r| r.point_mm.is_some())
     }
+
+    /// True if the set has at least one row and every row has a measured orientation.
+    pub fn has_orientation(&self) -> bool {
+        !self.rows.is_empty() && self.rows.iter().all(|r| r.orientation.is_some())
+    }
+
+    /// True if some row names a target (the set has a `target` column).
+    pub fn has_targets(&self) -> bool {
+        self.rows.iter().any(|r| r.target.is_some())
+    }
+
+    /// The distinct target names, in order of first appearance (empty without targets).
+    pub fn targets(&self) -> Vec<&str> {
+        let mut names: Vec<&str> = Vec::new();
+        for t in self.rows.iter().filter_map(|r| r.target.as_deref()) {
+            if !names.contains(&t) {
+                names.push(t);
+            }
+        }
+        names
+    }
+
+    /// The poses, each as the indices into [`rows`](Self::rows) of its rows, in file order.
+    ///
+    /// Without targets ([`has_targets`](Self::has_targets) false) every row is a pose of its
+    /// own. With targets, rows with the same [`id`](Measurement::id) form one pose (a row
+    /// without an id is a pose of its own); poses are ordered by their first row. The reader
+    /// guarantees that the rows of a pose share their joint values and name each target at
+    /// most once.
+    ///
+    /// ```
+    /// use measurements::{Measurement, MeasurementSet};
+    /// let row = |id: &str, t: &str| Measurement::new(vec![1.0], Some([0.0; 3])).with_id(id).with_target(t);
+    /// let set = MeasurementSet::new("mem", 1, vec![row("p1", "A"), row("p1", "B"), row("p2", "A")]);
+    /// assert_eq!(set.poses(), vec![vec![0, 1], vec![2]]);
+    /// ```
+    pub fn poses(&self) -> Vec<Vec<usize>> {
+        if !self.has_targets() {
+            return (0..self.rows.len()).map(|i| vec![i]).collect();
+        }
+        let mut first: std::collections::HashMap<&str, usize> = Default::default();
+        let mut poses: Vec<Vec<usize>> = Vec::new();
+        for (i, r) in self.rows.iter().enumerate() {
+            match r.id.as_deref() {
+                Some(id) => match first.get(id) {
+                    Some(&p) => poses[p].push(i),
+                    None => {
+                        first.insert(id, poses.len());
+                        poses.push(vec![i]);
+                    }
+                },
+                None => poses.push(vec![i]),
+            }
+        }
+        poses
+    }
 }
 
 /// What the caller expects of a measurement file.
@@ -152,8 +303,19 @@ pub struct ReadOptions {
     /// (`q1…qN` and optionally `id`) is accepted; `x, y, z` are still read if all present.
     pub require_points: bool,
     /// Minimum number of data rows, typically the number of free parameters to identify
-    /// divided by 3; fewer is an error ([`MeasurementError::TooFewRows`]).
+    /// divided by the equations per row (3 for a point; a row with an orientation gives 6);
+    /// fewer is an error ([`MeasurementError::TooFewRows`]). Rows, not poses: with targets
+    /// each row counts.
     pub min_rows: usize,
+    /// The convention of Euler-angle columns `rx,ry,rz`, if the file may have them; a file
+    /// with them and no convention is an error ([`MeasurementError::EulerConventionMissing`]).
+    /// Unused for files without Euler columns. The columns hold the sequence's first, second
+    /// and third angle, in degrees: a row's orientation is
+    /// [`EulerConvention::to_quaternion`]`([rx, ry, rz])`, as SciPy's
+    /// `Rotation.from_euler(convention, [rx, ry, rz], degrees=True)`. For `XYZ` and `xyz` these
+    /// are the angles about x, y and z; for other sequences they are not (with `ZYX`, `rx` is
+    /// the angle about z).
+    pub euler: Option<EulerConvention>,
 }
 
 impl ReadOptions {
@@ -164,6 +326,7 @@ impl ReadOptions {
             limits_deg: None,
             require_points: true,
             min_rows: 0,
+            euler: None,
         }
     }
 
@@ -182,6 +345,13 @@ impl ReadOptions {
     /// Require at least `min_rows` data rows.
     pub fn with_min_rows(mut self, min_rows: usize) -> Self {
         self.min_rows = min_rows;
+        self
+    }
+
+    /// Read Euler-angle columns `rx,ry,rz` (degrees) in this convention, e.g.
+    /// `"XYZ".parse()?` (intrinsic) or `"xyz".parse()?` (extrinsic).
+    pub fn with_euler(mut self, convention: EulerConvention) -> Self {
+        self.euler = Some(convention);
         self
     }
 }

@@ -3,7 +3,10 @@
 
 use std::path::Path;
 
-use crate::{Measurement, MeasurementError, MeasurementSet, ReadOptions};
+use crate::error::short;
+use crate::{
+    Measurement, MeasurementError, MeasurementSet, QUATERNION_NORM_TOLERANCE, ReadOptions,
+};
 
 /// Longest offending field text quoted in an error message.
 const MAX_QUOTED_CHARS: usize = 60;
@@ -58,6 +61,9 @@ pub fn read_str(
     for (line, text) in lines {
         rows.push(parse_row(source, line, text, &header, opts)?);
     }
+    if header.has_target {
+        check_poses(&rows).map_err(|p| p.into_error(source, &rows))?;
+    }
 
     if rows.len() < opts.min_rows {
         return Err(MeasurementError::TooFewRows {
@@ -111,14 +117,46 @@ enum Role {
     /// Point coordinate 0 = x, 1 = y, 2 = z.
     Point(usize),
     Id,
+    Target,
+    /// Quaternion component 0 = qw, 1 = qx, 2 = qy, 3 = qz.
+    Quat(usize),
+    /// Euler angle 0 = rx, 1 = ry, 2 = rz.
+    Euler(usize),
+    /// Point standard deviation 0 = sx, 1 = sy, 2 = sz.
+    SigmaMm(usize),
+    /// Orientation standard deviation 0 = srx, 1 = sry, 2 = srz.
+    SigmaDeg(usize),
     Ignored,
 }
+
+/// An optional group of columns: the role constructor and the names, in order.
+type Group = (fn(usize) -> Role, &'static [&'static str]);
+
+/// The optional groups of columns: the role constructor and the names, in order.
+const GROUPS: [Group; 5] = [
+    (Role::Point, &["x", "y", "z"]),
+    (Role::Quat, &["qw", "qx", "qy", "qz"]),
+    (Role::Euler, &["rx", "ry", "rz"]),
+    (Role::SigmaMm, &["sx", "sy", "sz"]),
+    (Role::SigmaDeg, &["srx", "sry", "srz"]),
+];
+
+/// Names of every column the reader knows besides the joints.
+const KNOWN: [&str; 18] = [
+    "id", "target", "x", "y", "z", "qw", "qx", "qy", "qz", "rx", "ry", "rz", "sx", "sy", "sz",
+    "srx", "sry", "srz",
+];
 
 struct Header {
     /// Trimmed column names, in file order.
     names: Vec<String>,
     roles: Vec<Role>,
     has_points: bool,
+    has_target: bool,
+    has_quat: bool,
+    has_euler: bool,
+    has_sigma_mm: bool,
+    has_sigma_deg: bool,
 }
 
 /// `Some(Ok(index))` for `q<digits>` (index parsed, may be 0 or out of range, `Err` if it
@@ -149,11 +187,13 @@ fn parse_header(
 
     for (k, name) in names.iter().enumerate() {
         let name = name.as_str();
-        let role = match name {
-            "id" => Role::Id,
-            "x" => Role::Point(0),
-            "y" => Role::Point(1),
-            "z" => Role::Point(2),
+        let group_role = GROUPS
+            .iter()
+            .find_map(|(role, names)| names.iter().position(|n| *n == name).map(role));
+        let role = match (name, group_role) {
+            (_, Some(role)) => role,
+            ("id", _) => Role::Id,
+            ("target", _) => Role::Target,
             _ => match joint_like(name) {
                 Some(parsed) => {
                     let idx = parsed.unwrap_or(usize::MAX);
@@ -216,22 +256,75 @@ fn parse_header(
         );
     }
 
-    let point_present: Vec<bool> = (0..3).map(|c| roles.contains(&Role::Point(c))).collect();
-    let any_point = point_present.iter().any(|&p| p);
-    if (opts.require_points || any_point)
-        && let Some(c) = point_present.iter().position(|p| !p)
-    {
-        return Err(MeasurementError::MissingColumn {
+    // Each optional group: all of its columns or none.
+    let mut present = [false; 5];
+    for (g, (role, group)) in GROUPS.iter().enumerate() {
+        let have: Vec<bool> = (0..group.len()).map(|c| roles.contains(&role(c))).collect();
+        present[g] = have.iter().any(|&p| p);
+        // The points are required unless the caller reads the joints-only form.
+        let required = g == 0 && opts.require_points;
+        if (required || present[g])
+            && let Some(c) = have.iter().position(|p| !p)
+        {
+            return Err(MeasurementError::MissingColumn {
+                file: source.to_owned(),
+                line,
+                column: group[c].to_owned(),
+            });
+        }
+    }
+    let [has_points, has_quat, has_euler, has_sigma_mm, has_sigma_deg] = present;
+    let has_target = roles.contains(&Role::Target);
+    let conflict = |column: &str, reason: &str| MeasurementError::ColumnConflict {
+        file: source.to_owned(),
+        line,
+        column: column.to_owned(),
+        reason: reason.to_owned(),
+    };
+    if has_quat && has_euler {
+        return Err(conflict(
+            "rx",
+            "the orientation is given both as a quaternion (qw,qx,qy,qz) and as Euler angles \
+             (rx,ry,rz); give one of the two",
+        ));
+    }
+    if has_euler && opts.euler.is_none() {
+        return Err(MeasurementError::EulerConventionMissing {
             file: source.to_owned(),
             line,
-            column: ["x", "y", "z"][c].to_owned(),
+            column: "rx".to_owned(),
         });
+    }
+    if has_sigma_mm && !has_points {
+        return Err(conflict(
+            "sx",
+            "standard deviations sx,sy,sz are given without the point columns x,y,z",
+        ));
+    }
+    if has_sigma_deg && !(has_quat || has_euler) {
+        return Err(conflict(
+            "srx",
+            "standard deviations srx,sry,srz are given without orientation columns \
+             (qw,qx,qy,qz or rx,ry,rz)",
+        ));
+    }
+    if has_target && !roles.contains(&Role::Id) {
+        return Err(conflict(
+            "target",
+            "a target column needs an id column: the rows with the same id are the targets \
+             measured at one pose",
+        ));
     }
 
     Ok(Header {
         names,
         roles,
-        has_points: any_point,
+        has_points,
+        has_target,
+        has_quat,
+        has_euler,
+        has_sigma_mm,
+        has_sigma_deg,
     })
 }
 
@@ -240,11 +333,7 @@ fn unknown_column_notice(source: &str, line: usize, field: usize, name: &str) ->
         return format!("{source}:{line}: ignored unnamed column (header field {field})");
     }
     let lower = name.to_lowercase();
-    let known = lower == "id"
-        || lower == "x"
-        || lower == "y"
-        || lower == "z"
-        || joint_like(&lower).is_some();
+    let known = KNOWN.contains(&lower.as_str()) || joint_like(&lower).is_some();
     let hint = if known {
         " (column names are case-sensitive, lower-case)"
     } else {
@@ -273,7 +362,18 @@ fn parse_row(
 
     let mut q_deg = vec![0.0; opts.n_joints];
     let mut point = [0.0; 3];
+    let mut quat = [0.0; 4];
+    let mut euler = [0.0; 3];
+    let mut sigma_mm = [0.0; 3];
+    let mut sigma_deg = [0.0; 3];
     let mut id = None;
+    let mut target = None;
+    let invalid = |column: &str, reason: String| MeasurementError::InvalidField {
+        file: source.to_owned(),
+        line,
+        column: column.to_owned(),
+        reason,
+    };
     for ((field, role), name) in fields.iter().zip(&header.roles).zip(&header.names) {
         match *role {
             Role::Joint(j) => {
@@ -294,16 +394,217 @@ fn parse_row(
                 q_deg[j] = v;
             }
             Role::Point(c) => point[c] = parse_number(source, line, name, field)?,
+            Role::Quat(c) => quat[c] = parse_number(source, line, name, field)?,
+            Role::Euler(c) => euler[c] = parse_number(source, line, name, field)?,
+            Role::SigmaMm(c) | Role::SigmaDeg(c) => {
+                let v = parse_number(source, line, name, field)?;
+                if v <= 0.0 {
+                    return Err(invalid(
+                        name,
+                        format!("standard deviation {} is not positive", short(v)),
+                    ));
+                }
+                if matches!(role, Role::SigmaMm(_)) {
+                    sigma_mm[c] = v;
+                } else {
+                    sigma_deg[c] = v;
+                }
+            }
             Role::Id => id = (!field.is_empty()).then(|| (*field).to_owned()),
+            Role::Target => {
+                if let Some(problem) = target_problem(field) {
+                    return Err(invalid(
+                        name,
+                        format!("target {:?} {problem}", shorten(field)),
+                    ));
+                }
+                target = Some((*field).to_owned());
+            }
             Role::Ignored => {}
         }
     }
+    if header.has_target && id.is_none() {
+        return Err(invalid(
+            "id",
+            "the id is empty, but with a target column every row needs one (the rows with the \
+             same id are one pose)"
+                .to_owned(),
+        ));
+    }
+    if header.has_quat {
+        let norm = quat.iter().map(|v| v * v).sum::<f64>().sqrt();
+        if (norm - 1.0).abs() > QUATERNION_NORM_TOLERANCE {
+            return Err(MeasurementError::NotUnitQuaternion {
+                file: source.to_owned(),
+                line,
+                column: "qw".to_owned(),
+                norm,
+                tolerance: QUATERNION_NORM_TOLERANCE,
+            });
+        }
+    }
+    let orientation = if header.has_quat {
+        Some(quat)
+    } else if header.has_euler {
+        // The header check guarantees a convention.
+        opts.euler.map(|c| c.to_quaternion(euler))
+    } else {
+        None
+    };
     Ok(Measurement {
         line,
         id,
         q_deg,
         point_mm: header.has_points.then_some(point),
+        target,
+        orientation,
+        sigma_mm: header.has_sigma_mm.then_some(sigma_mm),
+        sigma_deg: header.has_sigma_deg.then_some(sigma_deg),
     })
+}
+
+/// Why `name` is not a valid target name, if it is not: a target is named by a simple
+/// identifier, ASCII letters, digits, `_`, `-` and `.`, starting with a letter, digit or `_`.
+pub(crate) fn target_problem(name: &str) -> Option<&'static str> {
+    if name.is_empty() {
+        Some("is empty (every row of a file with a target column names its target)")
+    } else if !name
+        .bytes()
+        .all(|b| b.is_ascii_alphanumeric() || matches!(b, b'_' | b'-' | b'.'))
+    {
+        Some("is not a simple name (ASCII letters, digits, '_', '-' and '.' only)")
+    } else if !name
+        .bytes()
+        .next()
+        .is_some_and(|b| b.is_ascii_alphanumeric() || b == b'_')
+    {
+        Some("does not start with a letter, a digit or '_'")
+    } else {
+        None
+    }
+}
+
+/// A violation of the pose rules of a set with targets, by 0-based row index.
+pub(crate) enum PoseProblem {
+    /// Row `row` disagrees with the pose's first row `first` in joint `joint`.
+    Joints {
+        row: usize,
+        first: usize,
+        joint: usize,
+    },
+    /// Row `row` names the same target as row `first` of its pose.
+    DuplicateTarget { row: usize, first: usize },
+    /// Row `row` names a target that differs from row `first`'s only in case.
+    Inconsistent { row: usize, first: usize },
+}
+
+impl PoseProblem {
+    /// The reader's error for this problem.
+    fn into_error(self, source: &str, rows: &[Measurement]) -> MeasurementError {
+        let file = source.to_owned();
+        let id = |r: usize| rows[r].id.clone().unwrap_or_default();
+        let target = |r: usize| rows[r].target.clone().unwrap_or_default();
+        match self {
+            Self::Joints { row, first, joint } => MeasurementError::PoseJointsDisagree {
+                file,
+                line: rows[row].line,
+                first_line: rows[first].line,
+                id: id(row),
+                column: format!("q{}", joint + 1),
+                value: rows[row].q_deg[joint],
+                first_value: rows[first].q_deg[joint],
+            },
+            Self::DuplicateTarget { row, first } => MeasurementError::DuplicateTarget {
+                file,
+                line: rows[row].line,
+                first_line: rows[first].line,
+                id: id(row),
+                target: target(row),
+            },
+            Self::Inconsistent { row, first } => MeasurementError::InconsistentTarget {
+                file,
+                line: rows[row].line,
+                first_line: rows[first].line,
+                target: target(row),
+                earlier: target(first),
+            },
+        }
+    }
+
+    /// What is wrong, for the writer's [`MeasurementError::Unwritable`]: the row (1-based) and
+    /// the reason.
+    pub(crate) fn describe(&self, rows: &[Measurement]) -> (usize, String) {
+        let id = |r: usize| rows[r].id.clone().unwrap_or_default();
+        let target = |r: usize| rows[r].target.clone().unwrap_or_default();
+        match *self {
+            Self::Joints { row, first, joint } => (
+                row + 1,
+                format!(
+                    "pose {:?}: q{} is {} here but {} in row {} (rows with the same id are one pose)",
+                    id(row),
+                    joint + 1,
+                    short(rows[row].q_deg[joint]),
+                    short(rows[first].q_deg[joint]),
+                    first + 1
+                ),
+            ),
+            Self::DuplicateTarget { row, first } => (
+                row + 1,
+                format!(
+                    "target {:?} appears twice in pose {:?} (rows {} and {})",
+                    target(row),
+                    id(row),
+                    first + 1,
+                    row + 1
+                ),
+            ),
+            Self::Inconsistent { row, first } => (
+                row + 1,
+                format!(
+                    "target {:?} differs from target {:?} (row {}) only in letter case",
+                    target(row),
+                    target(first),
+                    first + 1
+                ),
+            ),
+        }
+    }
+}
+
+/// The pose rules of a set with targets: a target name is spelled one way throughout (no
+/// two names equal but for letter case); rows with the same id (one pose) have equal joint
+/// values (`==`) and name each target at most once. Rows without an id are poses of their own.
+pub(crate) fn check_poses(rows: &[Measurement]) -> Result<(), PoseProblem> {
+    use std::collections::HashMap;
+    // Lower-cased target name -> first row naming it.
+    let mut spelled: HashMap<String, usize> = HashMap::new();
+    // Pose id -> its rows.
+    let mut poses: HashMap<&str, Vec<usize>> = HashMap::new();
+    for (row, r) in rows.iter().enumerate() {
+        if let Some(t) = &r.target {
+            let first = *spelled.entry(t.to_ascii_lowercase()).or_insert(row);
+            if rows[first].target.as_deref() != Some(t.as_str()) {
+                return Err(PoseProblem::Inconsistent { row, first });
+            }
+        }
+        let Some(id) = r.id.as_deref() else { continue };
+        let members = poses.entry(id).or_default();
+        if let Some(&first) = members.first() {
+            if let Some(joint) = (0..r.q_deg.len().min(rows[first].q_deg.len()))
+                .find(|&j| r.q_deg[j] != rows[first].q_deg[j])
+            {
+                return Err(PoseProblem::Joints { row, first, joint });
+            }
+            if let Some(&other) = members
+                .iter()
+                .find(|&&m| r.target.is_some() && rows[m].target == r.target)
+            {
+                return Err(PoseProblem::DuplicateTarget { row, first: other });
+            }
+        }
+        members.push(row);
+    }
+    Ok(())
 }
 
 fn parse_number(

@@ -6,20 +6,29 @@ use std::io::{self, Write as _};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
 
-use crate::{MeasurementError, MeasurementSet};
+use crate::error::short;
+use crate::read::{check_poses, target_problem};
+use crate::{MeasurementError, MeasurementSet, QUATERNION_NORM_TOLERANCE};
 
 /// Format `set` as a measurement file (`docs/model.md` §5).
 ///
 /// Layout: the optional `header_comment`, each of its lines prefixed with `# `; then the header
-/// `id,q1,…,qN,x,y,z`, where `id` appears only if some row has an id (rows without one get an
-/// empty field) and `x,y,z` only if the rows have points; then one line per row, all lines
-/// ending in `\n`. Numbers use Rust's shortest round-trip `{}` formatting, so the output is
-/// byte-deterministic and [`read_str`](crate::read_str) gives back bit-identical values.
+/// `id,target,q1,…,qN,x,y,z,qw,qx,qy,qz,sx,sy,sz,srx,sry,srz`, where `id` appears only if some
+/// row has an id (rows without one get an empty field) and each other optional group only if
+/// the rows have it (`target`, the point, the orientation as a quaternion, `sigma_mm`,
+/// `sigma_deg`); then one line per row, all lines ending in `\n`. Numbers use Rust's shortest
+/// round-trip `{}` formatting, so the output is byte-deterministic and
+/// [`read_str`](crate::read_str) gives back bit-identical values. A file without the new
+/// optional fields is written exactly as before they existed.
 ///
 /// Errors ([`MeasurementError::Unwritable`], naming `set.source`) if the set could not be read
 /// back identically: a row with the wrong number of joints, a NaN or infinite value, some rows
-/// with points and some without, or an id that is empty, has surrounding whitespace, starts
-/// with `#`, or contains a comma, quote or control character.
+/// with an optional group (point, target, orientation, `sigma_mm`, `sigma_deg`) and some
+/// without, standard deviations without their values or not positive, a quaternion whose norm
+/// is off 1 by more than [`QUATERNION_NORM_TOLERANCE`], an id that is empty, has surrounding
+/// whitespace, starts with `#`, or contains a comma, quote or control character, a target that
+/// is not a simple name, targets without ids, or poses that break the rules of
+/// [`MeasurementSet::poses`](crate::MeasurementSet::poses).
 pub fn to_csv_string(
     set: &MeasurementSet,
     header_comment: Option<&str>,
@@ -174,8 +183,25 @@ fn format_set(
     if n == 0 {
         return Err(unwritable(0, "the set has n_joints = 0".to_owned()));
     }
-    let with_points = set.rows.first().is_some_and(|r| r.point_mm.is_some());
+    let first = set.rows.first();
+    let with_points = first.is_some_and(|r| r.point_mm.is_some());
+    let with_target = first.is_some_and(|r| r.target.is_some());
+    let with_orientation = first.is_some_and(|r| r.orientation.is_some());
+    let with_sigma_mm = first.is_some_and(|r| r.sigma_mm.is_some());
+    let with_sigma_deg = first.is_some_and(|r| r.sigma_deg.is_some());
     let with_id = set.rows.iter().any(|r| r.id.is_some());
+    if with_sigma_mm && !with_points {
+        return Err(unwritable(
+            1,
+            "sigma_mm is given without a point".to_owned(),
+        ));
+    }
+    if with_sigma_deg && !with_orientation {
+        return Err(unwritable(
+            1,
+            "sigma_deg is given without an orientation".to_owned(),
+        ));
+    }
 
     for (i, r) in set.rows.iter().enumerate() {
         let row = i + 1;
@@ -185,24 +211,82 @@ fn format_set(
                 format!("{} joint values for a {n}-joint set", r.q_deg.len()),
             ));
         }
-        if r.point_mm.is_some() != with_points {
-            return Err(unwritable(
-                row,
-                "some rows have a measured point and some do not".to_owned(),
-            ));
+        for (has, with, what) in [
+            (r.point_mm.is_some(), with_points, "a measured point"),
+            (r.target.is_some(), with_target, "a target"),
+            (r.orientation.is_some(), with_orientation, "an orientation"),
+            (r.sigma_mm.is_some(), with_sigma_mm, "sigma_mm"),
+            (r.sigma_deg.is_some(), with_sigma_deg, "sigma_deg"),
+        ] {
+            if has != with {
+                return Err(unwritable(
+                    row,
+                    format!("some rows have {what} and some do not"),
+                ));
+            }
         }
-        let names = (1..=n)
-            .map(|j| format!("q{j}"))
-            .chain(["x", "y", "z"].map(String::from));
-        let values = r.q_deg.iter().chain(r.point_mm.iter().flatten());
-        if let Some((name, v)) = names.zip(values).find(|(_, v)| !v.is_finite()) {
-            return Err(unwritable(row, format!("column \"{name}\" is {v}")));
+        let values = r
+            .q_deg
+            .iter()
+            .zip((1..=n).map(|j| format!("q{j}")))
+            .chain(r.point_mm.iter().flatten().zip(names(&["x", "y", "z"])))
+            .chain(
+                r.orientation
+                    .iter()
+                    .flatten()
+                    .zip(names(&["qw", "qx", "qy", "qz"])),
+            )
+            .chain(r.sigma_mm.iter().flatten().zip(names(&["sx", "sy", "sz"])))
+            .chain(
+                r.sigma_deg
+                    .iter()
+                    .flatten()
+                    .zip(names(&["srx", "sry", "srz"])),
+            );
+        for (v, name) in values {
+            if !v.is_finite() {
+                return Err(unwritable(row, format!("column \"{name}\" is {v}")));
+            }
+            if name.starts_with('s') && *v <= 0.0 {
+                return Err(unwritable(
+                    row,
+                    format!(
+                        "column \"{name}\": standard deviation {} is not positive",
+                        short(*v)
+                    ),
+                ));
+            }
+        }
+        if let Some(q) = r.orientation {
+            let norm = q.iter().map(|v| v * v).sum::<f64>().sqrt();
+            if (norm - 1.0).abs() > QUATERNION_NORM_TOLERANCE {
+                return Err(unwritable(
+                    row,
+                    format!("the orientation quaternion has norm {}, not 1", short(norm)),
+                ));
+            }
         }
         if let Some(id) = &r.id
             && let Some(problem) = id_problem(id)
         {
             return Err(unwritable(row, format!("id {id:?} {problem}")));
         }
+        if let Some(t) = &r.target {
+            if let Some(problem) = target_problem(t) {
+                return Err(unwritable(row, format!("target {t:?} {problem}")));
+            }
+            if r.id.is_none() {
+                return Err(unwritable(
+                    row,
+                    "a row with a target needs an id (rows with the same id are one pose)"
+                        .to_owned(),
+                ));
+            }
+        }
+    }
+    if with_target && let Err(problem) = check_poses(&set.rows) {
+        let (row, reason) = problem.describe(&set.rows);
+        return Err(unwritable(row, reason));
     }
 
     let mut out = String::new();
@@ -215,13 +299,23 @@ fn format_set(
             }
         }
     }
-    let mut header: Vec<String> = Vec::with_capacity(n + 4);
+    let mut header: Vec<String> = Vec::with_capacity(n + 18);
     if with_id {
         header.push("id".to_owned());
     }
+    if with_target {
+        header.push("target".to_owned());
+    }
     header.extend((1..=n).map(|j| format!("q{j}")));
-    if with_points {
-        header.extend(["x", "y", "z"].map(String::from));
+    for (with, group) in [
+        (with_points, &["x", "y", "z"][..]),
+        (with_orientation, &["qw", "qx", "qy", "qz"][..]),
+        (with_sigma_mm, &["sx", "sy", "sz"][..]),
+        (with_sigma_deg, &["srx", "sry", "srz"][..]),
+    ] {
+        if with {
+            header.extend(names(group));
+        }
     }
     out.push_str(&header.join(","));
     out.push('\n');
@@ -238,13 +332,29 @@ fn format_set(
             sep(&mut out);
             out.push_str(r.id.as_deref().unwrap_or(""));
         }
-        for v in r.q_deg.iter().chain(r.point_mm.iter().flatten()) {
+        if let Some(t) = &r.target {
+            sep(&mut out);
+            out.push_str(t);
+        }
+        let numbers = r
+            .q_deg
+            .iter()
+            .chain(r.point_mm.iter().flatten())
+            .chain(r.orientation.iter().flatten())
+            .chain(r.sigma_mm.iter().flatten())
+            .chain(r.sigma_deg.iter().flatten());
+        for v in numbers {
             sep(&mut out);
             let _ = write!(out, "{v}");
         }
         out.push('\n');
     }
     Ok(out)
+}
+
+/// Owned column names.
+fn names(group: &[&str]) -> Vec<String> {
+    group.iter().map(|s| (*s).to_owned()).collect()
 }
 
 /// Why an id would not read back identically, if it would not.

@@ -273,3 +273,291 @@ fn write_all_atomically_writes_all_or_nothing() {
     assert_eq!(std::fs::read_to_string(d.join("a.txt")).unwrap(), "new a");
     assert_eq!(std::fs::read_to_string(d.join("c.txt")).unwrap(), "new c");
 }
+
+/// The optional columns of issue 31: written when present, byte-deterministic, exact.
+mod six_dof_and_targets {
+    use measurements::{
+        EulerConvention, Measurement, MeasurementError, MeasurementSet, ReadOptions, read_str,
+        to_csv_string,
+    };
+    use proptest::prelude::*;
+
+    fn row(q: f64) -> Measurement {
+        Measurement::new(vec![q, 2.0], Some([1.0, 2.0, 3.0]))
+    }
+
+    #[test]
+    fn header_order_and_bytes() {
+        let h = 0.5f64.sqrt();
+        let rows = vec![
+            row(1.0)
+                .with_id("p1")
+                .with_target("A")
+                .with_orientation([h, 0.0, 0.0, -h])
+                .with_sigma_mm([0.01, 0.02, 0.03])
+                .with_sigma_deg([0.001, 0.002, 0.003]),
+            row(1.0)
+                .with_id("p1")
+                .with_target("B")
+                .with_orientation([1.0, 0.0, 0.0, -0.0])
+                .with_sigma_mm([0.01, 0.02, 0.03])
+                .with_sigma_deg([0.001, 0.002, 0.003]),
+        ];
+        let set = MeasurementSet::new("s", 2, rows);
+        let text = to_csv_string(&set, Some("two targets")).unwrap();
+        assert_eq!(
+            text,
+            "# two targets\n\
+             id,target,q1,q2,x,y,z,qw,qx,qy,qz,sx,sy,sz,srx,sry,srz\n\
+             p1,A,1,2,1,2,3,0.7071067811865476,0,0,-0.7071067811865476,0.01,0.02,0.03,0.001,0.002,0.003\n\
+             p1,B,1,2,1,2,3,1,0,0,-0,0.01,0.02,0.03,0.001,0.002,0.003\n"
+        );
+        let back = read_str(&text, "s", &ReadOptions::new(2)).unwrap();
+        for (a, b) in set.rows.iter().zip(&back.rows) {
+            assert_eq!(
+                Measurement {
+                    line: 0,
+                    ..b.clone()
+                },
+                *a
+            );
+        }
+        assert_eq!(back.poses(), vec![vec![0, 1]]);
+    }
+
+    /// Euler input is written as the quaternion it was converted to. The columns are the
+    /// sequence's angles in order: with `ZYX`, `rz` is the third angle, about x.
+    #[test]
+    fn euler_input_is_written_as_quaternions() {
+        let text = "q1,x,y,z,rx,ry,rz,srx,sry,srz\n1,2,3,4,0,0,90,1,1,1\n";
+        let opts = ReadOptions::new(1).with_euler("ZYX".parse::<EulerConvention>().unwrap());
+        let set = read_str(text, "e", &opts).unwrap();
+        let out = to_csv_string(&set, None).unwrap();
+        assert!(
+            out.starts_with("q1,x,y,z,qw,qx,qy,qz,srx,sry,srz\n1,2,3,4,0.7071067811865476,0.7071067811865475,0,0,1,1,1\n"),
+            "{out}"
+        );
+        let back = read_str(&out, "e", &ReadOptions::new(1)).unwrap();
+        assert_eq!(back.rows[0].orientation, set.rows[0].orientation);
+    }
+
+    #[test]
+    fn unwritable_new_fields() {
+        let t = |q: f64, id: &str, target: &str| row(q).with_id(id).with_target(target);
+        let cases: Vec<(Vec<Measurement>, &str)> = vec![
+            (
+                vec![row(1.0), row(1.0).with_target("A")],
+                "some rows have a target",
+            ),
+            (
+                vec![row(1.0), row(1.0).with_orientation([1.0, 0.0, 0.0, 0.0])],
+                "some rows have an orientation",
+            ),
+            (
+                vec![row(1.0).with_sigma_mm([1.0; 3]), row(1.0)],
+                "some rows have sigma_mm",
+            ),
+            (
+                vec![row(1.0), row(1.0).with_sigma_mm([1.0, 0.0, 1.0])],
+                "some rows have sigma_mm",
+            ),
+            (
+                vec![
+                    row(1.0).with_sigma_mm([1.0; 3]),
+                    row(1.0).with_sigma_mm([1.0, 0.0, 1.0]),
+                ],
+                "column \"sy\": standard deviation 0 is not positive",
+            ),
+            (
+                vec![
+                    row(1.0).with_orientation([1.0, 0.0, 0.0, 0.0]),
+                    row(1.0).with_orientation([1.0, 0.0, 0.1, 0.0]),
+                ],
+                "norm",
+            ),
+            (
+                vec![
+                    row(1.0).with_orientation([1.0, 0.0, 0.0, 0.0]),
+                    row(1.0).with_orientation([1.0, f64::NAN, 0.0, 0.0]),
+                ],
+                "column \"qx\" is NaN",
+            ),
+            (
+                vec![t(1.0, "a", "A"), t(1.0, "b", "A b")],
+                "not a simple name",
+            ),
+            (
+                vec![t(1.0, "a", "A"), row(1.0).with_target("B")],
+                "needs an id",
+            ),
+            (
+                vec![t(1.0, "a", "A"), t(1.5, "a", "B")],
+                "q1 is 1.5 here but 1 in row 1",
+            ),
+            (
+                vec![t(1.0, "a", "A"), t(1.0, "a", "A")],
+                "appears twice in pose \"a\"",
+            ),
+            (
+                vec![t(1.0, "a", "A"), t(1.0, "b", "a")],
+                "only in letter case",
+            ),
+        ];
+        for (rows, why) in cases {
+            let set = MeasurementSet::new("label", 2, rows);
+            let err = to_csv_string(&set, None).unwrap_err();
+            assert!(
+                matches!(err, MeasurementError::Unwritable { row: 2, .. }),
+                "{why}: {err:?}"
+            );
+            assert!(err.to_string().contains(why), "{err} lacks {why}");
+        }
+        // Standard deviations without their values.
+        let set = MeasurementSet::new(
+            "label",
+            2,
+            vec![Measurement::new(vec![1.0, 2.0], None).with_sigma_mm([1.0; 3])],
+        );
+        let err = to_csv_string(&set, None).unwrap_err();
+        assert!(err.to_string().contains("without a point"), "{err}");
+        let set = MeasurementSet::new("label", 2, vec![row(1.0).with_sigma_deg([1.0; 3])]);
+        let err = to_csv_string(&set, None).unwrap_err();
+        assert!(err.to_string().contains("without an orientation"), "{err}");
+    }
+
+    /// Any finite value, awkward ones often.
+    fn value() -> impl Strategy<Value = f64> {
+        prop_oneof![
+            any::<f64>().prop_filter("finite", |v| v.is_finite()),
+            -1e3..1e3f64,
+            Just(-0.0),
+            Just(0.1 + 0.2),
+            Just(5e-324),
+        ]
+    }
+
+    fn positive() -> impl Strategy<Value = f64> {
+        prop_oneof![
+            any::<f64>().prop_filter("positive finite", |v| v.is_finite() && *v > 0.0),
+            1e-6..1.0f64,
+            Just(f64::MIN_POSITIVE),
+        ]
+    }
+
+    /// A unit quaternion from Euler angles, sometimes sign-flipped (both signs are kept).
+    fn quaternion() -> impl Strategy<Value = [f64; 4]> {
+        (
+            -180.0..180.0f64,
+            -180.0..180.0f64,
+            -180.0..180.0f64,
+            any::<bool>(),
+        )
+            .prop_map(|(a, b, c, flip)| {
+                let q = "ZYZ"
+                    .parse::<EulerConvention>()
+                    .unwrap()
+                    .to_quaternion([a, b, c]);
+                if flip { q.map(|v| -v) } else { q }
+            })
+    }
+
+    /// Which optional groups a set has: (id, target, points, orientation, sigma_mm, sigma_deg).
+    fn set() -> impl Strategy<Value = MeasurementSet> {
+        let flags = (
+            any::<bool>(),
+            any::<bool>(),
+            any::<bool>(),
+            any::<bool>(),
+            any::<bool>(),
+            any::<bool>(),
+        );
+        (flags, 1usize..4, 1usize..8).prop_flat_map(|((id, target, pts, ori, smm, sdeg), n, k)| {
+            let pts = pts || smm;
+            let ori = ori || sdeg;
+            let id = id || target;
+            let one = (
+                prop::collection::vec(value(), n),
+                prop::array::uniform3(value()),
+                quaternion(),
+                prop::array::uniform3(positive()),
+                prop::array::uniform3(positive()),
+                0usize..3,
+                0usize..3,
+            );
+            prop::collection::vec(one, k).prop_map(move |rows| {
+                let mut out: Vec<Measurement> = Vec::new();
+                for (i, (q, p, o, s1, s2, pose, tgt)) in rows.into_iter().enumerate() {
+                    let mut m = Measurement::new(q, pts.then_some(p));
+                    if ori {
+                        m = m.with_orientation(o);
+                    }
+                    if smm {
+                        m = m.with_sigma_mm(s1);
+                    }
+                    if sdeg {
+                        m = m.with_sigma_deg(s2);
+                    }
+                    if target {
+                        // Pose `pose` takes the joints of its first row; a target at most
+                        // once per pose.
+                        let pid = format!("p{pose}");
+                        let earlier: Vec<&Measurement> = out
+                            .iter()
+                            .filter(|r| r.id.as_deref() == Some(&pid))
+                            .collect();
+                        if let Some(first) = earlier.first() {
+                            m.q_deg = first.q_deg.clone();
+                        }
+                        let name = (0..)
+                            .map(|t| format!("T{}", (tgt + t) % 9))
+                            .find(|name| earlier.iter().all(|r| r.target.as_deref() != Some(name)))
+                            .unwrap();
+                        m = m.with_id(pid).with_target(name);
+                    } else if id && i % 2 == 0 {
+                        m = m.with_id(format!("r{i}"));
+                    }
+                    out.push(m);
+                }
+                MeasurementSet::new("prop", n, out)
+            })
+        })
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(256))]
+
+        /// Written, read back: the same rows to the bit, and writing again gives the same bytes.
+        #[test]
+        fn round_trip_is_exact(set in set()) {
+            let text = to_csv_string(&set, Some("prop")).unwrap();
+            let opts = if set.has_points() {
+                ReadOptions::new(set.n_joints)
+            } else {
+                ReadOptions::new(set.n_joints).joints_only()
+            };
+            let back = read_str(&text, "prop", &opts).unwrap();
+            prop_assert_eq!(back.rows.len(), set.rows.len());
+            for (a, b) in set.rows.iter().zip(&back.rows) {
+                let bits = |m: &Measurement| -> Vec<u64> {
+                    m.q_deg
+                        .iter()
+                        .chain(m.point_mm.iter().flatten())
+                        .chain(m.orientation.iter().flatten())
+                        .chain(m.sigma_mm.iter().flatten())
+                        .chain(m.sigma_deg.iter().flatten())
+                        .map(|v| v.to_bits())
+                        .collect()
+                };
+                prop_assert_eq!(bits(a), bits(b));
+                prop_assert_eq!(&a.id, &b.id);
+                prop_assert_eq!(&a.target, &b.target);
+                prop_assert_eq!(a.point_mm.is_some(), b.point_mm.is_some());
+                prop_assert_eq!(a.orientation.is_some(), b.orientation.is_some());
+                prop_assert_eq!(a.sigma_mm.is_some(), b.sigma_mm.is_some());
+                prop_assert_eq!(a.sigma_deg.is_some(), b.sigma_deg.is_some());
+            }
+            prop_assert_eq!(back.poses(), set.poses());
+            prop_assert_eq!(to_csv_string(&back, Some("prop")).unwrap(), text);
+        }
+    }
+}
