@@ -2,9 +2,7 @@
 //! of, computed by rerunning the same trials with each source outside the model switched off
 //! in turn and alone.
 
-mod common;
-
-use common::{load_edited, scenario_path};
+use crate::common::{load_edited, scenario_path};
 
 use campaign::budget::{Source, budget_runs, budget_trials};
 use campaign::{

@@ -1,10 +1,8 @@
 //! End-to-end campaign tests on the committed scenarios.
 
-mod common;
-
 use std::path::Path;
 
-use common::{load, load_edited, scenario_path};
+use crate::common::{load, load_edited, scenario_path};
 
 use campaign::{
     Aggregate, CampaignSummary, Context, LoadedScenario, Scenario, ShardFile, ShardManifest,

@@ -1,10 +1,8 @@
 //! The extended model in campaigns (issue 19): `paper-kr1000-extended` identifies joint
 //! compliance and first gear harmonics beside the 34 geometric parameters.
 
-mod common;
-
+use crate::common::load_edited;
 use campaign::{Context, run_range};
-use common::load_edited;
 
 /// The paper scenario identified with the extended model, `trials` trials.
 fn extended(trials: u64) -> campaign::LoadedScenario {

@@ -3,17 +3,14 @@
 //! every rejection names the file and a line or field. Run with `--nocapture` for the
 //! case counts.
 
-#[path = "../../measurements/tests/mutate/mod.rs"]
-mod mutate;
-
 use std::cell::RefCell;
 use std::path::{Path, PathBuf};
 
+use crate::mutate::{Tally, apply, mutations, names_file_and_place};
 use campaign::{
     Checkpoint, CheckpointManifest, Context, Scenario, ShardFile, ShardManifest, SweepSpec,
     merge_shards, run_range, shard_range,
 };
-use mutate::{Tally, apply, mutations, names_file_and_place};
 use proptest::test_runner::TestRunner;
 
 fn scenarios() -> PathBuf {
@@ -30,7 +27,7 @@ fn fuzz(what: &str, seed: &[u8], cases: u32, read: &Reader<'_>) -> Tally {
     let file = dir.path().join(format!("{what}.json"));
     read(seed, &file).unwrap_or_else(|e| panic!("the {what} seed is valid: {e}"));
     let tally = RefCell::new(Tally::default());
-    let mut runner = TestRunner::new(mutate::config(cases));
+    let mut runner = TestRunner::new(crate::mutate::config(cases));
     let name = file.display().to_string();
     runner
         .run(&mutations(), |muts| {

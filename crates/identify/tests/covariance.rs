@@ -1,9 +1,7 @@
 //! The covariance against a direct computation: σ̂²(JᵀJ)⁻¹ by plain inversion of the
 //! unscaled normal matrix, in display units; correlations and flags.
 
-mod common;
-
-use common::{TOOL, kr1000, noisy, perturbed, poses};
+use crate::common::{TOOL, kr1000, noisy, perturbed, poses};
 use identify::{IdentifyOptions, ParamSet, Problem, identify};
 
 #[test]

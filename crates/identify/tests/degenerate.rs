@@ -1,8 +1,6 @@
 //! Degenerate inputs give clear errors, never a result; weights behave as 1/σ.
 
-mod common;
-
-use common::{TOOL, kr1000, noisy, perturbed, poses};
+use crate::common::{TOOL, kr1000, noisy, perturbed, poses};
 use identify::{Damping, IdentifyError, IdentifyOptions, LmOptions, ParamSet, Problem, identify};
 use nalgebra::Vector3;
 

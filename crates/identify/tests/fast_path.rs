@@ -1,9 +1,7 @@
 //! The fast linear algebra (sin/cos once per pose, vectorised assembly, in-place Cholesky)
 //! against the straightforward reference path, and the vector widths against each other.
 
-mod common;
-
-use common::{TOOL, kr1000, noisy, perturbed, poses};
+use crate::common::{TOOL, kr1000, noisy, perturbed, poses};
 use identify::covariance::covariance_reference;
 use identify::identifiability::cholesky_certifies;
 use identify::lm::solve_reference;

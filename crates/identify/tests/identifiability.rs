@@ -1,11 +1,9 @@
 //! Identifiability of the KR1000 (`docs/model.md` §6): computed rank, redundant parameters and
 //! their confounded groups, the minimal set, and the lower rank with the ball on the flange axis.
 
-mod common;
-
 use std::collections::BTreeSet;
 
-use common::{TOOL, kr1000, poses};
+use crate::common::{TOOL, kr1000, poses};
 use identify::{IdentifiabilityOptions, ParamSet, analyze};
 
 fn set(names: &[&str]) -> BTreeSet<String> {
@@ -102,7 +100,7 @@ fn minimal_set_is_a_valid_minimal_set_of_the_computed_rank() {
     assert!(rep.confounded_groups.is_empty());
     // Same on other pose sets.
     for seed in [2, 3, 4] {
-        let p = common::poses(&robot, 50, seed);
+        let p = crate::common::poses(&robot, 50, seed);
         let r = analyze(&robot, &p, None, &minimal, &opts).unwrap();
         assert_eq!(r.rank, 27, "seed {seed}");
     }

@@ -1,9 +1,7 @@
 //! Tracker-like noise: held-out prediction error at the noise floor, and reported standard
 //! errors that match the spread of the estimates over many noise draws.
 
-mod common;
-
-use common::{TOOL, kr1000, noisy, perturbed, poses, rms_point_diff};
+use crate::common::{TOOL, kr1000, noisy, perturbed, poses, rms_point_diff};
 use identify::{Fit, IdentifyOptions, ParamSet, Problem, identify};
 use nalgebra::DMatrix;
 

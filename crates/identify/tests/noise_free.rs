@@ -1,9 +1,7 @@
 //! Noise-free known truth: every schedule, `paper` and `minimal`, recovers the identifiable
 //! model exactly (held-out points < 1e-6 mm; minimal-set parameters < 1e-6 deg/mm).
 
-mod common;
-
-use common::{TOOL, kr1000, max_point_diff, perturbed, poses};
+use crate::common::{TOOL, kr1000, max_point_diff, perturbed, poses};
 use identify::{
     Damping, IdentifyOptions, LmOptions, ParamSet, Problem, Redundant, RegistrationPolicy,
     StopReason, identify, solve,

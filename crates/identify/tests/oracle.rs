@@ -2,9 +2,7 @@
 //! trust-region LM with QR; nalgebra 0.34, bridged through slices) agrees on the predicted
 //! points and the cost.
 
-mod common;
-
-use common::{TOOL, kr1000, noisy, perturbed, poses};
+use crate::common::{TOOL, kr1000, noisy, perturbed, poses};
 use identify::{IdentifyOptions, ParamSet, Problem, RegistrationPolicy, identify};
 use kinematics::Robot;
 use levenberg_marquardt::{LeastSquaresProblem, LevenbergMarquardt};

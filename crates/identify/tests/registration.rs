@@ -1,9 +1,7 @@
 //! Registration: closed-form rigid fit, and real-data-like measurements in a frame rotated by
 //! 120° and shifted by 3 m.
 
-mod common;
-
-use common::{TOOL, kr1000, max_point_diff, perturbed, poses};
+use crate::common::{TOOL, kr1000, max_point_diff, perturbed, poses};
 use identify::{
     IdentifyError, IdentifyOptions, ParamSet, Problem, RegistrationPolicy, analyze, identify,
     kabsch, register_base,

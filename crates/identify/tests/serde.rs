@@ -1,8 +1,6 @@
 //! Scenario-file forms of the options, and serialisable reports.
 
-mod common;
-
-use common::{TOOL, kr1000, perturbed, poses};
+use crate::common::{TOOL, kr1000, perturbed, poses};
 use identify::{
     Damping, IdentifyOptions, LmOptions, Problem, RegistrationPolicy, StopReason, identify,
 };

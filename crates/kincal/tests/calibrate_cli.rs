@@ -2,9 +2,7 @@
 //! trip, malformed inputs, file-format variants, outliers, unreachable targets and the real
 //! UR10 data.
 
-mod common;
-
-use common::{kincal, ok, root, s};
+use crate::common::{kincal, ok, root, s};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::process::Output;

@@ -1,9 +1,7 @@
 //! Command-line tests of `campaign`: `--no-iso` switches the scenario's ISO 9283 test off,
 //! `--no-budget` its residual budget.
 
-mod common;
-
-use common::{kincal, root};
+use crate::common::{kincal, root};
 
 #[test]
 fn no_iso_drops_the_iso_rows_of_the_summary() {

@@ -9,15 +9,13 @@
 //! figures (`12.3 ms`, `0.25 s`) are compared as `<time>`; everything else to the
 //! character, trailing spaces aside.
 //!
-//! `KINCAL_BLESS_DOCS=1 cargo test -p kincal --test docs_examples` rewrites the blocks with
+//! `KINCAL_BLESS_DOCS=1 cargo test -p kincal --test integration docs_examples` rewrites the blocks with
 //! what the commands print now (after a change that moves them on purpose).
-
-mod common;
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-use common::root;
+use crate::common::root;
 use regex::Regex;
 
 /// One example: the file and line it starts at, the command's arguments, the expected text.

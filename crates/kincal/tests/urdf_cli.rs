@@ -2,9 +2,7 @@
 //! of `ur_description` calibrated on the real series B gives the figures of
 //! `scenarios/robots/ur10.json`; bad input writes nothing.
 
-mod common;
-
-use common::{kincal, ok, root, s};
+use crate::common::{kincal, ok, root, s};
 use std::path::Path;
 
 /// The `validation:` line of `identify`'s summary.

@@ -2,13 +2,10 @@
 //! panic, no hang, every rejection names the file and a line or field. Run with
 //! `--nocapture` to see the case counts.
 
-#[path = "../../measurements/tests/mutate/mod.rs"]
-mod mutate;
-
 use std::cell::RefCell;
 
+use crate::mutate::{Tally, apply, mutations, names_file_and_place};
 use kinematics::{Robot, RobotSpec};
-use mutate::{Tally, apply, mutations, names_file_and_place};
 use proptest::test_runner::TestRunner;
 
 fn read(bytes: &[u8], dir: &std::path::Path) -> Result<(), String> {
@@ -44,7 +41,7 @@ fn mutated_robot_files_are_read_or_refused_clearly() {
     }
     let file = dir.path().join("robot.json").display().to_string();
     let tally = RefCell::new(Tally::default());
-    let mut runner = TestRunner::new(mutate::config(1500));
+    let mut runner = TestRunner::new(crate::mutate::config(1500));
     runner
         .run(&(0..seeds.len(), mutations()), |(k, muts)| {
             let input = apply(&seeds[k], &muts);

@@ -2,12 +2,10 @@
 //! every rejection names the file and, where the fault is on a line, the line. Run with
 //! `--nocapture` to see the case counts.
 
-mod mutate;
-
 use std::cell::RefCell;
 
+use crate::mutate::{Tally, apply, mutations};
 use measurements::{ReadOptions, read_file, read_str};
-use mutate::{Tally, apply, mutations};
 use proptest::test_runner::TestRunner;
 
 /// A valid file: the first rows of the real UR10 series B, a comment, an `id` column.
@@ -80,7 +78,7 @@ fn mutated_measurement_files_are_read_or_refused_clearly() {
         read(&seed, dir.path(), &opts).expect("the seed is valid");
     }
     let tally = RefCell::new(Tally::default());
-    let mut runner = TestRunner::new(mutate::config(3000));
+    let mut runner = TestRunner::new(crate::mutate::config(3000));
     runner
         .run(&mutations(), |muts| {
             let input = apply(&seed, &muts);

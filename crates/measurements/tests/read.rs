@@ -4,8 +4,6 @@ use std::path::PathBuf;
 
 use measurements::{MeasurementError, ReadOptions, read_file, read_str};
 
-mod mutate;
-
 const HEADER6: &str = "q1,q2,q3,q4,q5,q6,x,y,z";
 const ROW6: &str = "1,2,3,4,5,6,100,200,300";
 
@@ -942,7 +940,7 @@ mod fuzz_new_columns {
     use measurements::{ReadOptions, read_str, to_csv_string};
     use proptest::test_runner::TestRunner;
 
-    use crate::mutate::{self, Tally, apply, mutations};
+    use crate::mutate::{Tally, apply, mutations};
 
     const QUAT: &str = "# targets and a probe\n\
         id,target,q1,q2,q3,x,y,z,qw,qx,qy,qz,sx,sy,sz,srx,sry,srz\n\
@@ -1019,7 +1017,7 @@ mod fuzz_new_columns {
         for seed in [QUAT, EULER] {
             read(seed.as_bytes(), &opts).expect("the seed is valid");
             let tally = RefCell::new(Tally::default());
-            let mut runner = TestRunner::new(mutate::config(1500));
+            let mut runner = TestRunner::new(crate::mutate::config(1500));
             runner
                 .run(&mutations(), |muts| {
                     let input = apply(seed.as_bytes(), &muts);

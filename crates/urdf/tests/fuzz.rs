@@ -5,14 +5,11 @@
 //! gives a robot with finite points; every rejection names the file and the element (or is
 //! the XML parser's message, prefixed with the file). Run with `--nocapture` for the counts.
 
-#[path = "../../measurements/tests/mutate/mod.rs"]
-mod mutate;
-
 use std::cell::RefCell;
 use std::path::Path;
 
+use crate::mutate::{Tally, apply, mutations};
 use kinematics::Robot;
-use mutate::{Tally, apply, mutations};
 use proptest::test_runner::TestRunner;
 use urdf::{ImportOptions, import_file, import_str};
 
@@ -65,7 +62,7 @@ fn mutated_urdf_files_are_imported_or_refused_clearly() {
     }
     let file = dir.path().join("robot.urdf").display().to_string();
     let tally = RefCell::new(Tally::default());
-    let mut runner = TestRunner::new(mutate::config(1000));
+    let mut runner = TestRunner::new(crate::mutate::config(1000));
     runner
         .run(&(0..seeds.len(), mutations()), |(k, muts)| {
             let input = apply(&seeds[k], &muts);

@@ -1,8 +1,6 @@
 //! Import: the robot file's points equal the URDF's own kinematics.
 
-mod common;
-
-use common::{Rng, fixture, urdf_point};
+use crate::common::{Rng, fixture, urdf_point};
 use kinematics::Robot;
 use nalgebra::Vector3;
 use urdf::{ImportOptions, import_file};

@@ -8,12 +8,10 @@
 //! ignored with the reason and never counts it as passed; `.ci/run` creates the environment
 //! and runs it with `--ignored`, where a missing environment fails.
 
-mod common;
-
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-use common::{Rng, fixture};
+use crate::common::{Rng, fixture};
 use kinematics::{Robot, RobotSpec};
 use urdf::{ExportOptions, ImportOptions, export, import_file};
 

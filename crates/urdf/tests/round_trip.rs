@@ -1,9 +1,7 @@
 //! Export: the URDF reproduces the robot file's points; robot file → URDF → robot file keeps
 //! every point to machine precision.
 
-mod common;
-
-use common::{Rng, urdf_point};
+use crate::common::{Rng, urdf_point};
 use kinematics::{Robot, RobotSpec};
 use nalgebra::Vector3;
 use proptest::prelude::*;

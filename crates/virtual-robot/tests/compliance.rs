@@ -1,9 +1,7 @@
 //! The compliance table of the crate docs, and the share of the deflection a geometric
 //! calibration cannot absorb.
 
-mod common;
-
-use common::{deg, kr1000};
+use crate::common::{deg, kr1000};
 use nalgebra::DVector;
 use virtual_robot::{
     ComplianceConfig, ComplianceModel, KR1000_BASE_MASS_KG, KR1000_LINKS, VirtualRobotConfig, World,

@@ -1,8 +1,6 @@
 //! Bad scenario fields give errors naming the field; good ones round-trip.
 
-mod common;
-
-use common::{ideal, kr1000};
+use crate::common::{ideal, kr1000};
 use virtual_robot::{
     ConfigError, PoseSet, RandomErrors, ScaleTarget, SimError, VirtualRobotConfig, World,
 };

@@ -1,8 +1,6 @@
 //! Repeatability scatter alone gives the KR1000's RP ≈ 0.1 mm (ISO 9283 RP_l).
 
-mod common;
-
-use common::{deg, ideal, kr1000};
+use crate::common::{deg, ideal, kr1000};
 use evaluate::point_stats;
 use virtual_robot::{PoseSet, World};
 

@@ -1,8 +1,6 @@
 //! Pose sampling: rejection statistics, exhaustion errors, independent streams.
 
-mod common;
-
-use common::{ideal, kr1000};
+use crate::common::{ideal, kr1000};
 use virtual_robot::{PoseSet, SimError, World};
 
 #[test]

@@ -1,8 +1,6 @@
 //! The virtual AT960: noise statistics per beam direction, visibility window, residual.
 
-mod common;
-
-use common::{deg, ideal, kr1000};
+use crate::common::{deg, ideal, kr1000};
 use nalgebra::Vector3;
 use virtual_robot::{
     NoiseModel, NotMeasurable, PoseSet, Purpose, Tracker, TrackerConfig, World, stream,

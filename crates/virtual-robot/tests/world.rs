@@ -1,8 +1,6 @@
 //! The world and the simulation: exactness, determinism, scaling, each unmodelled error.
 
-mod common;
-
-use common::{deg, everything, ideal, kr1000};
+use crate::common::{deg, everything, ideal, kr1000};
 use measurements::{ReadOptions, read_str};
 use virtual_robot::{
     ErrorDistribution, PoseSet, RandomErrors, ScaleTarget, Setup, Simulation, Truth, World,

@@ -1,0 +1,13 @@
+//! The integration tests of `identify`, in one test binary (one link instead of one per file:
+//! on a 2-core machine linking dominates a cold `cargo test`). Each file is a module.
+
+mod common;
+mod covariance;
+mod degenerate;
+mod fast_path;
+mod identifiability;
+mod noise;
+mod noise_free;
+mod oracle;
+mod registration;
+mod serde;

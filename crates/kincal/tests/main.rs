@@ -1,0 +1,8 @@
+//! The integration tests of `kincal`, in one test binary (one link instead of one per file:
+//! on a 2-core machine linking dominates a cold `cargo test`). Each file is a module.
+
+mod calibrate_cli;
+mod campaign_cli;
+mod common;
+mod docs_examples;
+mod urdf_cli;
