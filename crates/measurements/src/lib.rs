@@ -69,10 +69,16 @@
 #![warn(missing_docs)]
 
 mod error;
+#[cfg(unix)]
+mod output;
 mod read;
 mod write;
 
 pub use error::MeasurementError;
+#[cfg(unix)]
+pub use output::{
+    FAULT_ENV, NO_EXCHANGE_ENV, OutputDir, OutputError, OutputKind, TargetProblem, check_output,
+};
 pub use read::{read_file, read_str};
 pub use write::{to_csv_string, write_all_atomically, write_atomically, write_file};
 
