@@ -337,6 +337,21 @@ fn sibling(parent: &Path, name: &str, what: &str) -> PathBuf {
 /// While it is held, single files may still be written into the directory with
 /// [`write_atomically`](crate::write_atomically) (a checkpoint, say); [`OutputDir::write_set`]
 /// carries them over.
+///
+/// ```
+/// use measurements::{OutputDir, OutputError};
+///
+/// # let tmp = tempfile::tempdir().unwrap();
+/// # let out_arg = tmp.path().join("results");
+/// // At the start, before any work: refuses a bad --out, or a directory another run holds.
+/// let out = OutputDir::lock(&out_arg)?;
+/// // … the run; checkpoints may go to out.path() with write_atomically …
+/// let files = vec![("summary.json", "{}\n"), ("plots/error.svg", "<svg/>\n")];
+/// out.write_set(&files)?; // the complete previous set, then the complete new one
+/// drop(out); // releases the lock
+/// # assert_eq!(std::fs::read_to_string(out_arg.join("summary.json")).unwrap(), "{}\n");
+/// # Ok::<(), OutputError>(())
+/// ```
 #[derive(Debug)]
 pub struct OutputDir {
     /// The directory: absolute, with its parent's links resolved.
@@ -722,17 +737,10 @@ fn take_lock(lock_path: &Path, shown: &Path) -> Result<File, OutputError> {
         match f.try_lock() {
             Ok(()) => {}
             Err(fs::TryLockError::WouldBlock) => {
-                let mut holder = String::new();
-                let _ = f.read_to_string(&mut holder);
-                let holder = holder.trim();
                 return Err(OutputError::Locked {
                     path: shown.to_path_buf(),
                     lock: lock_path.to_path_buf(),
-                    holder: if holder.is_empty() {
-                        "a process that has not written its details yet".to_owned()
-                    } else {
-                        holder.to_owned()
-                    },
+                    holder: read_holder(&mut f),
                 });
             }
             Err(fs::TryLockError::Error(e)) => {
@@ -756,14 +764,38 @@ fn take_lock(lock_path: &Path, shown: &Path) -> Result<File, OutputError> {
             utc(started),
             command.join(" ")
         );
-        f.set_len(0)
-            .and_then(|()| f.write_all(details.as_bytes()))
+        // Written over the start, then cut: the file never reads empty in between.
+        f.write_all(details.as_bytes())
+            .and_then(|()| f.set_len(details.len() as u64))
             .map_err(io_err(lock_path, "writing the lock file"))?;
         return Ok(f);
     }
     Err(io_err(lock_path, "locking")(io::Error::other(
         "the lock file kept being replaced",
     )))
+}
+
+/// The holder's details from a lock file held by another process. The holder writes them
+/// just after taking the lock, so an empty file, or one naming a process that is gone (left
+/// by a killed run), is read again for a moment.
+fn read_holder(f: &mut File) -> String {
+    let mut text = String::new();
+    for _ in 0..40 {
+        text.clear();
+        let read = io::Seek::rewind(f).and_then(|()| f.read_to_string(&mut text));
+        let pid = text
+            .strip_prefix("pid ")
+            .and_then(|r| r.split(',').next())
+            .and_then(|p| p.parse::<u32>().ok());
+        if read.is_ok() && pid.is_some_and(is_alive) {
+            break;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(5));
+    }
+    match text.trim() {
+        "" => "a process that has not written its details yet".to_owned(),
+        t => t.to_owned(),
+    }
 }
 
 /// Carries every entry of `from` (the output directory at `rel`) into `to` (the staged one
@@ -793,6 +825,15 @@ fn carry(
         let ft = e.file_type().map_err(io_err(&src, "inspecting"))?;
         // A directory that also holds files of the set is merged; others are carried whole.
         if ft.is_dir() {
+            let dev = |p: &Path| fs::metadata(p).map(|m| m.dev());
+            if dev(&src).map_err(io_err(&src, "inspecting"))?
+                != dev(from).map_err(io_err(from, "inspecting"))?
+            {
+                return Err(OutputError::Unswappable {
+                    path: src,
+                    why: "is a mount point inside the output directory",
+                });
+            }
             if fs::symlink_metadata(&dst).is_err() {
                 fs::create_dir(&dst).map_err(io_err(&dst, "creating"))?;
                 let perm = fs::metadata(&src).map_err(io_err(&src, "inspecting"))?;

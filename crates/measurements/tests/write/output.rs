@@ -223,6 +223,29 @@ fn a_kill_at_every_step_leaves_the_old_or_the_new_set() {
     }
 }
 
+/// SIGKILL at moments spread over a set write (with the exchange): the directory always
+/// holds a complete set, and the next run cleans up.
+#[test]
+fn a_sigkill_at_any_moment_leaves_a_complete_set() {
+    let root = scratch("sigkill");
+    let mut seen = Vec::new();
+    for i in 0..12u64 {
+        let _ = fs::remove_dir_all(root.join("out"));
+        let out = prepared(&root);
+        let mut c = child(&out, "new", &[]).spawn().unwrap();
+        std::thread::sleep(std::time::Duration::from_millis(i * 3));
+        let _ = c.kill();
+        c.wait().unwrap();
+        seen.push(set_label(&out));
+        assert_foreign_intact(&out);
+        let (status, stderr) = run_child(&out, "next", &[]);
+        assert!(status.success(), "{stderr}");
+        assert_eq!(set_label(&out), "next");
+        assert_no_leftovers(&root, &out);
+    }
+    eprintln!("SIGKILL after 0, 3, … 33 ms: {seen:?}");
+}
+
 /// A failure at every step: the write reports it and the directory holds the complete old
 /// set (or, for a failure after the new set is in place, which is not an error, the new one).
 #[test]
@@ -266,6 +289,8 @@ fn concurrent_writers_are_excluded() {
         let hold = if i % 2 == 0 { "0" } else { "20" };
         let env = [(CHILD_HOLD_MS, hold)];
         let a = child(&out, "A", &env).spawn().unwrap();
+        // Staggered starts: B also arrives while A stages, exchanges, or releases the lock.
+        std::thread::sleep(std::time::Duration::from_millis((i % 5) as u64 * 10));
         let b = child(&out, "B", &env).spawn().unwrap();
         let a = a.wait_with_output().unwrap();
         let b = b.wait_with_output().unwrap();
