@@ -733,7 +733,10 @@ fn take_lock(lock_path: &Path, shown: &Path) -> Result<File, OutputError> {
             .create(true)
             .truncate(false)
             .open(lock_path)
-            .map_err(io_err(lock_path, "opening the lock file"))?;
+            .map_err(io_err(
+                lock_path,
+                "creating the lock file (an output directory is replaced as a whole, so the directory holding it must be writable)",
+            ))?;
         match f.try_lock() {
             Ok(()) => {}
             Err(fs::TryLockError::WouldBlock) => {

@@ -425,6 +425,38 @@ fn bad_set_names_are_refused_before_anything_is_written() {
     assert_no_leftovers(&root, &out);
 }
 
+/// The current directory (or one containing it) and the root cannot be replaced as a whole:
+/// refused before anything is written.
+#[test]
+fn the_current_directory_and_the_root_are_refused() {
+    let root = scratch("cwd");
+    let out = prepared(&root);
+    for (dir, cwd) in [
+        (".", out.clone()),
+        ("..", out.join("notes")),
+        ("out", root.clone()),
+    ] {
+        let mut c = child(Path::new(dir), "new", &[]);
+        c.current_dir(&cwd);
+        let o = c.output().unwrap();
+        let msg = String::from_utf8_lossy(&o.stderr);
+        if dir == "out" {
+            assert!(o.status.success(), "{msg}");
+            continue;
+        }
+        assert_eq!(o.status.code(), Some(FAILED), "{msg}");
+        assert!(
+            msg.contains("is the current directory or contains it") && msg.starts_with(dir),
+            "{msg}"
+        );
+    }
+    assert_eq!(set_label(&out), "new");
+    assert_foreign_intact(&out);
+    assert_no_leftovers(&root, &out);
+    let e = OutputDir::lock(Path::new("/")).unwrap_err();
+    assert!(e.to_string().starts_with("/: is the root directory"), "{e}");
+}
+
 fn mkfifo(path: &Path) {
     let ok = Command::new("mkfifo").arg(path).status().unwrap().success();
     assert!(ok, "mkfifo {}", path.display());
