@@ -3,8 +3,10 @@
 //! several targets per pose.
 //!
 //! This is the only crate that parses or produces measurement CSV files. It knows nothing
-//! about kinematics and uses no randomness. It also provides [`write_atomically`], which every
-//! other crate uses to write its output files.
+//! about kinematics and uses no randomness. It also provides the output writers every other
+//! crate uses: [`write_atomically`] for one file, [`OutputDir`] for an output directory
+//! written as a whole, and [`check_output`] to check an output path before any work (see
+//! "Output targets and output sets" below).
 //!
 //! # The format
 //!
@@ -69,6 +71,61 @@
 //! Rust's shortest round-trip `{}` formatting, so files are byte-deterministic and reading
 //! them back gives bit-identical values (including `-0`).
 //!
+//! # Output targets and output sets
+//!
+//! **What an output path may name** ([`check_output`], checked again at write time by every
+//! writer): nothing yet, a regular file (for a file output), or a directory (for an output
+//! directory). A symbolic link is followed when it leads to the right kind: for a file, the
+//! link's target is replaced atomically and the link stays a link; for a directory, the
+//! files go into the linked directory and the link is never replaced. Everything else is
+//! refused with an error naming the path and what it is, and left untouched: FIFOs,
+//! character and block devices, sockets, a directory where a file is expected or the
+//! reverse, a dangling link, a link to any of those. (Standard output is the front ends'
+//! business, `--out -`; the library never writes to a device.)
+//!
+//! **Single files** ([`write_atomically`], [`write_file`]): a temporary
+//! `.NAME.PID.N.tmp` beside the target, flushed, then renamed over it; a reader sees the old
+//! file or the complete new one.
+//!
+//! **Output directories** ([`OutputDir`]): the front end takes [`OutputDir::lock`] before any
+//! work and holds it for the whole run; at the end [`OutputDir::write_set`] replaces the
+//! directory's set as a whole. A reader of the directory sees the complete previous set or
+//! the complete new one, after a kill at any moment or a failure at any step:
+//!
+//! * *Lock.* An advisory lock (`flock`) on `.NAME.kincal-lock` beside the directory `NAME`
+//!   (beside it, not inside, because the directory itself is replaced). It holds the
+//!   holder's pid, start time (UTC) and command line; a second writer is refused at once
+//!   with [`OutputError::Locked`] naming them (it does not wait). The lock dies with its
+//!   process, so a killed run never blocks the next one; the file is removed when the
+//!   [`OutputDir`] is dropped.
+//! * *Staging and exchange.* The new set is written into `.NAME.kincal-stage-PID` beside the
+//!   directory and flushed to disk, then exchanged with the directory in one atomic rename
+//!   (Linux `renameat2(RENAME_EXCHANGE)`), and the previous set (now under the staged name)
+//!   is removed. The directory keeps its permission bits; its owner becomes the writer.
+//! * *Foreign files survive.* Every entry of the directory that is not a file of the new set
+//!   — the user's own files, a checkpoint or `timing.json` written during the run, files of
+//!   an earlier set that this one does not rewrite — is carried into the staged directory as
+//!   a hard link (the same file, no copy; subdirectories are recreated with their entries
+//!   linked; a copy where the file system has no hard links). Entries that appear in the
+//!   directory between that scan and the exchange are moved over afterwards. Files of an
+//!   earlier set that should disappear are named to [`OutputDir::write_set_dropping`].
+//! * *Leftovers.* [`OutputDir::lock`] removes what an interrupted run left: staged and
+//!   retired copies beside the directory (no other writer can be using them: the lock is
+//!   held) and single-file temporaries inside it whose process is gone.
+//! * *Without an exchange* (a file system or kernel that lacks it): the directory is renamed
+//!   to `.NAME.kincal-old-PID`, the staged set renamed into place, the old one removed. A
+//!   failure of the second rename moves the old set back. Between the two renames a reader
+//!   finds no directory (never a mixed one); a kill there leaves the complete old set under
+//!   `.NAME.kincal-old-PID`, which the next [`OutputDir::lock`] moves back.
+//! * *Refused as output directories* ([`OutputError::Unswappable`]): the root, a mount point,
+//!   and the current directory or one containing it (replacing it would leave the user's
+//!   shell in a removed directory). Another process whose working directory is inside the
+//!   output directory is left in the removed previous copy.
+//!
+//! The test-only environment variables [`FAULT_ENV`] and [`NO_EXCHANGE_ENV`] make a set
+//! write abort or fail at a chosen step, or take the path without exchange; the tests use
+//! them to kill a writer at every step.
+//!
 //! # Example
 //!
 //! ```
@@ -112,11 +169,17 @@
 #![warn(missing_docs)]
 
 mod error;
+#[cfg(unix)]
+mod output;
 mod read;
 mod rotation;
 mod write;
 
 pub use error::{EulerConventionError, MeasurementError};
+#[cfg(unix)]
+pub use output::{
+    FAULT_ENV, NO_EXCHANGE_ENV, OutputDir, OutputError, OutputKind, TargetProblem, check_output,
+};
 pub use read::{read_file, read_str};
 pub use rotation::{
     EulerConvention, QUATERNION_NORM_TOLERANCE, quaternion_product, quaternion_to_matrix,

@@ -54,9 +54,14 @@ pub fn write_file(
 /// to disk, then rename it over `path`. Readers see either the old file or the complete new
 /// one; on failure the temporary file is removed and nothing half-written is left behind.
 ///
-/// An existing file at `path` is replaced (if `path` is a symbolic link, the link itself is
-/// replaced). The new file gets default permissions, not those of the file it replaces.
-/// The error message names `path`; the [`io::ErrorKind`] is kept.
+/// An existing regular file at `path` is replaced. A symbolic link to a regular file is
+/// followed: its target is replaced atomically and the link stays a link. Anything else is
+/// refused and left untouched ([`check_output`](crate::check_output)): a FIFO, a device, a
+/// socket, a directory, a dangling link or a link to one of those; the check is made before
+/// writing and again just before the rename. The new file gets default permissions, not
+/// those of the file it replaces. The error message names `path`; the [`io::ErrorKind`] is
+/// kept (`InvalidInput` for a refused target, whose inner error is a
+/// [`TargetProblem`](crate::TargetProblem)).
 pub fn write_atomically(path: &Path, bytes: &[u8]) -> Result<(), io::Error> {
     write_atomically_inner(path, bytes)
         .map_err(|e| io::Error::new(e.kind(), format!("writing {}: {e}", path.display())))
@@ -65,8 +70,12 @@ pub fn write_atomically(path: &Path, bytes: &[u8]) -> Result<(), io::Error> {
 /// Write a set of files into `dir` (which must exist) all or nothing: every file is first
 /// written in full to a temporary file beside its target and flushed to disk; only when all
 /// of them succeeded are they renamed into place. If any write fails (a full disk, say),
-/// every temporary file is removed and no target is touched, so a directory never holds
-/// some outputs of a run beside older or missing others. The error names the file.
+/// every temporary file is removed and no target is touched. The error names the file.
+/// Targets are checked as by [`write_atomically`] (no link or special file is replaced).
+///
+/// The renames are one per file, so a kill between two of them, or a concurrent writer,
+/// can leave a mixed set: an output directory written by a command is better written with
+/// [`OutputDir::write_set`](crate::OutputDir::write_set), which replaces the set as a whole.
 pub fn write_all_atomically<N: AsRef<str>, B: AsRef<[u8]>>(
     dir: &Path,
     files: &[(N, B)],
@@ -79,12 +88,14 @@ pub fn write_all_atomically<N: AsRef<str>, B: AsRef<[u8]>>(
     };
     for (name, bytes) in files {
         let path = dir.join(name.as_ref());
-        let written = create_temp_file(dir, name.as_ref()).and_then(|(tmp, mut file)| {
+        let written = destination(&path).and_then(|path| {
+            let (parent, name) = split(&path)?;
+            let (tmp, mut file) = create_temp_file(parent, &name.to_string_lossy())?;
             let filled = file
                 .write_all(bytes.as_ref())
                 .and_then(|()| file.sync_all());
             match filled {
-                Ok(()) => Ok(tmp),
+                Ok(()) => Ok((tmp, path)),
                 Err(e) => {
                     let _ = fs::remove_file(&tmp);
                     Err(e)
@@ -92,7 +103,7 @@ pub fn write_all_atomically<N: AsRef<str>, B: AsRef<[u8]>>(
             }
         });
         match written {
-            Ok(tmp) => staged.push((tmp, path)),
+            Ok(pair) => staged.push(pair),
             Err(e) => {
                 abandon(&staged);
                 return Err(io::Error::new(
@@ -103,7 +114,7 @@ pub fn write_all_atomically<N: AsRef<str>, B: AsRef<[u8]>>(
         }
     }
     for (i, (tmp, path)) in staged.iter().enumerate() {
-        if let Err(e) = fs::rename(tmp, path) {
+        if let Err(e) = replaceable(path).and_then(|()| fs::rename(tmp, path)) {
             abandon(&staged[i..]);
             return Err(io::Error::new(
                 e.kind(),
@@ -115,7 +126,27 @@ pub fn write_all_atomically<N: AsRef<str>, B: AsRef<[u8]>>(
     Ok(())
 }
 
-fn write_atomically_inner(path: &Path, bytes: &[u8]) -> io::Result<()> {
+/// Where a write of `path` lands (a link to a regular file: its target), or why not.
+fn destination(path: &Path) -> io::Result<PathBuf> {
+    #[cfg(unix)]
+    return crate::output::file_destination(path);
+    #[cfg(not(unix))]
+    Ok(path.to_path_buf())
+}
+
+/// Just before the rename: `path` is absent or a regular file.
+fn replaceable(path: &Path) -> io::Result<()> {
+    #[cfg(unix)]
+    return crate::output::check_replaceable(path);
+    #[cfg(not(unix))]
+    {
+        let _ = path;
+        Ok(())
+    }
+}
+
+/// The directory and the file name of a file path (`.` for a bare name).
+fn split(path: &Path) -> io::Result<(&Path, &std::ffi::OsStr)> {
     let file_name = path
         .file_name()
         .ok_or_else(|| io::Error::new(io::ErrorKind::InvalidInput, "path does not name a file"))?;
@@ -123,6 +154,13 @@ fn write_atomically_inner(path: &Path, bytes: &[u8]) -> io::Result<()> {
         Some(p) if !p.as_os_str().is_empty() => p,
         _ => Path::new("."),
     };
+    Ok((dir, file_name))
+}
+
+fn write_atomically_inner(path: &Path, bytes: &[u8]) -> io::Result<()> {
+    let dest = destination(path)?;
+    let path = dest.as_path();
+    let (dir, file_name) = split(path)?;
     let (tmp_path, file) = create_temp_file(dir, &file_name.to_string_lossy())?;
     if let Err(e) = fill_and_rename(file, bytes, &tmp_path, path) {
         let _ = fs::remove_file(&tmp_path);
@@ -136,6 +174,7 @@ fn fill_and_rename(mut file: File, bytes: &[u8], tmp_path: &Path, path: &Path) -
     file.write_all(bytes)?;
     file.sync_all()?;
     drop(file);
+    replaceable(path)?;
     fs::rename(tmp_path, path)
 }
 

@@ -1,4 +1,7 @@
-//! Writer and atomic-write tests.
+//! Writer and atomic-write tests; output targets and output sets in `write/output.rs`.
+
+#[path = "write/output.rs"]
+mod output;
 
 use std::path::{Path, PathBuf};
 

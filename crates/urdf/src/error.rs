@@ -62,6 +62,21 @@ pub enum UrdfError {
         /// The second.
         second: String,
     },
+    /// The joints close a loop: a joint whose parent and child are the same link, or a chain
+    /// of joints leading from a link back to itself (e.g. a fixed joint from the tip back to
+    /// the base). A robot file describes an open serial chain only.
+    #[error(
+        "{source_name}: <joint name=\"{joint}\"> closes a loop ({cycle}): a closed structure, not a serial chain"
+    )]
+    ClosedLoop {
+        /// File path or label.
+        source_name: String,
+        /// The joint closing the loop: of the loop's joints, the last in the file.
+        joint: String,
+        /// The loop as links, child to parent, ` ← `-separated, starting and ending at the
+        /// same link (`l2 ← l2` for a joint from a link to itself).
+        cycle: String,
+    },
     /// A joint type a revolute serial robot file cannot hold, on the chain between base and tip.
     #[error(
         "{source_name}: <joint name=\"{joint}\" type=\"{kind}\"> lies on the chain {chain}: only revolute (with limits) and fixed joints can be converted{hint}"

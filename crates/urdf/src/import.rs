@@ -1,6 +1,6 @@
 //! URDF → robot file: the serial chain between a base link and a tip link.
 
-use std::collections::HashMap;
+use std::collections::{HashMap, HashSet};
 use std::path::Path;
 
 use kinematics::{BaseSpec, Frame, JointSpec, MAX_JOINTS, Robot, RobotSpec};
@@ -57,6 +57,50 @@ pub fn import_file(
     import_str(&text, &path.display().to_string(), base, tip, opts)
 }
 
+/// The first loop of parent joints, if any: with at most one parent joint per link, walking
+/// up from every link must end at a root; a walk that meets a link of its own path has found a
+/// closed structure (e.g. a fixed joint from the tip back to the base). Each link is walked
+/// through once.
+fn closed_loop(
+    joints: &[urdf_rs::Joint],
+    parent_joint: &HashMap<&str, &urdf_rs::Joint>,
+    source_name: &str,
+) -> Option<UrdfError> {
+    let mut finished: HashSet<&str> = HashSet::new();
+    for start in joints.iter().map(|j| j.child.link.as_str()) {
+        // The links of this walk, in order, with the joint above each.
+        let mut path: Vec<(&str, &urdf_rs::Joint)> = Vec::new();
+        let mut link = start;
+        while !finished.contains(link) {
+            let Some(&j) = parent_joint.get(link) else {
+                break;
+            };
+            if let Some(k) = path.iter().position(|(l, _)| *l == link) {
+                let cycle = &path[k..];
+                // Name the loop's last joint in the file, and list the loop from its child.
+                let position = |name: &str| joints.iter().position(|j| j.name == name);
+                let c = (0..cycle.len())
+                    .max_by_key(|&i| position(&cycle[i].1.name))
+                    .unwrap_or(0);
+                let links: Vec<&str> = cycle[c..]
+                    .iter()
+                    .chain(&cycle[..=c])
+                    .map(|(l, _)| *l)
+                    .collect();
+                return Some(UrdfError::ClosedLoop {
+                    source_name: source_name.to_string(),
+                    joint: cycle[c].1.name.clone(),
+                    cycle: links.join(" ← "),
+                });
+            }
+            path.push((link, j));
+            link = j.parent.link.as_str();
+        }
+        finished.extend(path.iter().map(|(l, _)| *l));
+    }
+    None
+}
+
 /// One element of the chain at q = 0: a fixed transform or a revolute joint.
 struct Step<'a> {
     joint: &'a urdf_rs::Joint,
@@ -97,6 +141,14 @@ pub fn import_str(
             });
         }
     }
+    // A joint from a link to itself is the smallest closed loop.
+    if let Some(j) = robot.joints.iter().find(|j| j.parent.link == j.child.link) {
+        return Err(UrdfError::ClosedLoop {
+            source_name: src(),
+            joint: j.name.clone(),
+            cycle: format!("{0} ← {0}", j.child.link),
+        });
+    }
     // The joint above each link; a second one means the description is not a tree.
     let mut parent_joint: HashMap<&str, &urdf_rs::Joint> = HashMap::new();
     for j in &robot.joints {
@@ -108,6 +160,9 @@ pub fn import_str(
                 second: j.name.clone(),
             });
         }
+    }
+    if let Some(err) = closed_loop(&robot.joints, &parent_joint, source_name) {
+        return Err(err);
     }
     // Walk up from the tip to the base.
     let mut chain: Vec<&urdf_rs::Joint> = Vec::new();

@@ -142,3 +142,67 @@ fn malformed_xml_and_no_revolute_joint() {
         "{e}"
     );
 }
+
+/// A fixed joint from the tip back to the base closes the chain into a loop: refused, naming
+/// the joint and the loop, although every link has one parent and the tip is below the base.
+#[test]
+fn a_fixed_joint_from_the_tip_back_to_the_base_is_refused() {
+    let back =
+        r#"<joint name="loop" type="fixed"><parent link="tip"/><child link="base"/></joint>"#;
+    let e = import(&chain("revolute", LIMIT, back), "base", "tip").unwrap_err();
+    assert!(
+        matches!(e, UrdfError::ClosedLoop { ref joint, .. } if joint == "loop"),
+        "{e:?}"
+    );
+    let e = e.to_string();
+    assert!(
+        e.starts_with("t.urdf: <joint name=\"loop\"> closes a loop (")
+            && e.contains("base ← tip ← l2 ← l1 ← base")
+            && e.contains("a closed structure"),
+        "{e}"
+    );
+    // The same loop from a fixture file: the error names the file.
+    let path =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/closed-loop.urdf");
+    let e = urdf::import_file(&path, "base", "tip", &ImportOptions::default())
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.starts_with(&format!(
+            "{}: <joint name=\"tip_to_base\"> closes a loop",
+            path.display()
+        )),
+        "{e}"
+    );
+    // A loop off the chain is refused too: the description is not a tree.
+    let off = r#"<link name="a"/><link name="b"/>
+        <joint name="ab" type="fixed"><parent link="a"/><child link="b"/></joint>
+        <joint name="ba" type="fixed"><parent link="b"/><child link="a"/></joint>"#;
+    let e = import(&chain("revolute", LIMIT, off), "base", "tip").unwrap_err();
+    assert!(
+        matches!(e, UrdfError::ClosedLoop { ref joint, ref cycle, .. } if joint == "ba" && cycle == "a ← b ← a"),
+        "{e:?}"
+    );
+}
+
+/// A joint whose parent and child are the same link: refused, naming the joint and the link.
+#[test]
+fn a_joint_from_a_link_to_itself_is_refused() {
+    for link in ["base", "l2", "tip", "side"] {
+        let own = format!(
+            r#"<joint name="own" type="fixed"><parent link="{link}"/><child link="{link}"/></joint>"#
+        );
+        let e = import(&chain("revolute", LIMIT, &own), "base", "tip").unwrap_err();
+        let msg = e.to_string();
+        assert!(
+            matches!(e, UrdfError::ClosedLoop { ref joint, .. } if joint == "own"),
+            "{msg}"
+        );
+        assert!(
+            msg.contains(&format!(
+                "<joint name=\"own\"> closes a loop ({link} ← {link})"
+            )),
+            "{msg}"
+        );
+    }
+}
