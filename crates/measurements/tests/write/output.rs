@@ -63,14 +63,21 @@ fn child_process() {
 }
 
 fn child(dir: &Path, label: &str, env: &[(&str, &str)]) -> Command {
+    // The test's own name in this binary: its module path without the crate's name.
+    let module = module_path!().split_once("::").map_or("", |(_, m)| m);
     let mut c = Command::new(std::env::current_exe().unwrap());
-    c.args(["output::child_process", "--exact", "--nocapture", "--quiet"])
-        .env(CHILD_DIR, dir)
-        .env(CHILD_SET, label)
-        .env_remove(FAULT_ENV)
-        .env_remove(NO_EXCHANGE_ENV)
-        .stdout(std::process::Stdio::null())
-        .stderr(std::process::Stdio::piped());
+    c.args([
+        &format!("{module}::child_process"),
+        "--exact",
+        "--nocapture",
+        "--quiet",
+    ])
+    .env(CHILD_DIR, dir)
+    .env(CHILD_SET, label)
+    .env_remove(FAULT_ENV)
+    .env_remove(NO_EXCHANGE_ENV)
+    .stdout(std::process::Stdio::null())
+    .stderr(std::process::Stdio::piped());
     for (k, v) in env {
         c.env(k, v);
     }
