@@ -23,11 +23,12 @@ use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
-use crate::report::CampaignSummary;
+use crate::error::CampaignError;
 use crate::run::run_range;
 use crate::scenario::Scenario;
+use crate::summary::CampaignSummary;
 use crate::sweep::scenario_json_with;
-use crate::trial::{CampaignError, Context};
+use crate::trial::Context;
 
 /// Tolerances of a check file (all ≥ 0).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]

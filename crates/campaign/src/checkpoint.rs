@@ -23,10 +23,10 @@ use std::time::{Duration, Instant};
 
 use serde::{Deserialize, Serialize};
 
-use crate::report::ShardFile;
+use crate::error::CampaignError;
 use crate::run::{Aggregate, run_range};
-use crate::scenario::{Scenario, ScenarioError};
-use crate::trial::{CampaignError, Context};
+use crate::scenario::Scenario;
+use crate::trial::Context;
 
 /// Format version of checkpoint files.
 pub const CHECKPOINT_FORMAT: u32 = 1;
@@ -408,40 +408,6 @@ pub fn code_version() -> String {
     match std::env::current_exe().and_then(std::fs::read) {
         Ok(bytes) => format!("{version} (executable {:016x})", fingerprint(&bytes)),
         Err(_) => version.to_string(),
-    }
-}
-
-impl ShardFile {
-    /// Parses a shard file's text; `source` names it in errors, with the field and the line
-    /// and column.
-    pub fn from_json_str(text: &str, source: &str) -> Result<ShardFile, CampaignError> {
-        let de = &mut serde_json::Deserializer::from_str(text);
-        serde_path_to_error::deserialize(de).map_err(|e| {
-            CampaignError::Scenario(ScenarioError::Parse {
-                file: source.to_string(),
-                field: e.path().to_string(),
-                message: format!("not a shard file: {}", e.into_inner()),
-            })
-        })
-    }
-
-    /// Reads a shard file written by `campaign --shard`.
-    pub fn from_file(path: &Path) -> Result<ShardFile, CampaignError> {
-        let source = path.display().to_string();
-        let bytes = std::fs::read(path).map_err(|e| CampaignError::Io {
-            path: source.clone(),
-            source: e,
-        })?;
-        let text = std::str::from_utf8(&bytes).map_err(|e| {
-            CampaignError::Other(format!(
-                "{source}:{}: not valid UTF-8",
-                1 + bytes[..e.valid_up_to()]
-                    .iter()
-                    .filter(|b| **b == b'\n')
-                    .count()
-            ))
-        })?;
-        ShardFile::from_json_str(text, &source)
     }
 }
 

@@ -13,45 +13,9 @@ use report::{Figure, PlotError, RefLine, Scale, Series, Style};
 
 use crate::aggregate::Summary;
 use crate::budget::{ResidualBudget, RunFigures};
-use crate::report::{CampaignSummary, PAPER, RecoverySummary};
+use crate::summary::{CampaignSummary, PAPER, RecoverySummary};
+use crate::summary::{is_paper, kinematic_order};
 use crate::sweep::{PlotSpec, SweepPoint, SweepResult};
-
-/// Parameter names sorted in the kinematic order of `kinematics::ParamLayout` (per joint θ, d,
-/// a, α; then the β's; then the base rx … dz; then the tool x, y, z). Unknown names go last,
-/// alphabetically.
-pub fn kinematic_order<'a>(names: impl IntoIterator<Item = &'a str>) -> Vec<&'a str> {
-    // Sixteen joints with zero nominal twists: every joint parameter and every β exists, in
-    // the same relative order as in any smaller chain.
-    let layout = kinematics::ParamLayout::new(&[0.0; 16]);
-    let mut v: Vec<&str> = names.into_iter().collect();
-    // The non-geometric parameters of an extended model follow, compliances first, then the
-    // gear terms by joint and harmonic.
-    let extended = |n: &str| {
-        kinematics::ExtendedKind::parse(n).map(|k| match k {
-            kinematics::ExtendedKind::Compliance(j) => j,
-            kinematics::ExtendedKind::GearSin { joint, harmonic } => {
-                100 + 100 * joint + 2 * harmonic as usize
-            }
-            kinematics::ExtendedKind::GearCos { joint, harmonic } => {
-                101 + 100 * joint + 2 * harmonic as usize
-            }
-        })
-    };
-    v.sort_by_key(|n| {
-        let k = layout
-            .index_of(n)
-            .ok()
-            .or_else(|| extended(n).map(|e| layout.len() + e))
-            .unwrap_or(usize::MAX);
-        (k, *n)
-    });
-    v
-}
-
-/// Whether a campaign reproduces the paper (its Table 4 is the reference).
-pub fn is_paper(scenario_name: &str) -> bool {
-    scenario_name.starts_with("paper")
-}
 
 /// 3-D error per validation pose before and after calibration (the paper's Fig. 7), as points
 /// (the poses are independent), with each series' mean and, for the paper's scenarios, the

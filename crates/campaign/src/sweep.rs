@@ -26,10 +26,11 @@ use crate::aggregate::Summary;
 use crate::checkpoint::{
     CHECKPOINT_FORMAT, Checkpoint, CheckpointConfig, CheckpointManifest, run_chunks,
 };
-use crate::report::CampaignSummary;
+use crate::error::CampaignError;
 use crate::run::{Aggregate, run_range};
 use crate::scenario::{Scenario, ScenarioError};
-use crate::trial::{CampaignError, Context};
+use crate::summary::CampaignSummary;
+use crate::trial::Context;
 
 /// One axis of a sweep.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]

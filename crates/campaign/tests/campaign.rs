@@ -239,7 +239,8 @@ fn trial_report_matches_the_golden_file() {
     let scenario = loaded.scenario.clone();
     let ctx = Context::new(loaded).unwrap();
     let trial = campaign::run_trial(&ctx, 0).unwrap();
-    let md = evaluate::render_trial_markdown(&campaign::report::trial_report(&scenario, &trial));
+    let md =
+        evaluate::render_trial_markdown(&campaign::trial_report::trial_report(&scenario, &trial));
     for part in ["Table 4", "ISO 9283", "P5", "Parameter recovery", "1.122"] {
         assert!(md.contains(part), "report lacks {part}");
     }
@@ -263,7 +264,7 @@ fn trial_report_matches_the_golden_file() {
 fn report_html_holds_every_plot_and_summary_follows_the_rules() {
     let loaded = load_edited("noise-floor", |v| v["trials"] = 12.into());
     let (agg, s) = run(&loaded, 2);
-    let files = campaign::report::render_outputs(&s, &agg).unwrap();
+    let files = campaign::render_outputs(&s, &agg).unwrap();
     let get = |n: &str| {
         let f = files.iter().find(|f| f.0 == n);
         String::from_utf8(f.unwrap_or_else(|| panic!("no {n}")).1.clone()).unwrap()
