@@ -16,7 +16,7 @@ pub fn render_outputs(
     summary: &CampaignSummary,
     agg: &Aggregate,
 ) -> Result<Vec<(String, Vec<u8>)>, CampaignError> {
-    let plot_err = |e: report::PlotError| CampaignError::Other(format!("plot: {e}"));
+    let plot_err = CampaignError::Plot;
     let name = &summary.scenario.name;
     let paper = is_paper(name);
     let mut files = vec![
@@ -75,12 +75,12 @@ pub fn write_outputs(
     agg: &Aggregate,
 ) -> Result<(), CampaignError> {
     let files = render_outputs(summary, agg)?;
-    std::fs::create_dir_all(dir).map_err(|source| CampaignError::Io {
-        path: dir.display().to_string(),
+    std::fs::create_dir_all(dir).map_err(|source| CampaignError::CreateDir {
+        path: dir.to_path_buf(),
         source,
     })?;
-    measurements::write_all_atomically(dir, &files).map_err(|source| CampaignError::Io {
-        path: dir.display().to_string(),
+    measurements::write_all_atomically(dir, &files).map_err(|source| CampaignError::Write {
+        path: dir.to_path_buf(),
         source,
     })
 }

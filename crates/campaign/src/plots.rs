@@ -13,6 +13,7 @@ use report::{Figure, PlotError, RefLine, Scale, Series, Style};
 
 use crate::aggregate::Summary;
 use crate::budget::{ResidualBudget, RunFigures};
+use crate::error::{CampaignError, SweepPlotError};
 use crate::summary::{CampaignSummary, PAPER, RecoverySummary};
 use crate::summary::{is_paper, kinematic_order};
 use crate::sweep::{PlotSpec, SweepPoint, SweepResult};
@@ -394,23 +395,17 @@ fn summary_of<'a>(p: &'a SweepPoint, metric: &str) -> Option<&'a Summary> {
 /// curve per combination of the other axes, legends in words, the x axis logarithmic for
 /// log-spaced values ([`Scale::auto`]) with a tick at every swept value, markers dodged so
 /// that equal curves stay visible, and the paper's value as a line where it has one.
-pub fn sweep_figure(result: &SweepResult, plot: &PlotSpec) -> Result<Figure, String> {
+pub fn sweep_figure(result: &SweepResult, plot: &PlotSpec) -> Result<Figure, SweepPlotError> {
     let spec = &result.spec;
-    let xi = match &plot.x {
-        Some(x) => spec
-            .axes
-            .iter()
-            .position(|a| &a.path == x)
-            .ok_or_else(|| format!("plot x `{x}` is not an axis"))?,
-        None => 0,
-    };
+    let xi = result.x_axis(plot)?;
     let x_axis = &spec.axes[xi];
     let xs: Vec<f64> = x_axis
         .values
         .iter()
         .map(|v| {
-            v.as_f64()
-                .ok_or_else(|| format!("plot x axis `{}` has a non-numeric value", x_axis.path))
+            v.as_f64().ok_or_else(|| SweepPlotError::NotNumeric {
+                axis: x_axis.path.clone(),
+            })
         })
         .collect::<Result<_, _>>()?;
     let x_scale = Scale::auto(xs.iter().copied());
@@ -521,9 +516,9 @@ fn is_paper_base(result: &SweepResult) -> bool {
 }
 
 /// The SVG of one sweep plot ([`sweep_figure`]).
-pub fn sweep_svg(result: &SweepResult, plot: &PlotSpec) -> Result<String, String> {
+pub fn sweep_svg(result: &SweepResult, plot: &PlotSpec) -> Result<String, SweepPlotError> {
     let f = sweep_figure(result, plot)?;
-    plot::figure_svg(&f).map_err(|e| e.to_string())
+    Ok(plot::figure_svg(&f)?)
 }
 
 /// The file name of sweep plot `k` (0-based): `<metric>-<k+1>.svg`.
@@ -590,10 +585,13 @@ pub fn campaign_page(summary: &CampaignSummary, svgs: &[(String, String)]) -> St
 /// # Errors
 /// A plot whose x axis is not a numeric axis, or that cannot be drawn (message names the
 /// plot).
-pub fn sweep_outputs(result: &SweepResult) -> Result<Vec<(String, Vec<u8>)>, String> {
+pub fn sweep_outputs(result: &SweepResult) -> Result<Vec<(String, Vec<u8>)>, CampaignError> {
     let mut svgs = Vec::new();
     for (k, plot) in result.spec.plots.iter().enumerate() {
-        let svg = sweep_svg(result, plot).map_err(|e| format!("plot {}: {e}", k + 1))?;
+        let svg = sweep_svg(result, plot).map_err(|source| CampaignError::SweepPlot {
+            plot: k + 1,
+            source,
+        })?;
         svgs.push((sweep_plot_file(plot, k), svg));
     }
     let mut files = vec![(
