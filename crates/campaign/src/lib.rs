@@ -28,3 +28,4 @@ pub use shard::{ShardFile, ShardManifest, merge_shards, shard_budget, shard_rang
 pub use summary::CampaignSummary;
 pub use sweep::{SweepResult, SweepSpec, run_sweep, run_sweep_checkpointed};
 pub use trial::{Context, TrialResult, run_trial};
+pub use trial_report::TrialReport;

@@ -7,7 +7,7 @@ use crate::error::CampaignError;
 use crate::plots;
 use crate::run::Aggregate;
 use crate::summary::{CampaignSummary, is_paper};
-use crate::trial_report::trial_report;
+use crate::trial_report::TrialReport;
 
 /// Renders every output file of a campaign in memory: `summary.json`, `summary.md`, the
 /// trial report, the SVG plots and `report.html` (the summary with the plots in place), as
@@ -35,7 +35,7 @@ pub fn render_outputs(
             plots::error_cdf_svg(name, t.trial, &t.before_mm, &t.after_mm, paper)
                 .map_err(plot_err)?,
         ));
-        let md = evaluate::render_trial_markdown(&trial_report(&summary.scenario, t));
+        let md = TrialReport::new(&summary.scenario, t).to_markdown();
         files.push((format!("trial-{}.md", t.trial), md.into_bytes()));
     }
     if let Some(stat) = agg.metrics.get("improvement_pct")

@@ -239,8 +239,7 @@ fn trial_report_matches_the_golden_file() {
     let scenario = loaded.scenario.clone();
     let ctx = Context::new(loaded).unwrap();
     let trial = campaign::run_trial(&ctx, 0).unwrap();
-    let md =
-        evaluate::render_trial_markdown(&campaign::trial_report::trial_report(&scenario, &trial));
+    let md = campaign::TrialReport::new(&scenario, &trial).to_markdown();
     for part in ["Table 4", "ISO 9283", "P5", "Parameter recovery", "1.122"] {
         assert!(md.contains(part), "report lacks {part}");
     }
