@@ -126,6 +126,15 @@ pub enum CampaignError {
         #[source]
         source: std::io::Error,
     },
+    /// The files of a simulated trial could not be written.
+    #[error("writing into {}", .dir.display())]
+    WriteSimulation {
+        /// The output directory.
+        dir: PathBuf,
+        /// Cause.
+        #[source]
+        source: virtual_robot::SimError,
+    },
     /// The output directory could not be created.
     #[error("{}: creating the directory", .path.display())]
     CreateDir {

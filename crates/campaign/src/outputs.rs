@@ -1,5 +1,7 @@
-//! The output files of a campaign, rendered in memory and written all or nothing:
-//! `summary.json`, `summary.md`, the trial report, the SVG plots and `report.html`.
+//! The output files of a campaign — `summary.json`, `summary.md`, the trial report, the SVG
+//! plots and `report.html` — and of a sweep — `sweep.json`, `sweep.csv`, `sweep.md`, its
+//! plots and `report.html` —, rendered in memory and written all or nothing; and
+//! `timing.json`, the wall-clock record kept apart from the reproducible outputs.
 
 use std::path::Path;
 
@@ -7,6 +9,7 @@ use crate::error::CampaignError;
 use crate::plots;
 use crate::run::Aggregate;
 use crate::summary::{CampaignSummary, is_paper};
+use crate::sweep::SweepResult;
 use crate::trial_report::TrialReport;
 
 /// Renders every output file of a campaign in memory: `summary.json`, `summary.md`, the
@@ -82,5 +85,56 @@ pub fn write_outputs(
     measurements::write_all_atomically(dir, &files).map_err(|source| CampaignError::Write {
         path: dir.to_path_buf(),
         source,
+    })
+}
+
+/// Renders every output file of a sweep in memory: `sweep.json`, `sweep.csv`, `sweep.md`,
+/// the plots and `report.html`, as (file name, bytes).
+pub fn render_sweep_outputs(result: &SweepResult) -> Result<Vec<(String, Vec<u8>)>, CampaignError> {
+    let mut json =
+        serde_json::to_string_pretty(result).map_err(|source| CampaignError::Serialise {
+            path: "sweep.json".into(),
+            source,
+        })?;
+    json.push('\n');
+    let mut files: Vec<(String, Vec<u8>)> = vec![
+        ("sweep.json".into(), json.into_bytes()),
+        ("sweep.csv".into(), result.to_csv().into_bytes()),
+        ("sweep.md".into(), result.to_markdown().into_bytes()),
+    ];
+    files.extend(plots::sweep_outputs(result)?);
+    Ok(files)
+}
+
+/// Writes `timing.json` into `dir`: the wall clock of a run of `trials` trials on `threads`
+/// threads that took `seconds`, and the machine's CPU ([`cpu_model_name`]). Not a
+/// reproducible output (`summary.json` holds no wall-clock figure).
+pub fn write_timing(
+    dir: &Path,
+    trials: u64,
+    threads: usize,
+    seconds: f64,
+) -> Result<(), CampaignError> {
+    let timing = serde_json::json!({
+        "trials": trials,
+        "threads": threads,
+        "wall_seconds": seconds,
+        "trials_per_second": trials as f64 / seconds.max(1e-12),
+        "ms_per_trial_per_thread": seconds * 1e3 * threads as f64 / trials.max(1) as f64,
+        "cpu": cpu_model_name().unwrap_or_default(),
+    });
+    let path = dir.join("timing.json");
+    measurements::write_atomically(&path, format!("{timing:#}\n").as_bytes())
+        .map_err(|source| CampaignError::Write { path, source })
+}
+
+/// The CPU's model name from `/proc/cpuinfo` (`None` where there is none): recorded beside
+/// every wall-clock figure (a campaign's `timing.json`, the benchmarks' `bench.json`).
+pub fn cpu_model_name() -> Option<String> {
+    std::fs::read_to_string("/proc/cpuinfo").ok().and_then(|s| {
+        s.lines()
+            .find(|l| l.starts_with("model name"))
+            .and_then(|l| l.split_once(':'))
+            .map(|(_, v)| v.trim().to_string())
     })
 }

@@ -316,3 +316,73 @@ fn report_html_holds_every_plot_and_summary_follows_the_rules() {
         "{cell}"
     );
 }
+
+/// The requests the front ends build: a campaign run as two shards and merged writes the
+/// single run's outputs byte for byte (the residual budget computed by shard 0 alone), the
+/// shard files and checkpoints named by the library; bad overrides are typed errors that
+/// name no command-line option.
+#[test]
+fn sharded_campaign_run_and_merge_give_the_single_run_outputs() {
+    use campaign::{
+        CampaignError, CampaignOutcome, CampaignRun, Checkpointing, MergeRun, Shard, Silent,
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let request = |out: &str| {
+        let mut run = CampaignRun::new(scenario_path("paper-kr1000"));
+        run.trials = Some(4);
+        run.iso_off = true;
+        run.threads = Some(2);
+        run.out = Some(dir.path().join(out));
+        run
+    };
+    let single = request("single").run(&Silent).unwrap();
+    let CampaignOutcome::Campaign { summary, .. } = &single else {
+        panic!("a whole campaign")
+    };
+    assert!(summary.residual_budget.is_some());
+    let mut files = Vec::new();
+    for k in [1, 0] {
+        let mut run = request("shards");
+        run.shard = Some(Shard::new(k, 2).unwrap());
+        run.checkpoint = Some(Checkpointing {
+            resume: false,
+            every_trials: Some(1),
+        });
+        match run.run(&Silent).unwrap() {
+            CampaignOutcome::Shard { file, trials, .. } => {
+                assert_eq!(trials, campaign::shard_range(4, k, 2));
+                assert!(file.ends_with(format!("shard-{k}-of-2.json")));
+                files.push(file);
+            }
+            other => panic!("a shard: {other:?}"),
+        }
+    }
+    let left: Vec<_> = std::fs::read_dir(dir.path().join("shards"))
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| n.contains("checkpoint"))
+        .collect();
+    assert!(left.is_empty(), "{left:?}");
+    let mut merge = MergeRun::new(files);
+    merge.out = Some(dir.path().join("merged"));
+    merge.run().unwrap();
+    for file in ["summary.json", "summary.md", "trial-0.md", "report.html"] {
+        let a = std::fs::read(dir.path().join("single").join(file)).unwrap();
+        let b = std::fs::read(dir.path().join("merged").join(file)).unwrap();
+        assert!(a == b, "{file} differs");
+    }
+    assert!(dir.path().join("single/timing.json").exists());
+
+    let mut zero = request("zero");
+    zero.trials = Some(0);
+    let e = zero.run(&Silent).unwrap_err();
+    assert!(matches!(e, CampaignError::ZeroTrials), "{e}");
+    assert_eq!(e.to_string(), "trials must be at least 1");
+    let e = Shard::new(4, 4).unwrap_err().to_string();
+    assert_eq!(e, "shard 4/4: need 0 <= k < K");
+    let mut unfinished = request("single");
+    unfinished.checkpoint = Some(Checkpointing::default());
+    std::fs::write(dir.path().join("single/checkpoint.json"), "{}").unwrap();
+    let e = unfinished.run(&Silent).unwrap_err().to_string();
+    assert!(e.contains("checkpoint.json") && !e.contains("--"), "{e}");
+}
