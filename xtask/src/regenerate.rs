@@ -1,11 +1,12 @@
 //! `cargo xtask regenerate [--check]`: rebuild `results/` from the committed scenarios and
-//! sweeps with the same functions as `kincal campaign | sweep`.
+//! sweeps with the same requests as `kincal campaign | sweep` ([`CampaignRun`],
+//! [`SweepRun`]).
 
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context as _, Result, bail};
-use campaign::Scenario;
-use kincal::campaign_cmd::{run_campaign, run_sweep_to};
+use campaign::{CampaignRun, Scenario, SweepRun, SweepSpec};
+use kincal::campaign_cmd::{Progress, print_campaign, print_sweep};
 
 /// Arguments of `regenerate`.
 #[derive(clap::Args)]
@@ -42,22 +43,18 @@ pub fn regenerate(args: RegenerateArgs) -> Result<()> {
             .with_context(|| format!("loading {}", path.display()))?
             .scenario
             .name;
-        run_campaign(
-            &path,
-            None,
-            None,
-            Some(target.join(&name)),
-            None,
-            true,
-            false,
-            false,
-            None,
-        )?;
+        let mut run = CampaignRun::new(&path);
+        run.out = Some(target.join(&name));
+        let outcome = run.run(&Progress::new(false))?;
+        print_campaign(&outcome, true);
         names.push(name);
     }
     for path in list("scenarios/sweeps")? {
-        let name = campaign::SweepSpec::from_file(&path)?.name;
-        run_sweep_to(&path, None, None, Some(target.join(&name)), true, None)?;
+        let name = SweepSpec::from_file(&path)?.name;
+        let mut run = SweepRun::new(&path);
+        run.out = Some(target.join(&name));
+        let outcome = run.run(&Progress::new(false))?;
+        print_sweep(&outcome, true);
         names.push(name);
     }
     if !args.check {

@@ -27,41 +27,12 @@
 use serde::{Deserialize, Serialize};
 
 use crate::aggregate::Summary;
+use crate::error::CampaignError;
 use crate::run::run_range;
+pub use crate::scenario::{BudgetConfig, DEFAULT_BUDGET_TRIALS};
 use crate::scenario::{LoadedScenario, Scenario};
-use crate::trial::{CampaignError, Context};
+use crate::trial::Context;
 use report::fmt;
-
-/// Trials per budget run when the scenario does not say \[200\].
-pub const DEFAULT_BUDGET_TRIALS: u64 = 200;
-
-/// The scenario's `residual_budget` section.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(default, deny_unknown_fields)]
-pub struct BudgetConfig {
-    /// Compute the budget \[false\]: it costs 2 runs per source plus 2, so it is opt-in.
-    pub enabled: bool,
-    /// Trials per run \[200\], capped at the campaign's trial count: the budget's figures are
-    /// means over trials 0..trials, the same trials for every run.
-    pub trials: u64,
-}
-
-impl Default for BudgetConfig {
-    fn default() -> Self {
-        BudgetConfig {
-            enabled: false,
-            trials: DEFAULT_BUDGET_TRIALS,
-        }
-    }
-}
-
-impl BudgetConfig {
-    /// The default (off): not written into summaries, so that scenarios without the field
-    /// give the same bytes as before it existed.
-    pub fn is_default(&self) -> bool {
-        *self == BudgetConfig::default()
-    }
-}
 
 /// An error source outside the identification model that the budget can switch.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]

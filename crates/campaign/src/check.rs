@@ -23,11 +23,12 @@ use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
-use crate::report::CampaignSummary;
+use crate::error::CampaignError;
 use crate::run::run_range;
 use crate::scenario::Scenario;
+use crate::summary::CampaignSummary;
 use crate::sweep::scenario_json_with;
-use crate::trial::{CampaignError, Context};
+use crate::trial::Context;
 
 /// Tolerances of a check file (all ≥ 0).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -83,8 +84,11 @@ impl CheckFile {
             path: path.display().to_string(),
             source,
         })?;
-        let file: CheckFile = serde_json::from_str(&text)
-            .map_err(|e| CampaignError::Other(format!("{}: {e}", path.display())))?;
+        let file: CheckFile =
+            serde_json::from_str(&text).map_err(|source| CampaignError::CheckFileJson {
+                file: path.to_path_buf(),
+                source,
+            })?;
         let t = &file.tolerances;
         for (name, v) in [
             ("rel_mm", t.rel_mm),
@@ -95,27 +99,26 @@ impl CheckFile {
             ("abs_iterations", t.abs_iterations),
         ] {
             if !(v.is_finite() && v >= 0.0) {
-                return Err(CampaignError::Other(format!(
-                    "{}: tolerances.{name} = {v}: must be a finite number ≥ 0",
-                    path.display()
-                )));
+                return Err(CampaignError::Tolerance {
+                    file: path.to_path_buf(),
+                    name,
+                    value: v,
+                });
             }
         }
         let mut seen = std::collections::BTreeSet::new();
         for c in &file.checks {
             if c.trials == 0 {
-                return Err(CampaignError::Other(format!(
-                    "{}: check `{}`: trials must be ≥ 1",
-                    path.display(),
-                    c.name
-                )));
+                return Err(CampaignError::CheckTrials {
+                    file: path.to_path_buf(),
+                    check: c.name.clone(),
+                });
             }
             if c.name.is_empty() || c.name.contains(['/', '\\']) || !seen.insert(&c.name) {
-                return Err(CampaignError::Other(format!(
-                    "{}: check name `{}` is empty, has a path separator or is repeated",
-                    path.display(),
-                    c.name
-                )));
+                return Err(CampaignError::CheckName {
+                    file: path.to_path_buf(),
+                    check: c.name.clone(),
+                });
             }
         }
         Ok(file)

@@ -23,10 +23,10 @@ use std::time::{Duration, Instant};
 
 use serde::{Deserialize, Serialize};
 
-use crate::report::ShardFile;
+use crate::error::CampaignError;
 use crate::run::{Aggregate, run_range};
-use crate::scenario::{Scenario, ScenarioError};
-use crate::trial::{CampaignError, Context};
+use crate::scenario::Scenario;
+use crate::trial::Context;
 
 /// Format version of checkpoint files.
 pub const CHECKPOINT_FORMAT: u32 = 1;
@@ -195,43 +195,49 @@ impl Checkpoint {
                 });
             }
         };
-        let c: Checkpoint = serde_json::from_slice(&text).map_err(|e| {
-            CampaignError::Other(format!(
-                "{}: not a checkpoint file (line {}, column {}: {e}); delete it to start afresh",
-                path.display(),
-                e.line(),
-                e.column()
-            ))
-        })?;
+        let c: Checkpoint =
+            serde_json::from_slice(&text).map_err(|source| CampaignError::NotACheckpoint {
+                path: path.display().to_string(),
+                source,
+            })?;
         let m = &c.manifest;
-        let bad = |what: String| {
-            Err(CampaignError::Other(format!(
-                "{}: inconsistent checkpoint: {what}; delete it to start afresh",
-                path.display()
-            )))
+        let bad = |field: &'static str, problem: String| {
+            Err(CampaignError::InconsistentCheckpoint {
+                path: path.display().to_string(),
+                field,
+                problem,
+            })
         };
         if !(m.first_trial..=m.end_trial).contains(&c.next_trial) {
-            return bad(format!(
-                "field `next_trial` {} outside {}..{}",
-                c.next_trial, m.first_trial, m.end_trial
-            ));
+            return bad(
+                "next_trial",
+                format!(
+                    "{} outside {}..{}",
+                    c.next_trial, m.first_trial, m.end_trial
+                ),
+            );
         }
         if c.aggregate.trials != c.next_trial - m.first_trial {
-            return bad(format!(
-                "field `aggregate.trials` {} but trials {}..{} done",
-                c.aggregate.trials, m.first_trial, c.next_trial
-            ));
+            return bad(
+                "aggregate.trials",
+                format!(
+                    "{} but trials {}..{} done",
+                    c.aggregate.trials, m.first_trial, c.next_trial
+                ),
+            );
         }
         if let Err(e) = c.aggregate.check() {
-            return bad(format!("field `aggregate`: {e}"));
+            return bad("aggregate", e);
         }
         Ok(Some(c))
     }
 
     /// Writes the checkpoint atomically.
     pub fn write(&self, path: &Path) -> Result<(), CampaignError> {
-        let text = serde_json::to_vec(self)
-            .map_err(|e| CampaignError::Other(format!("{}: serialising: {e}", path.display())))?;
+        let text = serde_json::to_vec(self).map_err(|source| CampaignError::Serialise {
+            path: path.display().to_string(),
+            source,
+        })?;
         measurements::write_atomically(path, &text).map_err(|source| CampaignError::Io {
             path: path.display().to_string(),
             source,
@@ -249,11 +255,10 @@ pub fn starting_point(
     let fresh = (manifest.first_trial, Aggregate::default());
     if !cfg.resume {
         if cfg.path.exists() {
-            return Err(CampaignError::Other(format!(
-                "{}: a checkpoint of an unfinished run is there; pass --resume to continue \
-                 it, or delete it to start afresh",
-                cfg.path.display()
-            )));
+            return Err(CampaignError::UnfinishedCheckpoint {
+                path: cfg.path.clone(),
+                what: "run",
+            });
         }
         return Ok(fresh);
     }
@@ -262,12 +267,11 @@ pub fn starting_point(
     };
     let diff = c.manifest.differences(manifest);
     if !diff.is_empty() {
-        return Err(CampaignError::Other(format!(
-            "{}: cannot resume, the checkpoint belongs to another run: {}; delete it to start \
-             afresh",
-            cfg.path.display(),
-            diff.join("; ")
-        )));
+        return Err(CampaignError::CheckpointMismatch {
+            path: cfg.path.clone(),
+            what: "run",
+            differences: diff,
+        });
     }
     Ok((c.next_trial, c.aggregate))
 }
@@ -408,40 +412,6 @@ pub fn code_version() -> String {
     match std::env::current_exe().and_then(std::fs::read) {
         Ok(bytes) => format!("{version} (executable {:016x})", fingerprint(&bytes)),
         Err(_) => version.to_string(),
-    }
-}
-
-impl ShardFile {
-    /// Parses a shard file's text; `source` names it in errors, with the field and the line
-    /// and column.
-    pub fn from_json_str(text: &str, source: &str) -> Result<ShardFile, CampaignError> {
-        let de = &mut serde_json::Deserializer::from_str(text);
-        serde_path_to_error::deserialize(de).map_err(|e| {
-            CampaignError::Scenario(ScenarioError::Parse {
-                file: source.to_string(),
-                field: e.path().to_string(),
-                message: format!("not a shard file: {}", e.into_inner()),
-            })
-        })
-    }
-
-    /// Reads a shard file written by `campaign --shard`.
-    pub fn from_file(path: &Path) -> Result<ShardFile, CampaignError> {
-        let source = path.display().to_string();
-        let bytes = std::fs::read(path).map_err(|e| CampaignError::Io {
-            path: source.clone(),
-            source: e,
-        })?;
-        let text = std::str::from_utf8(&bytes).map_err(|e| {
-            CampaignError::Other(format!(
-                "{source}:{}: not valid UTF-8",
-                1 + bytes[..e.valid_up_to()]
-                    .iter()
-                    .filter(|b| **b == b'\n')
-                    .count()
-            ))
-        })?;
-        ShardFile::from_json_str(text, &source)
     }
 }
 

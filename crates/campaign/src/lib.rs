@@ -1,26 +1,44 @@
 //! Monte Carlo campaigns: scenarios, trials, sweeps, deterministic aggregation and plots.
+//!
+//! A front end runs a campaign by building a request and calling it: [`CampaignRun`] (a
+//! campaign or one shard of it), [`MergeRun`] (shards into the campaign's outputs),
+//! [`SweepRun`], [`SimulateRun`] (one trial as measurement files); progress goes to an
+//! [`Observer`] it attaches. The modules below are the parts those requests are made of.
 
 pub mod aggregate;
 pub mod budget;
+pub mod campaign_run;
 pub mod check;
 pub mod checkpoint;
+pub mod error;
+pub mod observer;
+pub mod outputs;
 pub mod plots;
-pub mod report;
 pub mod run;
 pub mod scenario;
+pub mod shard;
+pub mod summary;
 pub mod sweep;
+pub mod sweep_run;
 pub mod trial;
+pub mod trial_report;
 
 pub use budget::{BudgetConfig, ResidualBudget, residual_budget};
+pub use campaign_run::{
+    CampaignOutcome, CampaignRun, Checkpointing, MergeOutcome, MergeRun, SimulateRun, default_out,
+};
 pub use check::{Baseline, CheckFile, CheckSpec, Comparison, Figures, compare, run_check};
 pub use checkpoint::{
     Checkpoint, CheckpointConfig, CheckpointManifest, code_version, run_range_checkpointed,
 };
-pub use report::{
-    CampaignSummary, ShardFile, ShardManifest, merge_shards, shard_budget, shard_range,
-    write_outputs,
-};
+pub use error::{CampaignError, FieldPathError, SweepPlotError};
+pub use observer::{Observer, Phase, Silent};
+pub use outputs::{cpu_model_name, render_outputs, write_outputs};
 pub use run::{Aggregate, run_range};
 pub use scenario::{LoadedScenario, Scenario, ScenarioError};
+pub use shard::{Shard, ShardFile, ShardManifest, merge_shards, shard_budget, shard_range};
+pub use summary::CampaignSummary;
 pub use sweep::{SweepResult, SweepSpec, run_sweep, run_sweep_checkpointed};
-pub use trial::{CampaignError, Context, TrialResult, run_trial};
+pub use sweep_run::{SweepOutcome, SweepRun};
+pub use trial::{Context, TrialResult, run_trial};
+pub use trial_report::TrialReport;

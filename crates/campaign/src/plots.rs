@@ -13,45 +13,10 @@ use report::{Figure, PlotError, RefLine, Scale, Series, Style};
 
 use crate::aggregate::Summary;
 use crate::budget::{ResidualBudget, RunFigures};
-use crate::report::{CampaignSummary, PAPER, RecoverySummary};
+use crate::error::{CampaignError, SweepPlotError};
+use crate::summary::{CampaignSummary, PAPER, RecoverySummary};
+use crate::summary::{is_paper, kinematic_order};
 use crate::sweep::{PlotSpec, SweepPoint, SweepResult};
-
-/// Parameter names sorted in the kinematic order of `kinematics::ParamLayout` (per joint θ, d,
-/// a, α; then the β's; then the base rx … dz; then the tool x, y, z). Unknown names go last,
-/// alphabetically.
-pub fn kinematic_order<'a>(names: impl IntoIterator<Item = &'a str>) -> Vec<&'a str> {
-    // Sixteen joints with zero nominal twists: every joint parameter and every β exists, in
-    // the same relative order as in any smaller chain.
-    let layout = kinematics::ParamLayout::new(&[0.0; 16]);
-    let mut v: Vec<&str> = names.into_iter().collect();
-    // The non-geometric parameters of an extended model follow, compliances first, then the
-    // gear terms by joint and harmonic.
-    let extended = |n: &str| {
-        kinematics::ExtendedKind::parse(n).map(|k| match k {
-            kinematics::ExtendedKind::Compliance(j) => j,
-            kinematics::ExtendedKind::GearSin { joint, harmonic } => {
-                100 + 100 * joint + 2 * harmonic as usize
-            }
-            kinematics::ExtendedKind::GearCos { joint, harmonic } => {
-                101 + 100 * joint + 2 * harmonic as usize
-            }
-        })
-    };
-    v.sort_by_key(|n| {
-        let k = layout
-            .index_of(n)
-            .ok()
-            .or_else(|| extended(n).map(|e| layout.len() + e))
-            .unwrap_or(usize::MAX);
-        (k, *n)
-    });
-    v
-}
-
-/// Whether a campaign reproduces the paper (its Table 4 is the reference).
-pub fn is_paper(scenario_name: &str) -> bool {
-    scenario_name.starts_with("paper")
-}
 
 /// 3-D error per validation pose before and after calibration (the paper's Fig. 7), as points
 /// (the poses are independent), with each series' mean and, for the paper's scenarios, the
@@ -430,23 +395,17 @@ fn summary_of<'a>(p: &'a SweepPoint, metric: &str) -> Option<&'a Summary> {
 /// curve per combination of the other axes, legends in words, the x axis logarithmic for
 /// log-spaced values ([`Scale::auto`]) with a tick at every swept value, markers dodged so
 /// that equal curves stay visible, and the paper's value as a line where it has one.
-pub fn sweep_figure(result: &SweepResult, plot: &PlotSpec) -> Result<Figure, String> {
+pub fn sweep_figure(result: &SweepResult, plot: &PlotSpec) -> Result<Figure, SweepPlotError> {
     let spec = &result.spec;
-    let xi = match &plot.x {
-        Some(x) => spec
-            .axes
-            .iter()
-            .position(|a| &a.path == x)
-            .ok_or_else(|| format!("plot x `{x}` is not an axis"))?,
-        None => 0,
-    };
+    let xi = result.x_axis(plot)?;
     let x_axis = &spec.axes[xi];
     let xs: Vec<f64> = x_axis
         .values
         .iter()
         .map(|v| {
-            v.as_f64()
-                .ok_or_else(|| format!("plot x axis `{}` has a non-numeric value", x_axis.path))
+            v.as_f64().ok_or_else(|| SweepPlotError::NotNumeric {
+                axis: x_axis.path.clone(),
+            })
         })
         .collect::<Result<_, _>>()?;
     let x_scale = Scale::auto(xs.iter().copied());
@@ -557,9 +516,9 @@ fn is_paper_base(result: &SweepResult) -> bool {
 }
 
 /// The SVG of one sweep plot ([`sweep_figure`]).
-pub fn sweep_svg(result: &SweepResult, plot: &PlotSpec) -> Result<String, String> {
+pub fn sweep_svg(result: &SweepResult, plot: &PlotSpec) -> Result<String, SweepPlotError> {
     let f = sweep_figure(result, plot)?;
-    plot::figure_svg(&f).map_err(|e| e.to_string())
+    Ok(plot::figure_svg(&f)?)
 }
 
 /// The file name of sweep plot `k` (0-based): `<metric>-<k+1>.svg`.
@@ -626,10 +585,13 @@ pub fn campaign_page(summary: &CampaignSummary, svgs: &[(String, String)]) -> St
 /// # Errors
 /// A plot whose x axis is not a numeric axis, or that cannot be drawn (message names the
 /// plot).
-pub fn sweep_outputs(result: &SweepResult) -> Result<Vec<(String, Vec<u8>)>, String> {
+pub fn sweep_outputs(result: &SweepResult) -> Result<Vec<(String, Vec<u8>)>, CampaignError> {
     let mut svgs = Vec::new();
     for (k, plot) in result.spec.plots.iter().enumerate() {
-        let svg = sweep_svg(result, plot).map_err(|e| format!("plot {}: {e}", k + 1))?;
+        let svg = sweep_svg(result, plot).map_err(|source| CampaignError::SweepPlot {
+            plot: k + 1,
+            source,
+        })?;
         svgs.push((sweep_plot_file(plot, k), svg));
     }
     let mut files = vec![(

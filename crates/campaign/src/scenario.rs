@@ -7,7 +7,6 @@ use identify::{IdentifiabilityOptions, IdentifyOptions, LmOptions, ParamSet, Reg
 use kinematics::{IkOptions, Robot};
 use serde::{Deserialize, Serialize};
 
-use crate::budget::BudgetConfig;
 use virtual_robot::{
     InjectedErrors, PoseSampling, TrackerConfig, UnmodelledConfig, VirtualRobotConfig,
 };
@@ -539,5 +538,36 @@ impl Scenario {
         let label = path.display().to_string();
         let base = path.parent().unwrap_or(Path::new("."));
         Scenario::from_json_str(&text, &label)?.load(base, &label)
+    }
+}
+
+/// Trials per budget run when the scenario does not say \[200\].
+pub const DEFAULT_BUDGET_TRIALS: u64 = 200;
+
+/// The scenario's `residual_budget` section (what the budget computes: [`crate::budget`]).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct BudgetConfig {
+    /// Compute the budget \[false\]: it costs 2 runs per source plus 2, so it is opt-in.
+    pub enabled: bool,
+    /// Trials per run \[200\], capped at the campaign's trial count: the budget's figures are
+    /// means over trials 0..trials, the same trials for every run.
+    pub trials: u64,
+}
+
+impl Default for BudgetConfig {
+    fn default() -> Self {
+        BudgetConfig {
+            enabled: false,
+            trials: DEFAULT_BUDGET_TRIALS,
+        }
+    }
+}
+
+impl BudgetConfig {
+    /// The default (off): not written into summaries, so that scenarios without the field
+    /// give the same bytes as before it existed.
+    pub fn is_default(&self) -> bool {
+        *self == BudgetConfig::default()
     }
 }

@@ -26,10 +26,12 @@ use crate::aggregate::Summary;
 use crate::checkpoint::{
     CHECKPOINT_FORMAT, Checkpoint, CheckpointConfig, CheckpointManifest, run_chunks,
 };
-use crate::report::CampaignSummary;
+use crate::error::CampaignError;
+use crate::error::{FieldPathError, SweepPlotError};
 use crate::run::{Aggregate, run_range};
-use crate::scenario::{Scenario, ScenarioError};
-use crate::trial::{CampaignError, Context};
+use crate::scenario::Scenario;
+use crate::summary::CampaignSummary;
+use crate::trial::Context;
 
 /// One axis of a sweep.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -138,36 +140,54 @@ pub(crate) fn scenario_json_with(
         path: path.display().to_string(),
         source,
     })?;
-    let mut v: serde_json::Value = serde_json::from_str(&text)
-        .map_err(|e| CampaignError::Other(format!("{}: {e}", path.display())))?;
-    for (p, value) in overrides {
-        set_path(&mut v, p, value.clone())
-            .map_err(|e| CampaignError::Other(format!("{what} override `{p}`: {e}")))?;
+    let mut v: serde_json::Value =
+        serde_json::from_str(&text).map_err(|source| CampaignError::BaseScenarioJson {
+            file: path.to_path_buf(),
+            source,
+        })?;
+    if !v.is_object() {
+        return Err(CampaignError::ScenarioNotAnObject {
+            file: path.to_path_buf(),
+        });
     }
-    set_path(&mut v, "trials", trials.into()).map_err(CampaignError::Other)?;
+    for (p, value) in overrides {
+        set_path(&mut v, p, value.clone()).map_err(|source| CampaignError::Override {
+            what: what.to_string(),
+            path: p.clone(),
+            source,
+        })?;
+    }
+    v["trials"] = trials.into();
     Ok(v)
 }
 
+/// Sets the field at dotted `path` (`poses.identification`) of `root`, creating the objects
+/// on the way that are missing.
 fn set_path(
     root: &mut serde_json::Value,
     path: &str,
     value: serde_json::Value,
-) -> Result<(), String> {
-    let mut cur = root;
+) -> Result<(), FieldPathError> {
     let parts: Vec<&str> = path.split('.').collect();
-    for (i, p) in parts.iter().enumerate() {
+    let (last, init) = parts.split_last().expect("split gives at least one part");
+    let mut cur = root;
+    for (i, p) in init.iter().enumerate() {
         let obj = cur
             .as_object_mut()
-            .ok_or_else(|| format!("`{}` is not an object", parts[..i].join(".")))?;
-        if i + 1 == parts.len() {
-            obj.insert((*p).to_string(), value);
-            return Ok(());
-        }
+            .ok_or_else(|| FieldPathError::NotAnObject {
+                prefix: parts[..i].join("."),
+            })?;
         cur = obj
             .entry((*p).to_string())
             .or_insert_with(|| serde_json::Value::Object(Default::default()));
     }
-    Err("empty path".into())
+    let obj = cur
+        .as_object_mut()
+        .ok_or_else(|| FieldPathError::NotAnObject {
+            prefix: init.join("."),
+        })?;
+    obj.insert((*last).to_string(), value);
+    Ok(())
 }
 
 fn label_of(v: &serde_json::Value) -> String {
@@ -190,24 +210,21 @@ impl SweepSpec {
             source,
         })?;
         let de = &mut serde_json::Deserializer::from_str(&text);
-        let spec: SweepSpec = serde_path_to_error::deserialize(de).map_err(|e| {
-            CampaignError::Scenario(ScenarioError::Parse {
+        let spec: SweepSpec =
+            serde_path_to_error::deserialize(de).map_err(|e| CampaignError::Parse {
                 file: path.display().to_string(),
                 field: e.path().to_string(),
                 message: e.into_inner().to_string(),
-            })
-        })?;
+            })?;
         if spec.axes.is_empty() || spec.axes.iter().any(|a| a.values.is_empty()) {
-            return Err(CampaignError::Other(format!(
-                "{}: field `axes`: needs at least one axis, each with values",
-                path.display()
-            )));
+            return Err(CampaignError::SweepWithoutAxes {
+                file: path.to_path_buf(),
+            });
         }
         if spec.trials == 0 {
-            return Err(CampaignError::Other(format!(
-                "{}: field `trials`: must be at least 1",
-                path.display()
-            )));
+            return Err(CampaignError::SweepWithoutTrials {
+                file: path.to_path_buf(),
+            });
         }
         Ok(spec)
     }
@@ -268,13 +285,11 @@ impl SweepCheckpoint {
                 });
             }
         };
-        serde_json::from_slice(&text).map(Some).map_err(|e| {
-            CampaignError::Other(format!(
-                "{}: not a sweep checkpoint (line {}, column {}: {e}); delete it to start afresh",
-                path.display(),
-                e.line(),
-                e.column()
-            ))
+        serde_json::from_slice(&text).map(Some).map_err(|source| {
+            CampaignError::NotASweepCheckpoint {
+                path: path.display().to_string(),
+                source,
+            }
         })
     }
 }
@@ -302,11 +317,10 @@ pub fn run_sweep_checkpointed(
     };
     if let Some(cfg) = cfg {
         if !cfg.resume && cfg.path.exists() {
-            return Err(CampaignError::Other(format!(
-                "{}: a checkpoint of an unfinished sweep is there; pass --resume to continue \
-                 it, or delete it to start afresh",
-                cfg.path.display()
-            )));
+            return Err(CampaignError::UnfinishedCheckpoint {
+                path: cfg.path.clone(),
+                what: "sweep",
+            });
         }
         if cfg.resume
             && let Some(saved) = SweepCheckpoint::read(&cfg.path)?
@@ -332,12 +346,11 @@ pub fn run_sweep_checkpointed(
                 ));
             }
             if !diff.is_empty() {
-                return Err(CampaignError::Other(format!(
-                    "{}: cannot resume, the checkpoint belongs to another sweep: {}; delete it \
-                     to start afresh",
-                    cfg.path.display(),
-                    diff.join("; ")
-                )));
+                return Err(CampaignError::CheckpointMismatch {
+                    path: cfg.path.clone(),
+                    what: "sweep",
+                    differences: diff,
+                });
             }
             state = saved;
         }
@@ -346,8 +359,12 @@ pub fn run_sweep_checkpointed(
         progress(i, combos.len());
         let mut v = base.clone();
         for (axis, value) in spec.axes.iter().zip(combo) {
-            set_path(&mut v, &axis.path, value.clone())
-                .map_err(|e| CampaignError::Other(format!("sweep axis `{}`: {e}", axis.path)))?;
+            set_path(&mut v, &axis.path, value.clone()).map_err(|source| {
+                CampaignError::SweepAxis {
+                    axis: axis.path.clone(),
+                    source,
+                }
+            })?;
         }
         let label = format!("{} point {}", spec.name, i);
         let loaded = Scenario::from_value(v, &label)?.load(scenario_dir, &label)?;
@@ -366,17 +383,18 @@ pub fn run_sweep_checkpointed(
                     Some(c) => {
                         let diff = c.manifest.differences(&manifest);
                         if !diff.is_empty() {
-                            return Err(CampaignError::Other(format!(
-                                "{}: cannot resume point {i}: {}; delete it to start afresh",
-                                cfg.path.display(),
-                                diff.join("; ")
-                            )));
+                            return Err(CampaignError::SweepPointMismatch {
+                                path: cfg.path.clone(),
+                                point: i,
+                                differences: diff,
+                            });
                         }
-                        c.aggregate.check().map_err(|e| {
-                            CampaignError::Other(format!(
-                                "{}: point {i}: field `current.aggregate`: {e}",
-                                cfg.path.display()
-                            ))
+                        c.aggregate.check().map_err(|problem| {
+                            CampaignError::SweepPointAggregate {
+                                path: cfg.path.clone(),
+                                point: i,
+                                problem,
+                            }
                         })?;
                         (c.next_trial, c.aggregate)
                     }
@@ -411,8 +429,10 @@ pub fn run_sweep_checkpointed(
 }
 
 fn write_sweep_checkpoint(path: &Path, state: &SweepCheckpoint) -> Result<(), CampaignError> {
-    let text = serde_json::to_vec(state)
-        .map_err(|e| CampaignError::Other(format!("{}: serialising: {e}", path.display())))?;
+    let text = serde_json::to_vec(state).map_err(|source| CampaignError::Serialise {
+        path: path.display().to_string(),
+        source,
+    })?;
     measurements::write_atomically(path, &text).map_err(|source| CampaignError::Io {
         path: path.display().to_string(),
         source,
@@ -546,25 +566,30 @@ impl SweepResult {
         o
     }
 
-    /// Curves of `plot.y` against `plot.x`, one per combination of the other axes. Points
-    /// without a value (every trial failed) are left out of the curve.
-    pub fn curves(&self, plot: &PlotSpec) -> Result<Vec<Curve>, CampaignError> {
-        let xi = match &plot.x {
+    /// The index of `plot`'s x axis among the sweep's axes (the first axis when the plot
+    /// names none).
+    pub fn x_axis(&self, plot: &PlotSpec) -> Result<usize, SweepPlotError> {
+        match &plot.x {
             Some(x) => self
                 .spec
                 .axes
                 .iter()
                 .position(|a| &a.path == x)
-                .ok_or_else(|| CampaignError::Other(format!("plot x `{x}` is not an axis")))?,
-            None => 0,
-        };
+                .ok_or_else(|| SweepPlotError::NotAnAxis { x: x.clone() }),
+            None => Ok(0),
+        }
+    }
+
+    /// Curves of `plot.y` against `plot.x`, one per combination of the other axes. Points
+    /// without a value (every trial failed) are left out of the curve.
+    pub fn curves(&self, plot: &PlotSpec) -> Result<Vec<Curve>, SweepPlotError> {
+        let xi = self.x_axis(plot)?;
         let mut series: Vec<Curve> = Vec::new();
         for p in &self.points {
             let Some(x) = p.values[xi].as_f64() else {
-                return Err(CampaignError::Other(format!(
-                    "plot x axis `{}` has a non-numeric value",
-                    self.spec.axes[xi].path
-                )));
+                return Err(SweepPlotError::NotNumeric {
+                    axis: self.spec.axes[xi].path.clone(),
+                });
             };
             let name: Vec<String> = self
                 .spec

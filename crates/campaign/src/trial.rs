@@ -9,66 +9,8 @@ use nalgebra::{DMatrix, DVector, Vector3};
 use serde::{Deserialize, Serialize};
 use virtual_robot::{Setup, Tracker, World};
 
+use crate::error::CampaignError;
 use crate::scenario::LoadedScenario;
-
-/// Why a campaign or one of its trials failed.
-#[derive(Debug, thiserror::Error)]
-pub enum CampaignError {
-    /// The scenario is unusable.
-    #[error(transparent)]
-    Scenario(#[from] crate::scenario::ScenarioError),
-    /// The virtual robot could not be built or simulated.
-    #[error("trial {trial}: virtual robot: {source}")]
-    Sim {
-        /// Trial index.
-        trial: u64,
-        /// Cause.
-        #[source]
-        source: virtual_robot::SimError,
-    },
-    /// Identification failed.
-    #[error("trial {trial}: identification: {source}")]
-    Identify {
-        /// Trial index.
-        trial: u64,
-        /// Cause.
-        #[source]
-        source: identify::IdentifyError,
-    },
-    /// The design of the identification poses failed.
-    #[error("trial {trial}: design: {source}")]
-    Design {
-        /// Trial index.
-        trial: u64,
-        /// Cause.
-        #[source]
-        source: design::DesignError,
-    },
-    /// Evaluation failed (e.g. no validation pose could be measured).
-    #[error("trial {trial}: evaluation: {source}")]
-    Evaluate {
-        /// Trial index.
-        trial: u64,
-        /// Cause.
-        #[source]
-        source: evaluate::EvalError,
-    },
-    /// The ISO 9283 test could not be set up.
-    #[error("ISO 9283 setup: {0}")]
-    Iso(String),
-    /// Writing results failed.
-    #[error("{path}: {source}")]
-    Io {
-        /// File.
-        path: String,
-        /// Cause.
-        #[source]
-        source: std::io::Error,
-    },
-    /// Something else, described.
-    #[error("{0}")]
-    Other(String),
-}
 
 /// The ISO 9283 test plan, fixed for a campaign (nominal model, tracker placement).
 #[derive(Clone, Debug)]
@@ -142,7 +84,7 @@ impl Context {
                 &id.extended_names(loaded.nominal.n_joints()),
                 &loaded.source,
             )
-            .map_err(|e| CampaignError::Other(format!("identification.extended: {e}")))?;
+            .map_err(|source| CampaignError::ExtendedModel { source })?;
         let recovery_free = if id_nominal.is_extended() {
             ParamSet::Minimal
                 .resolve(
@@ -181,7 +123,8 @@ fn iso_plan(
 ) -> Result<IsoPlan, CampaignError> {
     let iso = &loaded.scenario.iso;
     let nominal = &loaded.nominal;
-    let tracker = Tracker::new(tracker_cfg).map_err(|e| CampaignError::Iso(e.to_string()))?;
+    let tracker =
+        Tracker::new(tracker_cfg).map_err(|source| CampaignError::IsoTracker { source })?;
     let q_ref: Vec<f64> = iso.reference_q_deg.iter().map(|v| v.to_radians()).collect();
     let reference = nominal.flange(&q_ref);
     let p_ref = reference.transform_point(&nominal.tool_mm());
@@ -223,14 +166,12 @@ fn iso_plan(
     let cube = evaluate::largest_cube(&centres, iso.min_edge_mm, iso.max_edge_mm, |p| {
         solve(p).is_some()
     })
-    .map_err(|e| CampaignError::Iso(e.to_string()))?;
+    .map_err(|source| CampaignError::IsoCube { source })?;
     let points = cube.test_points_mm();
     let mut targets = Vec::with_capacity(5);
     let mut q_cmd = Vec::with_capacity(5);
     for p in &points {
-        let q = solve(p).ok_or_else(|| {
-            CampaignError::Iso(format!("test point {p:?} of the cube is not reachable"))
-        })?;
+        let q = solve(p).ok_or(CampaignError::IsoUnreachable { point_mm: *p })?;
         targets.push(IkTarget {
             point_in_flange_mm: nominal.tool_mm(),
             position_mm: Vector3::from(*p),
@@ -448,9 +389,9 @@ pub fn run_trial(ctx: &Context, trial: u64) -> Result<TrialResult, CampaignError
         let truth = match ctx.id_nominal.extended() {
             Some(model) => {
                 let names: Vec<String> = model.kinds().iter().map(|k| k.name()).collect();
-                world.extended_truth(&names).map_err(|e| {
-                    CampaignError::Other(format!("trial {trial}: the extended truth: {e}"))
-                })?
+                world
+                    .extended_truth(&names)
+                    .map_err(|source| CampaignError::ExtendedTruth { trial, source })?
             }
             None => truth_robot.clone(),
         };
@@ -624,9 +565,14 @@ fn iso_trial(
     ] {
         for _ in 0..cycles {
             for &i in &evaluate::ISO_CYCLE_ORDER {
-                let p = world.measure(&joints[i]).map_err(|e| {
-                    CampaignError::Other(format!("trial {trial}: ISO point P{}: {e}", i + 1))
-                })?;
+                let p =
+                    world
+                        .measure(&joints[i])
+                        .map_err(|source| CampaignError::IsoMeasurement {
+                            trial,
+                            point: i + 1,
+                            source,
+                        })?;
                 out[i].push(to_arr(p));
             }
         }

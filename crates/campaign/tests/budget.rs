@@ -84,7 +84,7 @@ fn paper_budget_explains_the_residual() {
             .contains("residual_budget\": {\n    \"trials")
     );
     let files = |s: &CampaignSummary| -> Vec<(String, Vec<u8>)> {
-        campaign::report::render_outputs(s, &agg).unwrap()
+        campaign::render_outputs(s, &agg).unwrap()
     };
     assert!(
         !files(&summary)

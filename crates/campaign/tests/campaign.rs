@@ -237,7 +237,7 @@ fn trial_report_matches_the_golden_file() {
     let scenario = loaded.scenario.clone();
     let ctx = Context::new(loaded).unwrap();
     let trial = campaign::run_trial(&ctx, 0).unwrap();
-    let md = evaluate::render_trial_markdown(&campaign::report::trial_report(&scenario, &trial));
+    let md = campaign::TrialReport::new(&scenario, &trial).to_markdown();
     for part in ["Table 4", "ISO 9283", "P5", "Parameter recovery", "1.122"] {
         assert!(md.contains(part), "report lacks {part}");
     }
@@ -261,7 +261,7 @@ fn trial_report_matches_the_golden_file() {
 fn report_html_holds_every_plot_and_summary_follows_the_rules() {
     let loaded = load_edited("noise-floor", |v| v["trials"] = 12.into());
     let (agg, s) = run(&loaded, 2);
-    let files = campaign::report::render_outputs(&s, &agg).unwrap();
+    let files = campaign::render_outputs(&s, &agg).unwrap();
     let get = |n: &str| {
         let f = files.iter().find(|f| f.0 == n);
         String::from_utf8(f.unwrap_or_else(|| panic!("no {n}")).1.clone()).unwrap()
@@ -313,4 +313,74 @@ fn report_html_holds_every_plot_and_summary_follows_the_rules() {
             .all(|t| t.split('.').nth(1).unwrap().len() == 1),
         "{cell}"
     );
+}
+
+/// The requests the front ends build: a campaign run as two shards and merged writes the
+/// single run's outputs byte for byte (the residual budget computed by shard 0 alone), the
+/// shard files and checkpoints named by the library; bad overrides are typed errors that
+/// name no command-line option.
+#[test]
+fn sharded_campaign_run_and_merge_give_the_single_run_outputs() {
+    use campaign::{
+        CampaignError, CampaignOutcome, CampaignRun, Checkpointing, MergeRun, Shard, Silent,
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let request = |out: &str| {
+        let mut run = CampaignRun::new(scenario_path("paper-kr1000"));
+        run.trials = Some(4);
+        run.iso_off = true;
+        run.threads = Some(2);
+        run.out = Some(dir.path().join(out));
+        run
+    };
+    let single = request("single").run(&Silent).unwrap();
+    let CampaignOutcome::Campaign { summary, .. } = &single else {
+        panic!("a whole campaign")
+    };
+    assert!(summary.residual_budget.is_some());
+    let mut files = Vec::new();
+    for k in [1, 0] {
+        let mut run = request("shards");
+        run.shard = Some(Shard::new(k, 2).unwrap());
+        run.checkpoint = Some(Checkpointing {
+            resume: false,
+            every_trials: Some(1),
+        });
+        match run.run(&Silent).unwrap() {
+            CampaignOutcome::Shard { file, trials, .. } => {
+                assert_eq!(trials, campaign::shard_range(4, k, 2));
+                assert!(file.ends_with(format!("shard-{k}-of-2.json")));
+                files.push(file);
+            }
+            other => panic!("a shard: {other:?}"),
+        }
+    }
+    let left: Vec<_> = std::fs::read_dir(dir.path().join("shards"))
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| n.contains("checkpoint"))
+        .collect();
+    assert!(left.is_empty(), "{left:?}");
+    let mut merge = MergeRun::new(files);
+    merge.out = Some(dir.path().join("merged"));
+    merge.run().unwrap();
+    for file in ["summary.json", "summary.md", "trial-0.md", "report.html"] {
+        let a = std::fs::read(dir.path().join("single").join(file)).unwrap();
+        let b = std::fs::read(dir.path().join("merged").join(file)).unwrap();
+        assert!(a == b, "{file} differs");
+    }
+    assert!(dir.path().join("single/timing.json").exists());
+
+    let mut zero = request("zero");
+    zero.trials = Some(0);
+    let e = zero.run(&Silent).unwrap_err();
+    assert!(matches!(e, CampaignError::ZeroTrials), "{e}");
+    assert_eq!(e.to_string(), "trials must be at least 1");
+    let e = Shard::new(4, 4).unwrap_err().to_string();
+    assert_eq!(e, "shard 4/4: need 0 <= k < K");
+    let mut unfinished = request("single");
+    unfinished.checkpoint = Some(Checkpointing::default());
+    std::fs::write(dir.path().join("single/checkpoint.json"), "{}").unwrap();
+    let e = unfinished.run(&Silent).unwrap_err().to_string();
+    assert!(e.contains("checkpoint.json") && !e.contains("--"), "{e}");
 }

@@ -10,7 +10,6 @@
 //!   largest admissible cube, and per-point pose accuracy `AP` / repeatability `RP_l`.
 //! * [`recovery`] — parameter-recovery scoring (`error = estimate − truth`,
 //!   `z = error / std_error`) and a summary of z-scores.
-//! * [`report`] — a deterministic Markdown rendering of one trial.
 //!
 //! Every fallible function returns [`EvalError`]; none of them produces NaN from
 //! valid input.
@@ -34,7 +33,6 @@
 pub mod error;
 pub mod iso9283;
 pub mod recovery;
-pub mod report;
 pub mod stats;
 
 pub use error::EvalError;
@@ -43,7 +41,6 @@ pub use iso9283::{
     TEST_POINT_DIAGONAL_FRACTION, largest_cube, point_stats,
 };
 pub use recovery::{ParameterRecovery, ZSummary, score_recovery, summarize_z};
-pub use report::{PAPER_TABLE4_REFERENCE, PaperReference, TrialReport, render_trial_markdown};
 pub use stats::{
     AxisImprovement, AxisStats, ErrorStats, StatsImprovement, Table4, error_stats,
     error_stats_vectors, error_vectors_mm, improvement_pct, percentile_linear,

@@ -1,17 +1,14 @@
-//! Campaign outputs: `summary.json` (depends only on scenario, seed and code), `summary.md`
-//! (our numbers beside the paper's), `timing.json` (wall clock), SVG plots, and shard files.
+//! A campaign's summary: `summary.json` ([`CampaignSummary`], which depends only on the
+//! scenario, its seed and the code) and `summary.md` (our numbers beside the paper's).
 
 use std::collections::BTreeMap;
-use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
 use crate::aggregate::Summary;
 use crate::budget::ResidualBudget;
-use crate::plots;
 use crate::run::Aggregate;
 use crate::scenario::Scenario;
-use crate::trial::CampaignError;
 use report::fmt::{self, Quantity};
 
 /// Version of the `summary.json` layout.
@@ -348,7 +345,7 @@ impl CampaignSummary {
             }
             o.push_str("\n\n");
             o.push_str("| parameter | unit | mean error | sd of error | mean std error | z mean | z sd |\n|---|---|---:|---:|---:|---:|---:|\n");
-            for name in crate::plots::kinematic_order(self.recovery.keys().map(String::as_str)) {
+            for name in kinematic_order(self.recovery.keys().map(String::as_str)) {
                 let r = &self.recovery[name];
                 let (unit, q) = match r.unit.as_str() {
                     "deg" => ("″", Quantity::AngleArcsecFromDeg),
@@ -390,6 +387,43 @@ impl CampaignSummary {
     }
 }
 
+/// Parameter names sorted in the kinematic order of `kinematics::ParamLayout` (per joint θ, d,
+/// a, α; then the β's; then the base rx … dz; then the tool x, y, z). Unknown names go last,
+/// alphabetically.
+pub fn kinematic_order<'a>(names: impl IntoIterator<Item = &'a str>) -> Vec<&'a str> {
+    // Sixteen joints with zero nominal twists: every joint parameter and every β exists, in
+    // the same relative order as in any smaller chain.
+    let layout = kinematics::ParamLayout::new(&[0.0; 16]);
+    let mut v: Vec<&str> = names.into_iter().collect();
+    // The non-geometric parameters of an extended model follow, compliances first, then the
+    // gear terms by joint and harmonic.
+    let extended = |n: &str| {
+        kinematics::ExtendedKind::parse(n).map(|k| match k {
+            kinematics::ExtendedKind::Compliance(j) => j,
+            kinematics::ExtendedKind::GearSin { joint, harmonic } => {
+                100 + 100 * joint + 2 * harmonic as usize
+            }
+            kinematics::ExtendedKind::GearCos { joint, harmonic } => {
+                101 + 100 * joint + 2 * harmonic as usize
+            }
+        })
+    };
+    v.sort_by_key(|n| {
+        let k = layout
+            .index_of(n)
+            .ok()
+            .or_else(|| extended(n).map(|e| layout.len() + e))
+            .unwrap_or(usize::MAX);
+        (k, *n)
+    });
+    v
+}
+
+/// Whether a campaign reproduces the paper (its Table 4 is the reference).
+pub fn is_paper(scenario_name: &str) -> bool {
+    scenario_name.starts_with("paper")
+}
+
 /// A categorical outcome's name in words.
 fn count_title(name: &str) -> String {
     match name {
@@ -419,226 +453,4 @@ fn count_values(name: &str, counts: &BTreeMap<String, u64>, trials: u64) -> Stri
         list.join(", "),
         fmt::whole(trials as f64)
     )
-}
-
-/// The Markdown report of one trial (Table 4, ISO table, recovery), in `evaluate`'s layout.
-pub fn trial_report(scenario: &Scenario, t: &crate::trial::TrialResult) -> evaluate::TrialReport {
-    let recovery = (!t.recovery.is_empty()).then(|| t.recovery.clone());
-    let f = &t.fit;
-    evaluate::TrialReport {
-        title: format!("Trial {} of `{}`", t.trial, scenario.name),
-        scenario: scenario.name.clone(),
-        table4: t.table4,
-        show_paper_reference: scenario.name.starts_with("paper"),
-        iso: t.iso,
-        recovery,
-        notes: vec![
-            format!(
-                "Seed {}, trial {}: identification on {} poses ({} free parameters, rank {}), validation on {} poses.",
-                scenario.seed,
-                t.trial,
-                scenario.poses.identification.len(),
-                f.free,
-                f.rank
-                    .map_or_else(|| "unknown".to_string(), |r| r.to_string()),
-                scenario.poses.validation.len()
-            ),
-            format!(
-                "LM: {} iterations, stopped on {}; fit RMS residual {:.4} mm.",
-                f.iterations, f.stop, f.rms_mm
-            ),
-            format!(
-                "Geometry error of the identified model on the validation poses: {:.4} mm; compensation failures: {}; unmeasurable poses: {}.",
-                t.predicted_error_mm, t.compensation_failures, t.unmeasurable
-            ),
-        ],
-    }
-}
-
-/// Renders every output file of a campaign in memory: `summary.json`, `summary.md`, the
-/// trial report, the SVG plots and `report.html` (the summary with the plots in place), as
-/// (file name, bytes).
-pub fn render_outputs(
-    summary: &CampaignSummary,
-    agg: &Aggregate,
-) -> Result<Vec<(String, Vec<u8>)>, CampaignError> {
-    let plot_err = |e: report::PlotError| CampaignError::Other(format!("plot: {e}"));
-    let name = &summary.scenario.name;
-    let paper = plots::is_paper(name);
-    let mut files = vec![
-        ("summary.json".to_string(), summary.to_json().into_bytes()),
-        ("summary.md".to_string(), summary.to_markdown().into_bytes()),
-    ];
-    let mut svgs: Vec<(String, String)> = Vec::new();
-    if let Some(t) = &agg.typical {
-        svgs.push((
-            "per-pose-error.svg".into(),
-            plots::per_pose_error_svg(name, t.trial, &t.before_mm, &t.after_mm, paper)
-                .map_err(plot_err)?,
-        ));
-        svgs.push((
-            "error-cdf.svg".into(),
-            plots::error_cdf_svg(name, t.trial, &t.before_mm, &t.after_mm, paper)
-                .map_err(plot_err)?,
-        ));
-        let md = evaluate::render_trial_markdown(&trial_report(&summary.scenario, t));
-        files.push((format!("trial-{}.md", t.trial), md.into_bytes()));
-    }
-    if let Some(stat) = agg.metrics.get("improvement_pct")
-        && let Some(s) = stat.summary()
-    {
-        let values: Vec<(f64, u64)> = stat.buckets().collect();
-        svgs.push((
-            "improvement-histogram.svg".into(),
-            plots::improvement_histogram_svg(name, &values, &s, paper).map_err(plot_err)?,
-        ));
-    }
-    if let Some(svg) = plots::recovery_svg(name, &summary.recovery).map_err(plot_err)? {
-        svgs.push(("recovery.svg".into(), svg));
-    }
-    if let Some(svg) = plots::z_scores_svg(name, &summary.recovery).map_err(plot_err)? {
-        svgs.push(("recovery-z.svg".into(), svg));
-    }
-    if let Some(b) = &summary.residual_budget
-        && let Some(svg) = plots::budget_svg(name, b, paper).map_err(plot_err)?
-    {
-        svgs.push(("residual-budget.svg".into(), svg));
-    }
-    files.push((
-        "report.html".into(),
-        plots::campaign_page(summary, &svgs).into_bytes(),
-    ));
-    files.extend(svgs.into_iter().map(|(n, s)| (n, s.into_bytes())));
-    Ok(files)
-}
-
-/// Writes [`render_outputs`] into `dir` (created if needed). Everything is rendered before
-/// the first file is written, and the set is written all or nothing
-/// ([`measurements::write_all_atomically`]): on a full disk no output is replaced.
-pub fn write_outputs(
-    dir: &Path,
-    summary: &CampaignSummary,
-    agg: &Aggregate,
-) -> Result<(), CampaignError> {
-    let files = render_outputs(summary, agg)?;
-    std::fs::create_dir_all(dir).map_err(|source| CampaignError::Io {
-        path: dir.display().to_string(),
-        source,
-    })?;
-    measurements::write_all_atomically(dir, &files).map_err(|source| CampaignError::Io {
-        path: dir.display().to_string(),
-        source,
-    })
-}
-
-/// Identifies a shard: which slice of which campaign it holds.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct ShardManifest {
-    /// The scenario (with the trial count used).
-    pub scenario: Scenario,
-    /// Tool version.
-    pub version: String,
-    /// Shard index, 0-based.
-    pub shard: u64,
-    /// Number of shards.
-    pub shards: u64,
-    /// First trial (inclusive).
-    pub first_trial: u64,
-    /// Last trial (exclusive).
-    pub end_trial: u64,
-}
-
-/// A shard file: manifest plus the exact aggregate.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct ShardFile {
-    /// What this shard is.
-    pub manifest: ShardManifest,
-    /// Its trials' aggregate.
-    pub aggregate: Aggregate,
-    /// The residual budget, computed by shard 0 only (it runs trials 0..budget trials
-    /// whatever the split), so that the merge gives a single run's summary.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub residual_budget: Option<ResidualBudget>,
-}
-
-/// The trial range of shard `k` of `shards` over `trials` trials (contiguous, sizes differ by
-/// at most one).
-pub fn shard_range(trials: u64, k: u64, shards: u64) -> std::ops::Range<u64> {
-    // In u128: no overflow for any trial count; for k < shards the bounds fit in u64.
-    let at = |k: u64| (u128::from(trials) * u128::from(k) / u128::from(shards.max(1))) as u64;
-    at(k)..at(k.saturating_add(1))
-}
-
-/// The residual budget of a set of shard files: shard 0's ([`merge_shards`] checks that it
-/// is there exactly when the scenario asks for one).
-pub fn shard_budget(files: &[ShardFile]) -> Option<ResidualBudget> {
-    files
-        .iter()
-        .find(|f| f.manifest.shard == 0)
-        .and_then(|f| f.residual_budget.clone())
-}
-
-/// Merges shard files: checks they belong to one campaign and cover every trial exactly
-/// once, and returns the merged aggregate and the scenario.
-pub fn merge_shards(files: &[ShardFile]) -> Result<(Scenario, Aggregate), CampaignError> {
-    let first = files
-        .first()
-        .ok_or_else(|| CampaignError::Other("no shard files to merge".into()))?;
-    let m0 = &first.manifest;
-    // Every shard must be there, once: more shards than files means some are missing (and
-    // a shard count read from a file must not size an allocation).
-    if m0.shards == 0 || m0.shards > files.len() as u64 {
-        return Err(CampaignError::Other(format!(
-            "{} shard file(s) given for a campaign of {} shards",
-            files.len(),
-            m0.shards
-        )));
-    }
-    let mut seen = vec![false; m0.shards as usize];
-    let mut agg = Aggregate::default();
-    for f in files {
-        let m = &f.manifest;
-        if m.scenario != m0.scenario || m.version != m0.version || m.shards != m0.shards {
-            return Err(CampaignError::Other(format!(
-                "shard {} belongs to another campaign (scenario, version or shard count differ)",
-                m.shard
-            )));
-        }
-        let expect = shard_range(m.scenario.trials, m.shard, m.shards);
-        if m.shard >= m.shards || expect != (m.first_trial..m.end_trial) {
-            return Err(CampaignError::Other(format!(
-                "shard {} of {} has trials {}..{}, expected {:?}",
-                m.shard, m.shards, m.first_trial, m.end_trial, expect
-            )));
-        }
-        if f.residual_budget.is_some() != (m.shard == 0 && m.scenario.residual_budget.enabled) {
-            return Err(CampaignError::Other(format!(
-                "shard {} of {}: {}",
-                m.shard,
-                m.shards,
-                if f.residual_budget.is_some() {
-                    "carries a residual budget, which only shard 0 of a budgeted scenario may"
-                } else {
-                    "the scenario asks for a residual budget and shard 0 has none"
-                }
-            )));
-        }
-        if std::mem::replace(&mut seen[m.shard as usize], true) {
-            return Err(CampaignError::Other(format!(
-                "shard {} appears twice",
-                m.shard
-            )));
-        }
-        f.aggregate
-            .check()
-            .map_err(|e| CampaignError::Other(format!("shard {} of {}: {e}", m.shard, m.shards)))?;
-        agg.merge(&f.aggregate);
-    }
-    if let Some(k) = seen.iter().position(|s| !s) {
-        return Err(CampaignError::Other(format!(
-            "shard {k} of {} is missing",
-            m0.shards
-        )));
-    }
-    Ok((m0.scenario.clone(), agg))
 }

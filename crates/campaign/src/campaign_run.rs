@@ -1,0 +1,361 @@
+//! Requests that run a campaign end to end, as the front ends (`kincal campaign | merge |
+//! simulate`, `cargo xtask regenerate`) ask for it: [`CampaignRun`], [`MergeRun`],
+//! [`SimulateRun`]. Each is a value with named fields (start from `new`, set what the caller
+//! overrides) and one `run` method that loads the scenario, applies the overrides, runs on
+//! its own thread pool, writes every output file atomically and returns what a front end
+//! prints. Progress goes to an [`Observer`].
+
+use std::ops::Range;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use crate::budget::{budget_runs, budget_trials, residual_budget};
+use crate::checkpoint::{
+    Checkpoint, CheckpointConfig, code_version, finish, run_range_checkpointed,
+};
+use crate::error::CampaignError;
+use crate::observer::{Observer, Phase};
+use crate::outputs::{write_outputs, write_timing};
+use crate::run::run_range;
+use crate::scenario::Scenario;
+use crate::shard::{Shard, ShardFile, merge_shards, shard_budget};
+use crate::summary::CampaignSummary;
+use crate::trial::Context;
+
+/// Checkpoints of a run (see [`crate::checkpoint`]): written into the output directory as
+/// the trials run, removed when the run finishes.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Checkpointing {
+    /// Continue from the checkpoint in the output directory (a fresh start if there is
+    /// none; refused if it belongs to another run). Without it an existing checkpoint is
+    /// refused rather than overwritten.
+    pub resume: bool,
+    /// Checkpoint every this many trials (at least 1) (`None`: every 10 s, in chunks of 64
+    /// trials per thread).
+    pub every_trials: Option<u64>,
+}
+
+impl Checkpointing {
+    /// Refuses an interval of 0 trials.
+    pub fn check(self) -> Result<(), CampaignError> {
+        if self.every_trials == Some(0) {
+            return Err(CampaignError::ZeroCheckpointInterval);
+        }
+        Ok(())
+    }
+
+    /// The library's configuration for the checkpoint at `path`, its chunk size taken on
+    /// the current rayon pool.
+    pub(crate) fn config(self, path: PathBuf) -> CheckpointConfig {
+        let mut cfg = CheckpointConfig::new(path, self.resume, code_version());
+        if let Some(k) = self.every_trials {
+            cfg.every_trials = k.max(1);
+        }
+        cfg
+    }
+}
+
+/// A campaign to run: a scenario file and the caller's overrides.
+///
+/// ```no_run
+/// let mut run = campaign::CampaignRun::new("scenarios/paper-kr1000.json");
+/// run.trials = Some(1000);
+/// run.out = Some("my-run".into());
+/// let outcome = run.run(&campaign::Silent)?;
+/// # Ok::<(), campaign::CampaignError>(())
+/// ```
+#[derive(Clone, Debug, PartialEq)]
+#[non_exhaustive]
+pub struct CampaignRun {
+    /// The scenario file (JSON).
+    pub scenario: PathBuf,
+    /// Override the scenario's trial count (at least 1).
+    pub trials: Option<u64>,
+    /// Switch the scenario's ISO 9283 test off.
+    pub iso_off: bool,
+    /// Switch the scenario's residual budget off.
+    pub budget_off: bool,
+    /// Worker threads (`None`: all cores). The results do not depend on it.
+    pub threads: Option<usize>,
+    /// Output directory (`None`: `results/<scenario name>`).
+    pub out: Option<PathBuf>,
+    /// Run only this shard of the campaign and write its shard file for [`MergeRun`].
+    pub shard: Option<Shard>,
+    /// Checkpoint the run (`None`: no checkpoint).
+    pub checkpoint: Option<Checkpointing>,
+}
+
+/// What a [`CampaignRun`] did.
+#[derive(Clone, Debug, PartialEq)]
+#[non_exhaustive]
+pub enum CampaignOutcome {
+    /// A whole campaign: its outputs and `timing.json` are in `out`.
+    Campaign {
+        /// The summary written.
+        summary: Box<CampaignSummary>,
+        /// The output directory.
+        out: PathBuf,
+        /// Worker threads used.
+        threads: usize,
+        /// Wall clock, s.
+        seconds: f64,
+    },
+    /// One shard: its shard file is written.
+    Shard {
+        /// The shard.
+        shard: Shard,
+        /// Its trials.
+        trials: Range<u64>,
+        /// The shard file.
+        file: PathBuf,
+        /// Wall clock, s.
+        seconds: f64,
+    },
+}
+
+/// The default output directory of a campaign or sweep named `name`: `results/<name>`.
+pub fn default_out(name: &str) -> PathBuf {
+    Path::new("results").join(name)
+}
+
+/// Creates the output directory (and its parents); a file of that name is refused as
+/// such, not as a bare "File exists".
+pub(crate) fn create_out_dir(out: &Path) -> Result<(), CampaignError> {
+    if out.exists() && !out.is_dir() {
+        return Err(CampaignError::OutputIsAFile {
+            path: out.to_path_buf(),
+        });
+    }
+    std::fs::create_dir_all(out).map_err(|source| CampaignError::CreateDir {
+        path: out.to_path_buf(),
+        source,
+    })
+}
+
+/// A thread pool of `threads` workers (`None`: all cores), and that count.
+pub(crate) fn thread_pool(
+    threads: Option<usize>,
+) -> Result<(rayon::ThreadPool, usize), CampaignError> {
+    let threads =
+        threads.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .map_err(CampaignError::ThreadPool)?;
+    Ok((pool, threads))
+}
+
+/// The names of the files in `dir` that are not hidden (the outputs just written).
+pub(crate) fn visible_files(dir: &Path) -> Vec<String> {
+    std::fs::read_dir(dir)
+        .map(|d| {
+            d.flatten()
+                .map(|e| e.file_name().to_string_lossy().into_owned())
+                .filter(|n| !n.starts_with('.'))
+                .collect()
+        })
+        .unwrap_or_default()
+}
+
+impl CampaignRun {
+    /// The campaign of the scenario file `scenario` as the file says: every trial, all
+    /// cores, output in `results/<scenario name>`, no checkpoint.
+    pub fn new(scenario: impl Into<PathBuf>) -> CampaignRun {
+        CampaignRun {
+            scenario: scenario.into(),
+            trials: None,
+            iso_off: false,
+            budget_off: false,
+            threads: None,
+            out: None,
+            shard: None,
+            checkpoint: None,
+        }
+    }
+
+    /// Runs the campaign (or its shard) and writes its outputs: for a whole campaign
+    /// `summary.json`, `summary.md`, the trial report, the plots and `report.html` (all or
+    /// nothing) and `timing.json`; for a shard its file `shard-k-of-K.json`. The residual
+    /// budget is computed by a whole campaign or by shard 0 ([`Shard::runs_budget`]). A
+    /// finished run removes its checkpoint.
+    pub fn run(&self, observer: &dyn Observer) -> Result<CampaignOutcome, CampaignError> {
+        // Every setting is checked before any work starts.
+        if self.trials == Some(0) {
+            return Err(CampaignError::ZeroTrials);
+        }
+        self.checkpoint.map(Checkpointing::check).transpose()?;
+        let mut loaded = Scenario::from_file(&self.scenario)?;
+        let s = &mut loaded.scenario;
+        s.iso.enabled &= !self.iso_off;
+        s.residual_budget.enabled &= !self.budget_off;
+        if let Some(t) = self.trials {
+            s.trials = t;
+        }
+        let scenario = loaded.scenario.clone();
+        let out = self
+            .out
+            .clone()
+            .unwrap_or_else(|| default_out(&scenario.name));
+        let (pool, threads) = thread_pool(self.threads)?;
+        let range = match self.shard {
+            Some(shard) => shard.range(scenario.trials),
+            None => 0..scenario.trials,
+        };
+        let started = Instant::now();
+        let ctx = Context::new(loaded)?;
+        create_out_dir(&out)?;
+        let checkpoint = match (self.checkpoint, self.shard) {
+            (None, _) => None,
+            (Some(c), Some(shard)) => Some(c.config(out.join(shard.checkpoint_name()))),
+            (Some(c), None) => Some(c.config(out.join("checkpoint.json"))),
+        };
+        if let Some(cfg) = checkpoint.as_ref().filter(|c| c.resume)
+            && let Ok(Some(c)) = Checkpoint::read(&cfg.path)
+        {
+            let m = &c.manifest;
+            observer.resuming(
+                &cfg.path,
+                m.first_trial..c.next_trial,
+                m.first_trial..m.end_trial,
+            );
+        }
+        let what = match self.shard {
+            Some(shard) => format!("shard {shard}"),
+            None => "campaign".to_string(),
+        };
+        let progress = |k| observer.trials_done(k);
+        observer.phase_started(Phase::Trials, range.end - range.start);
+        let agg = pool.install(|| match &checkpoint {
+            None => Ok(run_range(&ctx, range.clone(), &progress)),
+            Some(cfg) => run_range_checkpointed(&ctx, &what, range.clone(), cfg, &progress),
+        })?;
+        observer.phase_finished(Phase::Trials);
+        let budget = if Shard::runs_budget(self.shard) {
+            let total = budget_runs(&scenario) * budget_trials(&scenario);
+            observer.phase_started(Phase::ResidualBudget, total);
+            let b = pool.install(|| residual_budget(&ctx.loaded, &progress))?;
+            observer.phase_finished(Phase::ResidualBudget);
+            b
+        } else {
+            None
+        };
+        let seconds = started.elapsed().as_secs_f64();
+        let finish_checkpoint = |outputs: &[String]| match &checkpoint {
+            Some(cfg) => finish(&cfg.path, outputs),
+            None => Ok(()),
+        };
+        if let Some(shard) = self.shard {
+            let file = out.join(shard.file_name());
+            ShardFile::new(scenario, shard, agg, budget).write(&file)?;
+            finish_checkpoint(&[shard.file_name()])?;
+            return Ok(CampaignOutcome::Shard {
+                shard,
+                trials: range,
+                file,
+                seconds,
+            });
+        }
+        let summary = CampaignSummary::new(&scenario, &agg).with_budget(budget);
+        write_outputs(&out, &summary, &agg)?;
+        write_timing(&out, scenario.trials, threads, seconds)?;
+        finish_checkpoint(&visible_files(&out))?;
+        Ok(CampaignOutcome::Campaign {
+            summary: Box::new(summary),
+            out,
+            threads,
+            seconds,
+        })
+    }
+}
+
+/// Shard files to merge into the campaign's outputs (those of the single run).
+#[derive(Clone, Debug, PartialEq)]
+#[non_exhaustive]
+pub struct MergeRun {
+    /// The shard files written by the shards' [`CampaignRun`]s.
+    pub shards: Vec<PathBuf>,
+    /// Output directory (`None`: `results/<scenario name>`).
+    pub out: Option<PathBuf>,
+}
+
+/// What a [`MergeRun`] wrote.
+#[derive(Clone, Debug, PartialEq)]
+#[non_exhaustive]
+pub struct MergeOutcome {
+    /// The merged campaign's summary.
+    pub summary: CampaignSummary,
+    /// The output directory.
+    pub out: PathBuf,
+}
+
+impl MergeRun {
+    /// A merge of the shard files `shards` into `results/<scenario name>`.
+    pub fn new(shards: Vec<PathBuf>) -> MergeRun {
+        MergeRun { shards, out: None }
+    }
+
+    /// Reads the shard files, checks that they are the shards of one campaign, each once
+    /// ([`merge_shards`]), and writes the campaign's outputs (all or nothing), which are the
+    /// single run's.
+    pub fn run(&self) -> Result<MergeOutcome, CampaignError> {
+        let files = self
+            .shards
+            .iter()
+            .map(|p| ShardFile::from_file(p))
+            .collect::<Result<Vec<_>, _>>()?;
+        let (scenario, agg) = merge_shards(&files)?;
+        let out = self
+            .out
+            .clone()
+            .unwrap_or_else(|| default_out(&scenario.name));
+        let summary = CampaignSummary::new(&scenario, &agg).with_budget(shard_budget(&files));
+        write_outputs(&out, &summary, &agg)?;
+        Ok(MergeOutcome { summary, out })
+    }
+}
+
+/// One simulated trial of a scenario, written as measurement files.
+#[derive(Clone, Debug, PartialEq)]
+#[non_exhaustive]
+pub struct SimulateRun {
+    /// The scenario file (JSON).
+    pub scenario: PathBuf,
+    /// Output directory of `identification.csv`, `validation.csv` and `truth.json`.
+    pub out: PathBuf,
+    /// The trial whose truth, poses and noise are drawn.
+    pub trial: u64,
+}
+
+impl SimulateRun {
+    /// Trial 0 of `scenario`, written into `out`.
+    pub fn new(scenario: impl Into<PathBuf>, out: impl Into<PathBuf>) -> SimulateRun {
+        SimulateRun {
+            scenario: scenario.into(),
+            out: out.into(),
+            trial: 0,
+        }
+    }
+
+    /// Simulates the trial and writes its files; returns the simulation (measurements,
+    /// truth and pose-sampling statistics).
+    pub fn run(&self) -> Result<virtual_robot::Simulation, CampaignError> {
+        let loaded = Scenario::from_file(&self.scenario)?;
+        let sim = virtual_robot::simulate(
+            &loaded.nominal,
+            &loaded.virtual_robot(),
+            loaded.scenario.seed,
+            self.trial,
+        )
+        .map_err(|source| CampaignError::Sim {
+            trial: self.trial,
+            source,
+        })?;
+        create_out_dir(&self.out)?;
+        sim.write(&self.out)
+            .map_err(|source| CampaignError::WriteSimulation {
+                dir: self.out.clone(),
+                source,
+            })?;
+        Ok(sim)
+    }
+}

@@ -1,0 +1,101 @@
+//! A sweep to run end to end, as `kincal sweep` and `cargo xtask regenerate` ask for it:
+//! [`SweepRun`] loads the sweep file, applies the caller's overrides, runs every point on
+//! its own thread pool (with checkpoints if asked), and writes the sweep's outputs all or
+//! nothing.
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use crate::campaign_run::{Checkpointing, create_out_dir, default_out, thread_pool, visible_files};
+use crate::checkpoint::finish;
+use crate::error::CampaignError;
+use crate::observer::Observer;
+use crate::outputs::render_sweep_outputs;
+use crate::sweep::{SweepResult, SweepSpec, run_sweep_checkpointed};
+
+/// The name of a sweep's checkpoint file in its output directory.
+pub const SWEEP_CHECKPOINT: &str = "sweep-checkpoint.json";
+
+/// A sweep to run: a sweep file and the caller's overrides.
+#[derive(Clone, Debug, PartialEq)]
+#[non_exhaustive]
+pub struct SweepRun {
+    /// The sweep file (JSON); its base scenario is relative to it.
+    pub sweep: PathBuf,
+    /// Override the trials per point (at least 1).
+    pub trials: Option<u64>,
+    /// Worker threads (`None`: all cores). The results do not depend on it.
+    pub threads: Option<usize>,
+    /// Output directory (`None`: `results/<sweep name>`).
+    pub out: Option<PathBuf>,
+    /// Checkpoint the run into [`SWEEP_CHECKPOINT`] (`None`: no checkpoint).
+    pub checkpoint: Option<Checkpointing>,
+}
+
+/// What a [`SweepRun`] did.
+#[derive(Clone, Debug, PartialEq)]
+#[non_exhaustive]
+pub struct SweepOutcome {
+    /// Every point's figures (what `sweep.json` holds).
+    pub result: SweepResult,
+    /// The output directory.
+    pub out: PathBuf,
+    /// Wall clock, s.
+    pub seconds: f64,
+}
+
+impl SweepRun {
+    /// The sweep of the sweep file `sweep` as the file says: all cores, output in
+    /// `results/<sweep name>`, no checkpoint.
+    pub fn new(sweep: impl Into<PathBuf>) -> SweepRun {
+        SweepRun {
+            sweep: sweep.into(),
+            trials: None,
+            threads: None,
+            out: None,
+            checkpoint: None,
+        }
+    }
+
+    /// Runs every point of the sweep and writes `sweep.json`, `sweep.csv`, `sweep.md`, the
+    /// plots and `report.html` (all or nothing); a finished sweep removes its checkpoint.
+    pub fn run(&self, observer: &dyn Observer) -> Result<SweepOutcome, CampaignError> {
+        // Every setting is checked before any work starts.
+        if self.trials == Some(0) {
+            return Err(CampaignError::ZeroTrials);
+        }
+        self.checkpoint.map(Checkpointing::check).transpose()?;
+        let mut spec = SweepSpec::from_file(&self.sweep)?;
+        if let Some(t) = self.trials {
+            spec.trials = t;
+        }
+        let (pool, _) = thread_pool(self.threads)?;
+        let dir = self.sweep.parent().unwrap_or(Path::new("."));
+        let started = Instant::now();
+        let out = self.out.clone().unwrap_or_else(|| default_out(&spec.name));
+        create_out_dir(&out)?;
+        let checkpoint_path = out.join(SWEEP_CHECKPOINT);
+        let result = pool.install(|| {
+            // The chunk size is taken on the sweep's pool.
+            let checkpoint = self.checkpoint.map(|c| c.config(checkpoint_path.clone()));
+            run_sweep_checkpointed(&spec, dir, checkpoint.as_ref(), &|i, n| {
+                observer.sweep_point(i, n)
+            })
+        })?;
+        let files = render_sweep_outputs(&result)?;
+        measurements::write_all_atomically(&out, &files).map_err(|source| {
+            CampaignError::Write {
+                path: out.clone(),
+                source,
+            }
+        })?;
+        if self.checkpoint.is_some() {
+            finish(&checkpoint_path, &visible_files(&out))?;
+        }
+        Ok(SweepOutcome {
+            result,
+            out,
+            seconds: started.elapsed().as_secs_f64(),
+        })
+    }
+}
