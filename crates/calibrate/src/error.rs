@@ -8,7 +8,8 @@ use measurements::MeasurementError;
 
 /// Everything that stops a calibration, prediction or compensation.
 ///
-/// Leaves name the file, line, column or option at fault; [`CalibrateError::Context`] adds
+/// Leaves name the file, line, column or request field at fault (never a command-line flag:
+/// front ends add their own); [`CalibrateError::Context`] adds
 /// what was being done, outermost first, as a front end prints the chain (`{:#}` of an
 /// `anyhow::Error`, or the [`std::error::Error::source`] chain).
 #[derive(Debug, thiserror::Error)]
@@ -52,7 +53,8 @@ pub enum CalibrateError {
         #[source]
         source: evaluate::EvalError,
     },
-    /// The design of `--select` failed (too few rows, a rank-deficient pool, bad joints).
+    /// The design of a [`crate::Split::Select`] failed (too few rows, a rank-deficient pool,
+    /// bad joints).
     #[error("{context}")]
     Design {
         /// What was being chosen.
@@ -61,27 +63,36 @@ pub enum CalibrateError {
         #[source]
         source: design::DesignError,
     },
-    /// A plot of the report could not be drawn (non-finite errors).
-    #[error("drawing {what}")]
-    Plot {
-        /// Which plot.
-        what: String,
+    /// The parameter spec of the request does not fit the robot (an unknown name, a family
+    /// member of a joint the robot does not have, compliance without a mass model).
+    #[error("parameter spec `{spec}`")]
+    Params {
+        /// The spec, as written.
+        spec: String,
         /// Why.
         #[source]
-        source: report::PlotError,
+        source: IdentifyError,
     },
-    /// An option or input is unusable; the message names the option or the file.
-    #[error("{0}")]
-    Refused(String),
-    /// An output could not be written (nothing half-written is left).
-    #[error("writing {}", path.display())]
-    Write {
-        /// The file or directory.
-        path: PathBuf,
-        /// Why.
+    /// The identification data hold fewer rows than the free parameters need; `source` is the
+    /// reader's or the split's refusal, naming the file.
+    #[error(
+        "{free} free parameters (parameter spec `{spec}`) need at least {needed} rows: 3 \
+         equations per row, at least as many equations as free parameters"
+    )]
+    TooFewRows {
+        /// Free parameters.
+        free: usize,
+        /// The spec they come from, as written.
+        spec: String,
+        /// Rows needed, ⌈free / 3⌉.
+        needed: usize,
+        /// What found too few.
         #[source]
-        source: std::io::Error,
+        source: Box<CalibrateError>,
     },
+    /// A request or its inputs cannot be used; the refusal names the request field or the file.
+    #[error(transparent)]
+    Refused(#[from] Refusal),
     /// `source` happened while doing `context`.
     #[error("{context}")]
     Context {
@@ -101,6 +112,173 @@ impl CalibrateError {
             source: Box::new(self),
         }
     }
+}
+
+/// Why a request or its inputs cannot be used. Each variant names the request field or the
+/// file at fault, with the value.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum Refusal {
+    /// [`crate::IdentifyRequest::outlier_k`] is not a finite number > 0.
+    #[error("outlier_k = {0}: must be a finite number > 0")]
+    OutlierK(f64),
+    /// The threshold of an automatic registration is not a finite number ≥ 0.
+    #[error("registration threshold_mm = {0}: must be a finite number ≥ 0")]
+    RegistrationThreshold(f64),
+    /// A [`crate::Split::Every`] with `every` = 0.
+    #[error("split every = 0: must be at least 1")]
+    EveryZero,
+    /// A [`crate::Split::Every`] whose `offset` is not below `every`.
+    #[error("split offset = {offset} must be below every = {every}")]
+    OffsetNotBelowEvery {
+        /// K.
+        every: usize,
+        /// The first identification row.
+        offset: usize,
+    },
+    /// A [`crate::Split::Every`] that selects fewer rows than the free parameters need
+    /// (within [`CalibrateError::TooFewRows`]).
+    #[error(
+        "the split every = {every}, offset = {offset} selects {selected} of the {rows} data rows"
+    )]
+    EveryTooFew {
+        /// K.
+        every: usize,
+        /// The first identification row.
+        offset: usize,
+        /// Rows selected.
+        selected: usize,
+        /// Rows of the file.
+        rows: usize,
+        /// The file, with the rows found and needed.
+        #[source]
+        source: MeasurementError,
+    },
+    /// A validation file beside a split that validates on the rows it does not identify on.
+    #[error(
+        "a validation file and the `{split}` split exclude each other: the split validates on \
+         the rows it does not identify on"
+    )]
+    ValidateWithSplit {
+        /// `every` or `select`.
+        split: &'static str,
+    },
+    /// A [`crate::Split::Select`] of fewer rows than the free parameters need.
+    #[error(
+        "select {poses} rows: {free} free parameters (parameter spec `{spec}`) need at least \
+         {needed} rows: 3 equations per row, at least as many equations as free parameters"
+    )]
+    SelectTooFew {
+        /// Rows asked for.
+        poses: usize,
+        /// Free parameters.
+        free: usize,
+        /// The spec they come from, as written.
+        spec: String,
+        /// Rows needed.
+        needed: usize,
+    },
+    /// A [`crate::Split::Select`] that would leave no row to validate on.
+    #[error(
+        "select {poses} rows: {file} has {rows} rows; choose fewer so that the others validate"
+    )]
+    SelectTooMany {
+        /// Rows asked for.
+        poses: usize,
+        /// The data file.
+        file: String,
+        /// Its rows.
+        rows: usize,
+    },
+    /// Rejecting the outliers ([`crate::IdentifyRequest::reject_outliers`]) leaves too few
+    /// rows for the free parameters.
+    #[error(
+        "{file}: {outliers} of {rows} rows are outliers; the {kept} left are too few for \
+         {free} free parameters (3 equations per row) — keep the outliers (reject_outliers = \
+         false)"
+    )]
+    TooManyOutliers {
+        /// The data file.
+        file: String,
+        /// Rows flagged.
+        outliers: usize,
+        /// Rows screened.
+        rows: usize,
+        /// Rows left.
+        kept: usize,
+        /// Free parameters.
+        free: usize,
+    },
+    /// Compensation between two robots of different kinds (joints, parameters).
+    #[error(
+        "{} ({calibrated_joints} joints, {calibrated_params} parameters) and {} \
+         ({nominal_joints} joints, {nominal_params} parameters) are not the same kind of robot",
+        calibrated.display(),
+        nominal.display()
+    )]
+    DifferentRobots {
+        /// The calibrated robot's file.
+        calibrated: PathBuf,
+        /// Its joints.
+        calibrated_joints: usize,
+        /// Its parameters.
+        calibrated_params: usize,
+        /// The nominal robot's file.
+        nominal: PathBuf,
+        /// Its joints.
+        nominal_joints: usize,
+        /// Its parameters.
+        nominal_params: usize,
+    },
+    /// Compensation with a nominal model outside the calibrated robot's measurement frame
+    /// (mean shift above [`crate::SAME_FRAME_MM`]).
+    #[error(
+        "{} and {} are not in the same measurement frame: at the target poses a rigid \
+         transform of {angle_deg:.3}° and {translation_mm:.1} mm separates their points (mean \
+         shift {shift_mm:.1} mm > {} mm), so the nominal targets would be meaningless for the \
+         calibrated robot; pass the nominal model registered in its frame \
+         (`registered-nominal.json`, written by `identify` next to `identified.json`)",
+        calibrated.display(),
+        nominal.display(),
+        crate::SAME_FRAME_MM
+    )]
+    DifferentFrames {
+        /// The calibrated robot's file.
+        calibrated: PathBuf,
+        /// The nominal robot's file.
+        nominal: PathBuf,
+        /// Rotation of the separating transform, degrees.
+        angle_deg: f64,
+        /// Its translation, mm.
+        translation_mm: f64,
+        /// Mean shift of the points, mm.
+        shift_mm: f64,
+    },
+    /// Targets the calibrated robot cannot reach, when they are not allowed.
+    #[error(
+        "{}\n{} of {targets} targets in {file} are unreachable for {robot} (listed above); \
+         nothing written (allow_unreachable writes the others)",
+        unreachable.join("\n"),
+        unreachable.len()
+    )]
+    Unreachable {
+        /// `file:line: id: unreachable: why`, one per target.
+        unreachable: Vec<String>,
+        /// Targets read.
+        targets: usize,
+        /// The targets file.
+        file: String,
+        /// The calibrated robot's name.
+        robot: String,
+    },
+    /// No target is reachable.
+    #[error("{}\nno target in {file} is reachable; nothing written", unreachable.join("\n"))]
+    NoneReachable {
+        /// `file:line: id: unreachable: why`, one per target.
+        unreachable: Vec<String>,
+        /// The targets file.
+        file: String,
+    },
 }
 
 /// `Result` with [`CalibrateError`].

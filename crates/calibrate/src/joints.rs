@@ -8,7 +8,7 @@ use kinematics::{IkOptions, Robot};
 use measurements::{Measurement, MeasurementSet, to_csv_string};
 use nalgebra::Vector3;
 
-use crate::error::{CalibrateError, Result};
+use crate::error::{CalibrateError, Refusal, Result};
 use crate::files::{LoadedRobot, file_name, poses_rad};
 
 /// The predicted points of a robot at the rows of a joint file.
@@ -111,24 +111,22 @@ fn check_same_frame(calibrated: &LoadedRobot, nominal: &LoadedRobot, poses: &[f6
     };
     let shift = pn.iter().map(|p| (t.apply(p) - p).norm()).sum::<f64>() / pn.len() as f64;
     if shift > SAME_FRAME_MM {
-        return Err(CalibrateError::Refused(format!(
-            "{} and {} are not in the same measurement frame: at the target poses a rigid \
-             transform of {:.3}° and {:.1} mm separates their points (mean shift {shift:.1} mm \
-             > {SAME_FRAME_MM} mm), so the nominal targets would be meaningless for the \
-             calibrated robot; pass the nominal model registered in its frame \
-             (`registered-nominal.json`, written by `identify` next to `identified.json`)",
-            calibrated.path.display(),
-            nominal.path.display(),
-            t.angle_deg(),
-            t.translation_mm.norm()
-        )));
+        return Err(Refusal::DifferentFrames {
+            calibrated: calibrated.path.clone(),
+            nominal: nominal.path.clone(),
+            angle_deg: t.angle_deg(),
+            translation_mm: t.translation_mm.norm(),
+            shift_mm: shift,
+        }
+        .into());
     }
     Ok(())
 }
 
 /// For each commanded pose of `targets`, the joints that bring `calibrated`'s point onto
 /// `nominal`'s (flange orientation held), by IK of the calibrated model. Unreachable targets
-/// are an error listing them unless `allow_unreachable`; `out_label` names the output.
+/// are an error listing them ([`Refusal::Unreachable`]) unless `allow_unreachable`, which
+/// leaves them out; `out_label` names the output.
 pub fn compensate_targets(
     calibrated: &LoadedRobot,
     nominal: &LoadedRobot,
@@ -138,16 +136,15 @@ pub fn compensate_targets(
 ) -> Result<Compensation> {
     let (id_r, nom_r): (&Robot, &Robot) = (&calibrated.robot, &nominal.robot);
     if id_r.layout() != nom_r.layout() {
-        return Err(CalibrateError::Refused(format!(
-            "{} ({} joints, {} parameters) and {} ({} joints, {} parameters) are not the same \
-             kind of robot",
-            calibrated.path.display(),
-            id_r.n_joints(),
-            id_r.n_params(),
-            nominal.path.display(),
-            nom_r.n_joints(),
-            nom_r.n_params()
-        )));
+        return Err(Refusal::DifferentRobots {
+            calibrated: calibrated.path.clone(),
+            calibrated_joints: id_r.n_joints(),
+            calibrated_params: id_r.n_params(),
+            nominal: nominal.path.clone(),
+            nominal_joints: nom_r.n_joints(),
+            nominal_params: nom_r.n_params(),
+        }
+        .into());
     }
     let set = nominal.read_set(targets, false, (1, None), "target joint file")?;
     let n = nom_r.n_joints();
@@ -188,22 +185,20 @@ pub fn compensate_targets(
         }
     }
     if !unreachable.is_empty() && !allow_unreachable {
-        return Err(CalibrateError::Refused(format!(
-            "{}\n{} of {} targets in {} are unreachable for {} (listed above); nothing written — \
-             --allow-unreachable writes the others",
-            unreachable.join("\n"),
-            unreachable.len(),
-            set.rows.len(),
-            set.source,
-            id_r.name()
-        )));
+        return Err(Refusal::Unreachable {
+            unreachable,
+            targets: set.rows.len(),
+            file: set.source.clone(),
+            robot: id_r.name().to_string(),
+        }
+        .into());
     }
     if rows.is_empty() {
-        return Err(CalibrateError::Refused(format!(
-            "{}\nno target in {} is reachable; nothing written",
-            unreachable.join("\n"),
-            set.source
-        )));
+        return Err(Refusal::NoneReachable {
+            unreachable,
+            file: set.source.clone(),
+        }
+        .into());
     }
     let compensated = rows.len();
     let out_set = MeasurementSet::new(out_label, n, rows);

@@ -2,27 +2,26 @@
 //! other programs): the steps an engineer runs on a robot file and tracker exports.
 //!
 //! ```text
-//! robot.json + data.csv ─► register ─► identify ─► screen outliers ─► validate ─► report
+//! robot.json + data.csv ─► register ─► identify ─► screen outliers ─► validate ─► Calibration
 //!                                                                        (workflow)
 //! identified.json + joints.csv ─► predict                                  (joints)
 //! identified.json + registered-nominal.json + targets.csv ─► compensate   (joints)
 //! ```
 //!
-//! Every function returns values and rendered text; nothing is printed and nothing is
-//! written except by [`Rendered::write_to`], which writes each file atomically. Errors are
-//! [`CalibrateError`]s naming the file, line, column or option at fault. The formats are
-//! those of `docs/model.md`.
+//! Every function returns values; nothing is printed, rendered or written. A [`Calibration`]
+//! is rendered by the `report` crate (`report::calibration::render`: `identified.json`,
+//! `registered-nominal.json`, `parameters.json`, `report.md`, `report.html` and its plots),
+//! and the front ends write the files. Errors are [`CalibrateError`]s naming the file, line,
+//! column or request field at fault. The formats are those of `docs/model.md`.
 
 mod error;
 mod files;
 mod joints;
+mod request;
 mod workflow;
 
-pub use error::{CalibrateError, Result};
+pub use error::{CalibrateError, Refusal, Result};
 pub use files::{LoadedRobot, file_name, points_mm, poses_rad, radians_notice, row_label};
 pub use joints::{Compensation, Prediction, SAME_FRAME_MM, compensate_targets, predict};
-pub use workflow::{
-    Calibration, IdentifyRequest, PARAMETERS_FILE, REGISTERED_FILE, REPORT_FILE, REPORT_HTML_FILE,
-    ROBOT_FILE, RedundantArg, Registration, Rendered, Schedule, Split, Validation, norms,
-    residuals, run, split_params,
-};
+pub use request::{IdentifyRequest, Split};
+pub use workflow::{Calibration, Validation, mean_max, norms, residuals, run};

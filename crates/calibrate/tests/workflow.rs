@@ -1,11 +1,12 @@
 //! The workflow as a library: the real UR10 (data/ur10-ipa) every 15th row, validated on the
 //! rest, against the independent SciPy MINPACK fit quoted in data/ur10-ipa/README.md; bad
-//! options are refused before anything is read; a failed write leaves nothing behind; the
-//! plots shown in docs/img are this run's.
+//! requests are refused before anything is read, naming the request field. (The rendered
+//! outputs and the plots shown in docs/img: `crates/report/tests/render.rs`; the flags the
+//! command line names and a failed write: `crates/kincal/tests/calibrate_cli.rs`.)
 
 use std::path::PathBuf;
 
-use calibrate::{CalibrateError, IdentifyRequest, Split};
+use calibrate::{CalibrateError, IdentifyRequest, Refusal, Split};
 
 fn root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..")
@@ -35,85 +36,33 @@ fn ur10_every_15th_row_matches_the_independent_fit() {
     assert!((after.mean_mm - 0.45).abs() < 0.01, "{}", after.mean_mm);
     assert!((after.max_mm - 1.77).abs() < 0.02, "{}", after.max_mm);
     assert!(v.table.before.norm.mean_mm > 2.5);
-    let rendered = cal.render().unwrap();
-    let names: Vec<&str> = rendered.files.iter().map(|(n, _)| n.as_str()).collect();
-    assert_eq!(
-        names,
-        [
-            "identified.json",
-            "registered-nominal.json",
-            "parameters.json",
-            "report.md",
-            "report.html",
-            "pose-errors.svg",
-            "error-cdf.svg",
-            "residuals-per-axis.svg",
-            "outliers.svg",
-        ]
-    );
-    // report.html holds every plot inline (captioned with its file name), nothing else.
-    let html = &rendered.files[4].1;
-    assert_eq!(html.matches("<svg ").count(), 4);
-    for (name, svg) in &rendered.files[5..] {
-        assert!(svg.starts_with("<svg"), "{name}");
-        assert!(html.contains(&format!("<code>{name}</code>")), "{name}");
-    }
-    // The README and docs/reports.md show two of these plots: they are this run's bytes.
-    for name in ["pose-errors.svg", "error-cdf.svg"] {
-        let shown = root().join("docs/img").join(format!("ur10-{name}"));
-        let svg = &rendered.files.iter().find(|(n, _)| n == name).unwrap().1;
-        assert!(
-            std::fs::read_to_string(&shown).unwrap() == *svg,
-            "{} differs from the {name} of `kincal identify --robot scenarios/robots/ur10.json \
-             --data data/ur10-ipa/series-b-joint-configurations.csv --every 15`: copy it there",
-            shown.display()
-        );
-    }
-    assert!(cal.summary().contains("validation: 1395 poses"));
 }
 
 #[test]
-fn bad_options_are_refused_with_the_option_named() {
+fn bad_options_are_refused_with_the_field_named() {
     let mut r = ur10_request();
     r.outlier_k = f64::NAN;
     let e = calibrate::run(&r).unwrap_err();
     assert!(matches!(e, CalibrateError::Refused(_)));
-    assert!(e.to_string().contains("--outlier-k"), "{e}");
+    assert!(e.to_string().contains("outlier_k = NaN"), "{e}");
     let mut r = ur10_request();
     r.split = Split::Every {
         every: 3,
         offset: 3,
     };
-    assert!(
-        calibrate::run(&r)
-            .unwrap_err()
-            .to_string()
-            .contains("--offset 3")
-    );
+    let e = calibrate::run(&r).unwrap_err();
+    assert!(matches!(
+        e,
+        CalibrateError::Refused(Refusal::OffsetNotBelowEvery {
+            every: 3,
+            offset: 3
+        })
+    ));
+    assert!(e.to_string().contains("offset = 3"), "{e}");
     let mut r = ur10_request();
     r.robot = root().join("scenarios/robots/missing.json");
     let e = calibrate::run(&r).unwrap_err();
     assert!(e.to_string().contains("missing.json"), "{e}");
-}
-
-#[test]
-fn a_failed_write_leaves_no_directory() {
-    let mut r = ur10_request();
-    r.split = Split::Every {
-        every: 10,
-        offset: 0,
-    };
-    let cal = calibrate::run(&r).unwrap();
-    let tmp = tempfile::tempdir().unwrap();
-    let file = tmp.path().join("a-file");
-    std::fs::write(&file, "x").unwrap();
-    let e = cal
-        .render()
-        .unwrap()
-        .write_to(&file.join("out"))
-        .unwrap_err();
-    assert!(e.to_string().contains("a-file"), "{e}");
-    assert_eq!(std::fs::read_to_string(&file).unwrap(), "x");
 }
 
 /// `--select N --criterion C`: identify on the rows `design::select_rows` chooses from the
@@ -150,7 +99,8 @@ fn select_identifies_on_the_designed_rows_and_validates_on_the_rest() {
     // plus what the UR10's compliance leaves.
     let after = &v.table.after.norm;
     assert!(after.mean_mm < 0.5, "{}", after.mean_mm);
-    assert!(cal.summary().contains("chosen by the D criterion"));
+    // The summary prints the selection (`report::calibration::summary`).
+    assert!(cal.selection.contains("chosen by the D criterion"));
 }
 
 #[test]
@@ -163,7 +113,7 @@ fn select_refuses_too_few_or_too_many_rows() {
         };
         let e = calibrate::run(&r).unwrap_err().to_string();
         assert!(
-            e.contains(&format!("--select {n}")) && e.contains(says),
+            e.contains(&format!("select {n} rows")) && e.contains(says),
             "{e}"
         );
     }

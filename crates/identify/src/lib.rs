@@ -11,7 +11,8 @@
 //!   the covariance of the identifiable free parameters ([`Covariance`]) in a [`Fit`].
 //! * [`analyze`]: identifiability — singular values of the column-scaled Jacobian, rank,
 //!   redundant parameters and what they are confounded with, the minimal set, condition
-//!   number, O1–O5. [`ParamSet`] resolves `paper`, `minimal` or a list of names.
+//!   number, O1–O5. [`ParamSet`] resolves `paper`, `minimal` or a list of names;
+//!   [`ParamSpec`] adds the non-geometric parameters after `+` (`paper+compliance+gears`).
 //! * [`register_base`] / [`kabsch`]: closed-form rigid registration re-expressed in the base
 //!   parameters.
 //! * [`random_poses`]: admissible random poses (stand-in for scenario pose sets).
@@ -54,6 +55,7 @@ pub mod identifiability;
 mod linalg;
 pub mod lm;
 pub mod outliers;
+pub mod params;
 mod problem;
 pub mod registration;
 pub mod sampling;
@@ -69,6 +71,7 @@ pub use identifiability::{
 };
 pub use lm::{Damping, LmOptions, LmSolution, Redundant, StopReason, TraceEntry, solve};
 pub use outliers::{Outlier, OutlierScreen};
+pub use params::ParamSpec;
 pub use problem::{Problem, SAME_POSE_TOL_RAD};
 pub use registration::{
     RegistrationPolicy, RegistrationReport, RigidTransform, kabsch, mean_point_error, register_base,

@@ -40,15 +40,9 @@ use serde::{Deserialize, Serialize};
 use kinematics::{PoseTrig, Robot};
 
 use crate::error::IdentifyError;
-use crate::identifiability::{IdentifiabilityOptions, redundant_positions};
+use crate::identifiability::{IdentifiabilityOptions, ZERO_COLUMN_RTOL_SQ, redundant_positions};
 use crate::linalg;
 use crate::problem::{NormalWork, Problem, assemble_normal, weighted_rss, weighted_rss_trig};
-
-/// A column whose squared norm is below this fraction of the largest squared column norm is
-/// treated as zero (the parameter does not move the measured point): it is not scaled
-/// [1e-20, i.e. a column norm ratio of 1e-10, well above rounding (≈1e-16) in columns that
-/// are exactly zero, e.g. θ6 with the ball on the flange axis].
-pub const ZERO_COLUMN_RTOL_SQ: f64 = 1e-20;
 
 /// When the damped matrix fails to factorise, μ is raised to at least this fraction of
 /// max diag(Ã) (and by ×10 each further failure) [1e-12: a thousand times the rounding level

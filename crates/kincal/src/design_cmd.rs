@@ -5,6 +5,7 @@ use std::path::PathBuf;
 use anyhow::{Context, Result, bail};
 use clap::{ArgGroup, Args};
 use design::{Candidates, Criterion, DesignOptions, design_plan};
+use identify::ParamSpec;
 use kinematics::Robot;
 
 /// Arguments of `design`.
@@ -49,7 +50,7 @@ pub struct DesignArgs {
     /// names; `+compliance`, `+gears` or `+name,name` add non-geometric parameters
     /// (docs/extended-model.md), e.g. `minimal+compliance+gears`.
     #[arg(long, default_value = "minimal")]
-    params: String,
+    params: ParamSpec,
     /// Output plan (joints-only measurement file, candidate ids kept) [plan.csv].
     #[arg(long, default_value = "plan.csv")]
     out: PathBuf,
@@ -65,14 +66,12 @@ pub struct DesignArgs {
 pub fn run(args: &DesignArgs) -> Result<()> {
     let geometric = Robot::from_file(&args.robot)
         .with_context(|| format!("loading {}", args.robot.display()))?;
-    let mut robot = geometric.clone();
-    // `--params BASE+FAMILY+…`: the extended families join the geometric parameters.
-    let (base_set, extended) = calibrate::split_params(&args.params, robot.n_joints());
-    if !extended.is_empty() {
-        robot = robot
-            .with_extended(&extended, &args.robot.display().to_string())
-            .with_context(|| format!("--params {}", args.params))?;
-    }
+    let params_flag = || format!("--params {}", args.params);
+    // The extended parameters after `+` join the geometric ones.
+    let robot = args
+        .params
+        .apply(&geometric, &args.robot.display().to_string())
+        .with_context(params_flag)?;
     let criterion: Criterion = args
         .criterion
         .parse()
@@ -100,25 +99,9 @@ pub fn run(args: &DesignArgs) -> Result<()> {
         .as_ref()
         .map(|p| Candidates::from_file(&robot, p))
         .transpose()?;
-    // `minimal` (of the extended robot, if extended) is decided by the design crate; `paper`
-    // and a list of names take the extended parameters along.
-    let params: Option<Vec<String>> = match base_set.trim() {
-        "minimal" => None,
-        "paper" => Some(
-            robot
-                .layout()
-                .params()
-                .iter()
-                .map(|p| p.name.clone())
-                .collect(),
-        ),
-        list => Some(
-            list.split(',')
-                .map(|s| s.trim().to_string())
-                .chain(extended.iter().cloned())
-                .collect(),
-        ),
-    };
+    // `minimal` (of the extended robot, if extended) is decided by the design crate on the
+    // candidates; `paper` and a list of names take the extended parameters along.
+    let params = args.params.listed(&robot).with_context(params_flag)?;
     let mut opts = DesignOptions::new(criterion, args.poses);
     opts.seed = args.seed;
     opts.restarts = args.restarts;

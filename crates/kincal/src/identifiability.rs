@@ -4,7 +4,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result};
 use clap::{ArgGroup, Args};
-use identify::{IdentifiabilityOptions, IdentifiabilityReport, ParamSet, analyze, random_poses};
+use identify::{IdentifiabilityOptions, IdentifiabilityReport, ParamSpec, analyze, random_poses};
 use kinematics::Robot;
 use measurements::{ReadOptions, read_file};
 use nalgebra::Vector3;
@@ -41,7 +41,7 @@ pub struct IdentifiabilityArgs {
     /// `+gears` or `+name,name` add non-geometric parameters (docs/extended-model.md), e.g.
     /// `paper+compliance+gears`.
     #[arg(long, default_value = "paper")]
-    params: String,
+    params: ParamSpec,
     /// Override the measured point (ball) in the flange frame, mm: `x,y,z`.
     #[arg(long, value_name = "X,Y,Z", value_parser = parse_tool, allow_hyphen_values = true)]
     tool: Option<Vector3<f64>>,
@@ -107,24 +107,23 @@ pub fn run(args: &IdentifiabilityArgs) -> Result<()> {
         (poses, format!("{n} random poses, seed {}", args.seed))
     };
 
-    // `--params BASE+FAMILY+…`: the extended families join the geometric parameters.
-    let (base_set, extended) = calibrate::split_params(&args.params, robot.n_joints());
-    if !extended.is_empty() {
-        robot = robot
-            .with_extended(&extended, &args.robot.display().to_string())
-            .with_context(|| format!("--params {}", args.params))?;
-    }
+    // The extended parameters after `+` join the geometric ones.
+    let params_flag = || format!("--params {}", args.params);
+    let robot = args
+        .params
+        .apply(&robot, &args.robot.display().to_string())
+        .with_context(params_flag)?;
     let opts = IdentifiabilityOptions::default();
-    let set: ParamSet = base_set.parse().expect("infallible");
-    let free = set
+    let free = args
+        .params
         .resolve(&robot, &poses, None, &opts)
-        .with_context(|| format!("--params {}", args.params))?;
+        .with_context(params_flag)?;
     let report = analyze(&robot, &poses, None, &free, &opts)
         .with_context(|| format!("analysing {} on {source}", robot.name()))?;
     if args.json {
         println!("{}", serde_json::to_string_pretty(&report)?);
     } else {
-        print_report(&report, &args.params, &source, robot.tool_mm());
+        print_report(&report, &args.params.to_string(), &source, robot.tool_mm());
     }
     Ok(())
 }

@@ -1,14 +1,18 @@
 //! `kincal identify`: calibrate a robot from a measurement file. Parses the options into a
-//! [`calibrate::IdentifyRequest`], runs it, writes the outputs and prints the summary.
+//! [`calibrate::IdentifyRequest`], runs it, renders the outputs
+//! ([`report::calibration::render`]), writes them and prints the summary.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result};
-use calibrate::{
-    IdentifyRequest, PARAMETERS_FILE, REGISTERED_FILE, REPORT_FILE, REPORT_HTML_FILE, ROBOT_FILE,
-    RedundantArg, Registration, Schedule, Split,
-};
+use calibrate::{CalibrateError, IdentifyRequest, Refusal, Split};
 use clap::Args;
+use identify::ParamSpec;
+use report::calibration::{
+    PARAMETERS_FILE, REGISTERED_FILE, REPORT_FILE, REPORT_HTML_FILE, ROBOT_FILE,
+};
+
+use crate::solver_args::{RedundantArg, RegistrationArg, Schedule};
 
 /// Arguments of `identify`.
 #[allow(rustdoc::broken_intra_doc_links, rustdoc::invalid_html_tags)] // clap help text
@@ -56,7 +60,7 @@ pub struct IdentifyArgs {
     /// joint) or names, e.g. `paper+compliance`, `paper+compliance+gears`,
     /// `minimal+compliance_2,compliance_3`. identified.json then has an `extended` section.
     #[arg(long, default_value = "paper")]
-    params: String,
+    params: ParamSpec,
     /// Damping schedule.
     #[arg(long, value_enum, default_value_t = Schedule::Levenberg)]
     schedule: Schedule,
@@ -65,8 +69,8 @@ pub struct IdentifyArgs {
     #[arg(long, value_enum, default_value_t = RedundantArg::Hold)]
     redundant: RedundantArg,
     /// Registration of the measurement frame.
-    #[arg(long, value_enum, default_value_t = Registration::Auto)]
-    registration: Registration,
+    #[arg(long, value_enum, default_value_t = RegistrationArg::Auto)]
+    registration: RegistrationArg,
     /// Drop the outliers found after the first fit and refit (without it they are only
     /// reported).
     #[arg(long)]
@@ -98,27 +102,84 @@ impl IdentifyArgs {
                 (None, None) => Split::All,
             },
             params: self.params.clone(),
-            schedule: self.schedule,
-            redundant: self.redundant,
-            registration: self.registration,
+            damping: self.schedule.into(),
+            redundant: self.redundant.into(),
+            registration: self.registration.into(),
             reject_outliers: self.reject_outliers,
             outlier_k: self.outlier_k,
             worst: self.worst,
             ..IdentifyRequest::new(&self.robot, &self.data)
         }
     }
+
+    /// The error of the workflow in the command line's words: the flag that sets the request
+    /// field at fault, before the library's message (which names the field).
+    fn flagged(&self, e: CalibrateError) -> anyhow::Error {
+        let flag = match &e {
+            CalibrateError::Refused(refusal) => match refusal {
+                Refusal::OutlierK(k) => Some(format!("--outlier-k {k}")),
+                Refusal::EveryZero => Some("--every 0".to_string()),
+                Refusal::OffsetNotBelowEvery { every, offset } => {
+                    Some(format!("--every {every} --offset {offset}"))
+                }
+                Refusal::ValidateWithSplit { split } => Some(format!("--validate with --{split}")),
+                Refusal::SelectTooFew { poses, .. } | Refusal::SelectTooMany { poses, .. } => {
+                    Some(format!("--select {poses}"))
+                }
+                Refusal::TooManyOutliers { .. } => Some("--reject-outliers".to_string()),
+                _ => None,
+            },
+            CalibrateError::TooFewRows { source, .. } => match source.as_ref() {
+                CalibrateError::Refused(Refusal::EveryTooFew { every, offset, .. }) => {
+                    Some(format!("--every {every} --offset {offset}"))
+                }
+                _ => None,
+            },
+            CalibrateError::Design { .. } => self
+                .select
+                .map(|n| format!("--select {n} --criterion {}", self.criterion.as_str())),
+            _ => None,
+        };
+        let e = match e {
+            CalibrateError::Params { spec, source } => {
+                anyhow::Error::new(source).context(format!("--params {spec}"))
+            }
+            CalibrateError::TooFewRows {
+                free,
+                spec,
+                needed,
+                source,
+            } => anyhow::Error::new(*source).context(format!(
+                "{free} free parameters (--params {spec}) need at least {needed} rows: 3 \
+                 equations per row, at least as many equations as free parameters"
+            )),
+            e => anyhow::Error::new(e),
+        };
+        match flag {
+            Some(flag) => e.context(flag),
+            None => e,
+        }
+    }
+}
+
+/// Creates `dir` and writes `files` into it, all or nothing (no output of an earlier run is
+/// replaced unless every file could be written).
+pub fn write_outputs(dir: &Path, files: &[(String, String)]) -> Result<()> {
+    std::fs::create_dir_all(dir)
+        .and_then(|()| measurements::write_all_atomically(dir, files))
+        .with_context(|| format!("writing the outputs into {}", dir.display()))
 }
 
 /// `kincal identify`.
 pub fn run(args: &IdentifyArgs) -> Result<()> {
-    let cal = calibrate::run(&args.request())?;
+    let cal = calibrate::run(&args.request()).map_err(|e| args.flagged(e))?;
     for notice in &cal.notices {
         eprintln!("note: {notice}");
     }
-    cal.render()?
-        .write_to(&args.out)
-        .with_context(|| format!("writing the outputs into {}", args.out.display()))?;
-    print!("{}", cal.summary());
+    let files = report::calibration::render(&cal)
+        .with_context(|| format!("drawing the plots of {REPORT_HTML_FILE}"))?;
+    write_outputs(&args.out, &files)?;
+    print!("{}", report::calibration::summary(&cal));
     println!(
         "→ {}: {ROBOT_FILE} (the calibrated robot), {REGISTERED_FILE} (the nominal robot in \
          the same frame: compensation targets), {PARAMETERS_FILE} (parameter table), \

@@ -4,7 +4,7 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result};
-use calibrate::LoadedRobot;
+use calibrate::{CalibrateError, LoadedRobot, Refusal};
 use clap::Args;
 
 /// Writes `text` to `out` atomically, or prints it to stdout.
@@ -106,7 +106,12 @@ pub fn compensate(args: &CompensateArgs) -> Result<()> {
         &args.targets,
         args.allow_unreachable,
         &out_label(args.out.as_deref()),
-    )?;
+    )
+    .map_err(|e| match e {
+        CalibrateError::Refused(Refusal::Unreachable { .. }) => anyhow::Error::new(e)
+            .context("some targets are unreachable; --allow-unreachable writes the others"),
+        e => e.into(),
+    })?;
     for notice in &c.notices {
         eprintln!("note: {notice}");
     }

@@ -1,7 +1,8 @@
 //! The front end of the `kincal` command line, as a library so that the repository's
 //! automation (`cargo xtask`) runs the same commands: argument types (clap), and functions
 //! that call the library crates and print. No calibration logic lives here: campaigns are
-//! `campaign`'s, the real-data workflow is `calibrate`'s.
+//! `campaign`'s, the real-data workflow is `calibrate`'s and its outputs are rendered by
+//! `report`.
 // The argument docs of the clap types are `--help` text, printed verbatim: defaults are
 // written `[stdout]` and placeholders `<scenario>` there, not rustdoc links or HTML, so those
 // types allow the two rustdoc lints.
@@ -11,6 +12,7 @@ pub mod design_cmd;
 pub mod identifiability;
 pub mod identify_cmd;
 pub mod joints_cmd;
+pub mod solver_args;
 pub mod urdf_cmd;
 
 use anyhow::Result;

@@ -1060,3 +1060,58 @@ fn ur10_with_joint_compliance() {
     assert!(stderr(&e).contains("`extended` section"), "{}", stderr(&e));
     assert!(!tmp.path().join("x.urdf").exists());
 }
+
+/// A failed write leaves no directory behind and replaces nothing: the outputs of the UR10
+/// (every 10th row) rendered, then written under a path whose parent is a file.
+#[test]
+fn a_failed_write_leaves_no_directory() {
+    let request = calibrate::IdentifyRequest {
+        split: calibrate::Split::Every {
+            every: 10,
+            offset: 0,
+        },
+        ..calibrate::IdentifyRequest::new(
+            root().join("scenarios/robots/ur10.json"),
+            root().join("data/ur10-ipa/series-b-joint-configurations.csv"),
+        )
+    };
+    let cal = calibrate::run(&request).unwrap();
+    let tmp = tempfile::tempdir().unwrap();
+    let file = tmp.path().join("a-file");
+    std::fs::write(&file, "x").unwrap();
+    let e = kincal::identify_cmd::write_outputs(
+        &file.join("out"),
+        &report::calibration::render(&cal).unwrap(),
+    )
+    .unwrap_err();
+    assert!(e.to_string().contains("a-file"), "{e}");
+    assert_eq!(std::fs::read_to_string(&file).unwrap(), "x");
+}
+
+/// The command line names the flag of a refused request field (the library names the field):
+/// `--offset` not below `--every`, `--select` of too few or too many rows.
+#[test]
+fn refused_options_are_named_by_their_flags() {
+    let data = root().join("data/ur10-ipa/series-b-joint-configurations.csv");
+    let robot = root().join("scenarios/robots/ur10.json");
+    let tmp = tempfile::tempdir().unwrap();
+    let identify = |extra: &[&str]| {
+        let mut args = vec!["identify", "--robot", s(&robot), "--data", s(&data)];
+        args.extend_from_slice(extra);
+        let out_dir = tmp.path().join("o");
+        args.extend(["--out", s(&out_dir)]);
+        let out = kincal(&args);
+        assert!(!out.status.success(), "{extra:?} accepted");
+        assert!(!out_dir.exists(), "{extra:?} wrote outputs");
+        stderr(&out)
+    };
+    let e = identify(&["--every", "3", "--offset", "3"]);
+    assert!(e.contains("--offset 3"), "{e}");
+    for (n, says) in [("5", "need at least"), ("1495", "choose fewer")] {
+        let e = identify(&["--select", n, "--criterion", "i"]);
+        assert!(
+            e.contains(&format!("--select {n}")) && e.contains(says),
+            "{e}"
+        );
+    }
+}

@@ -185,7 +185,7 @@ fn the_identify_plots_render() {
             .collect()
     };
     let (ib, ia, vb, va) = (e(100, 2.5), e(100, 0.3), e(1395, 2.8), e(1395, 0.35));
-    let d = report::identify::IdentifyPlotData {
+    let d = report::calibration::plots::IdentifyPlotData {
         robot: "UR10",
         identification_before_mm: &ib,
         identification_after_mm: &ia,
@@ -196,7 +196,62 @@ fn the_identify_plots_render() {
         outlier_labels: &[],
     };
     let png = std::env::var_os("KINCAL_PNG_DIR").map(PathBuf::from);
-    for (file, svg) in report::identify::identify_plots(&d).unwrap() {
+    for (file, svg) in report::calibration::plots::identify_plots(&d).unwrap() {
         check(&svg, &format!("identify-{file}"), &opt, png.as_deref());
     }
+}
+
+/// The outputs of a real-data calibration (the UR10 of data/ur10-ipa, every 15th row): the
+/// files in writing order, `report.html` with every plot inline (captioned with its file name)
+/// and nothing else, the plots the README and docs/reports.md show are this run's bytes, and
+/// the console summary.
+#[test]
+fn the_ur10_calibration_renders() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+    let request = calibrate::IdentifyRequest {
+        split: calibrate::Split::Every {
+            every: 15,
+            offset: 0,
+        },
+        ..calibrate::IdentifyRequest::new(
+            root.join("scenarios/robots/ur10.json"),
+            root.join("data/ur10-ipa/series-b-joint-configurations.csv"),
+        )
+    };
+    let cal = calibrate::run(&request).unwrap();
+    let rendered = report::calibration::render(&cal).unwrap();
+    let names: Vec<&str> = rendered.iter().map(|(n, _)| n.as_str()).collect();
+    assert_eq!(
+        names,
+        [
+            "identified.json",
+            "registered-nominal.json",
+            "parameters.json",
+            "report.md",
+            "report.html",
+            "pose-errors.svg",
+            "error-cdf.svg",
+            "residuals-per-axis.svg",
+            "outliers.svg",
+        ]
+    );
+    // report.html holds every plot inline (captioned with its file name), nothing else.
+    let html = &rendered[4].1;
+    assert_eq!(html.matches("<svg ").count(), 4);
+    for (name, svg) in &rendered[5..] {
+        assert!(svg.starts_with("<svg"), "{name}");
+        assert!(html.contains(&format!("<code>{name}</code>")), "{name}");
+    }
+    // The README and docs/reports.md show two of these plots: they are this run's bytes.
+    for name in ["pose-errors.svg", "error-cdf.svg"] {
+        let shown = root.join("docs/img").join(format!("ur10-{name}"));
+        let svg = &rendered.iter().find(|(n, _)| n == name).unwrap().1;
+        assert!(
+            std::fs::read_to_string(&shown).unwrap() == *svg,
+            "{} differs from the {name} of `kincal identify --robot scenarios/robots/ur10.json \
+             --data data/ur10-ipa/series-b-joint-configurations.csv --every 15`: copy it there",
+            shown.display()
+        );
+    }
+    assert!(report::calibration::summary(&cal).contains("validation: 1395 poses"));
 }

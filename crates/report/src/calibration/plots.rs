@@ -1,4 +1,4 @@
-//! The plots and the HTML page of a real-data identification (`identify`).
+//! The plots and the HTML page of a real-data calibration (`kincal identify`).
 //!
 //! [`identify_plots`] takes the per-point errors (measured − model, mm) of the start model
 //! (the nominal one, registered when the data came in a tracker frame) and of the identified

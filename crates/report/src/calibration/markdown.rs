@@ -1,0 +1,387 @@
+//! `report.md`: the report of a calibration, for people (`docs/calibrating-real-data.md`).
+
+use std::fmt::Write as _;
+
+use calibrate::{Calibration, mean_max, norms};
+use evaluate::{AxisStats, ErrorStats, Table4, improvement_pct};
+use identify::RegistrationPolicy;
+use measurements::Measurement;
+
+use super::start_label;
+use crate::fmt::{fixed, mm, number};
+
+fn stats_row(out: &mut String, name: &str, before: f64, after: f64) {
+    // signed: an improvement of -0.04 % prints `-0.0`.
+    let pct = improvement_pct(before, after).map_or_else(|| "n/a".into(), |p| format!("{p:.1}"));
+    let _ = writeln!(
+        out,
+        "| {name} | {} | {} | {pct} |",
+        fixed(before, 3),
+        fixed(after, 3)
+    );
+}
+
+fn table4_md(out: &mut String, t: &Table4, before: &str) {
+    let _ = writeln!(
+        out,
+        "| statistic | {before} (mm) | calibrated (mm) | improvement (%) |"
+    );
+    out.push_str("|---|---:|---:|---:|\n");
+    type Pick = fn(&AxisStats) -> f64;
+    type Axis = fn(&ErrorStats) -> &AxisStats;
+    let stats: [(&str, Pick); 4] = [
+        ("mean", |a| a.mean_mm),
+        ("max", |a| a.max_mm),
+        ("RMS", |a| a.rms_mm),
+        ("p95", |a| a.p95_mm),
+    ];
+    let axes: [(&str, Axis); 4] = [
+        ("\\|x\\|", |s| &s.x),
+        ("\\|y\\|", |s| &s.y),
+        ("\\|z\\|", |s| &s.z),
+        ("3-D", |s| &s.norm),
+    ];
+    for (sn, pick) in stats {
+        for (an, axis) in axes {
+            stats_row(
+                out,
+                &format!("{sn} {an}"),
+                pick(axis(&t.before)),
+                pick(axis(&t.after)),
+            );
+        }
+    }
+}
+
+fn worst_md(out: &mut String, rows: &[Measurement], errors: &[[f64; 3]], n: usize) {
+    let mut idx: Vec<usize> = (0..rows.len()).collect();
+    let nrm = norms(errors);
+    idx.sort_by(|&a, &b| nrm[b].total_cmp(&nrm[a]).then(a.cmp(&b)));
+    out.push_str("| point | line | ‖e‖ (mm) | e_x | e_y | e_z |\n|---|---:|---:|---:|---:|---:|\n");
+    for &i in idx.iter().take(n) {
+        let e = errors[i];
+        // signed: the components.
+        let _ = writeln!(
+            out,
+            "| {} | {} | {} | {:.3} | {:.3} | {:.3} |",
+            rows[i].id.as_deref().unwrap_or("–"),
+            rows[i].line,
+            fixed(nrm[i], 3),
+            e[0],
+            e[1],
+            e[2]
+        );
+    }
+}
+
+/// `report.md` of a calibration: what was fitted and how (files, rows, free and held
+/// parameters, solver, registration, model), the fit residuals, identifiability at the
+/// solution, the parameter table, correlations above 0.9, the outliers, the worst points, and
+/// the validation (Table 4 before and after, the worst validation points).
+pub fn markdown(o: &Calibration) -> String {
+    let a = &o.request;
+    let nom = &o.nominal.robot;
+    let mut s = String::new();
+    let _ = writeln!(s, "# Calibration of {}\n", nom.name());
+    let _ = writeln!(
+        s,
+        "- nominal robot: `{}` ({} joints, {} parameters)",
+        a.robot.display(),
+        nom.n_joints(),
+        nom.n_params()
+    );
+    let _ = writeln!(
+        s,
+        "- identification data: `{}`, {}{}",
+        a.data.display(),
+        o.selection,
+        if o.rejected {
+            format!(
+                "; {} outliers excluded, {} rows used",
+                o.screened_rows.len() - o.used.len(),
+                o.used.len()
+            )
+        } else {
+            String::new()
+        }
+    );
+    let _ = writeln!(
+        s,
+        "- free parameters: {} (`--params {}`): {}",
+        o.free.len(),
+        a.params,
+        o.fit.free.join(", ")
+    );
+    if !o.fit.held.is_empty() {
+        let _ = writeln!(
+            s,
+            "- held at their start values (exactly redundant there, `--redundant hold`): {}",
+            o.fit.held.join(", ")
+        );
+    }
+    let _ = writeln!(
+        s,
+        "- solver: {} damping, column scaling {}; stopped after {} iterations ({} accepted): {}",
+        a.damping.name(),
+        if o.fit.column_scaling { "on" } else { "off" },
+        o.fit.iterations,
+        o.fit.accepted_steps,
+        o.fit.stop
+    );
+    if !o.fit.stop.converged() {
+        s.push_str(
+            "- **not converged**: the solver hit a cap. With (nearly) redundant free parameters \
+             the cost is flat along their null-space directions, so their values drift while \
+             the predictions stay put; trust the identifiable values only, or use \
+             `--params minimal`.\n",
+        );
+    }
+    match &o.registration {
+        Some(r) if r.applied => {
+            // signed: the translation and the base.
+            let _ = writeln!(
+                s,
+                "- registration: applied — mean point error of the nominal model {} mm → {} mm \
+                 after a rigid fit (rotation {}°, translation ({:.3}, {:.3}, {:.3}) mm); base \
+                 (rx, ry, rz °; dx, dy, dz mm) = ({:.4}, {:.4}, {:.4}; {:.3}, {:.3}, {:.3})",
+                fixed(r.mean_error_before_mm, 3),
+                fixed(r.mean_error_after_mm, 3),
+                fixed(r.rotation_deg, 3),
+                r.translation_mm[0],
+                r.translation_mm[1],
+                r.translation_mm[2],
+                r.base_after[0],
+                r.base_after[1],
+                r.base_after[2],
+                r.base_after[3],
+                r.base_after[4],
+                r.base_after[5]
+            );
+        }
+        Some(r) => {
+            let threshold = match a.registration {
+                RegistrationPolicy::Auto { threshold_mm } => number(threshold_mm),
+                _ => "the threshold".into(),
+            };
+            let _ = writeln!(
+                s,
+                "- registration: not needed (nominal mean point error {} mm ≤ {threshold} mm)",
+                fixed(r.mean_error_before_mm, 3)
+            );
+        }
+        None => s.push_str("- registration: off (`--registration never`)\n"),
+    }
+    match o.fit.robot.extended() {
+        None => s.push_str(
+            "- model: geometry only (docs/model.md §2–§3). Compliance, gear errors and other \
+             non-geometric effects are not identified; they stay in the residuals.\n",
+        ),
+        Some(model) => {
+            let names: Vec<String> = model.kinds().iter().map(|k| k.name()).collect();
+            let _ = writeln!(
+                s,
+                "- model: geometry (docs/model.md §2–§3) plus the non-geometric joint errors {} \
+                 (docs/extended-model.md: gravity torques from the robot file's mass model on \
+                 the start geometry). Other non-geometric effects stay in the residuals.",
+                names.join(", ")
+            );
+        }
+    }
+
+    s.push_str("\n## Fit residuals\n\n");
+    s.push_str("| model | poses | RMS 3-D (mm) | mean 3-D (mm) | max 3-D (mm) |\n|---|---:|---:|---:|---:|\n");
+    let (start_res, fit_res) = o.fit_residuals();
+    let (start_n, fit_n) = (norms(&start_res), norms(&fit_res));
+    for (name, v) in [(start_label(o), &start_n), ("identified", &fit_n)] {
+        let (mean, max) = mean_max(v);
+        let rms = (v.iter().map(|x| x * x).sum::<f64>() / v.len() as f64).sqrt();
+        let _ = writeln!(
+            s,
+            "| {name} | {} | {} | {} | {} |",
+            v.len(),
+            mm(rms),
+            mm(mean),
+            mm(max)
+        );
+    }
+    match o.fit.sigma_hat {
+        Some(sh) => {
+            let _ = writeln!(
+                s,
+                "\nσ̂ = √(RSS / dof) = {} mm per axis (dof = {}).",
+                mm(sh),
+                o.fit.dof
+            );
+        }
+        None => s.push_str("\nNo degrees of freedom left: σ̂ undefined.\n"),
+    }
+
+    let an = &o.analysis;
+    s.push_str("\n## Identifiability at the solution\n\n");
+    let _ = writeln!(
+        s,
+        "Rank {} of {} free parameters ({}; σ_i > {}·σ_max).",
+        an.rank,
+        an.parameter_count,
+        an.scaling,
+        number(an.rank_rtol)
+    );
+    if let Some(c) = an.condition_number {
+        let _ = writeln!(
+            s,
+            "Condition number of the identifiable part: {}.",
+            fixed(c, 2)
+        );
+    }
+    if let Some(ob) = &an.observability {
+        // Scientific with 5 significant digits: no rule of `fmt` (its indices take 3).
+        let _ = writeln!(
+            s,
+            "\nObservability (singular values of the column-scaled Jacobian, m = {}): \
+             O1 {:.4e}, O2 {:.4e}, O3 {:.4e}, O4 {:.4e}, O5 {:.4e}.",
+            an.n_poses, ob.o1, ob.o2, ob.o3, ob.o4, ob.o5
+        );
+    }
+    if an.redundancies.is_empty() {
+        s.push_str("\nRedundant set: none.\n");
+    } else {
+        let _ = writeln!(
+            s,
+            "\nRedundant set ({}; values arbitrary, no standard error):\n",
+            an.redundant.len()
+        );
+        for r in &an.redundancies {
+            // signed, with an explicit `+`.
+            let with: Vec<String> = r
+                .confounded_with
+                .iter()
+                .map(|t| format!("{} ({:+.3})", t.name, t.weight))
+                .collect();
+            let with = if with.is_empty() {
+                "nothing: it does not move the point".to_string()
+            } else {
+                with.join(", ")
+            };
+            let _ = writeln!(s, "- `{}` confounded with {with}", r.name);
+        }
+    }
+
+    s.push_str("\n## Parameters\n\n");
+    s.push_str(
+        "Nominal = robot file; identified = `identified.json`; Δ = identified − nominal (for \
+         the base this includes the registration).\n\n",
+    );
+    s.push_str("| parameter | unit | nominal | identified | Δ | std error | identifiable |\n|---|---|---:|---:|---:|---:|---|\n");
+    let layout = o.start.layout();
+    let xn = nom.params();
+    let cov = o.fit.covariance.as_ref();
+    for (k, info) in layout.params().iter().enumerate() {
+        let (n, v) = (info.to_display(xn[k]), info.to_display(o.fit.params[k]));
+        let se = cov.and_then(|c| c.std_error(&info.name));
+        let ident = if !o.free.contains(&k) {
+            "fixed"
+        } else if se.is_some() || an.identifiable.contains(&info.name) {
+            "yes"
+        } else {
+            "no"
+        };
+        // signed: nominal, identified, Δ.
+        let _ = writeln!(
+            s,
+            "| {} | {} | {n:.5} | {v:.5} | {:.5} | {} | {ident} |",
+            info.name,
+            info.unit.as_str(),
+            v - n,
+            se.map_or_else(|| "–".into(), |e| fixed(e, 5))
+        );
+    }
+
+    s.push_str("\n## Correlations above 0.9\n\n");
+    match cov {
+        Some(c) if !c.high_correlations.is_empty() => {
+            s.push_str("| a | b | ρ |\n|---|---|---:|\n");
+            for p in &c.high_correlations {
+                // signed, with an explicit `+`.
+                let _ = writeln!(s, "| {} | {} | {:+.4} |", p.a, p.b, p.rho);
+            }
+        }
+        Some(_) => s.push_str("None.\n"),
+        None => s.push_str("No covariance (no degrees of freedom).\n"),
+    }
+
+    s.push_str("\n## Outliers\n\n");
+    match &o.screen {
+        Some(sc) => {
+            // k as given (`{}`: the shortest text that reads back as the value).
+            let _ = writeln!(
+                s,
+                "Screened after the first fit: ‖e‖ > k·σ̂₃ = {} × {} = {} mm (σ̂₃ = √3·σ̂, \
+                 first-fit RMS {} mm).",
+                sc.k,
+                mm(sc.sigma_3d_mm),
+                mm(sc.threshold_mm),
+                mm(o.first.rms_mm)
+            );
+            if sc.outliers.is_empty() {
+                s.push_str("\nNone.\n");
+            } else {
+                let _ = writeln!(
+                    s,
+                    "\n{} point(s) — {}:\n",
+                    sc.outliers.len(),
+                    if o.rejected {
+                        format!(
+                            "excluded and refitted (RMS {} → {} mm)",
+                            mm(o.first.rms_mm),
+                            mm(o.fit.rms_mm)
+                        )
+                    } else {
+                        "kept (use `--reject-outliers` to exclude them and refit)".to_string()
+                    }
+                );
+                s.push_str("| point | line | ‖e‖ (mm) | ‖e‖/σ̂₃ |\n|---|---:|---:|---:|\n");
+                for ol in &sc.outliers {
+                    let r = &o.screened_rows[ol.index];
+                    let _ = writeln!(
+                        s,
+                        "| {} | {} | {} | {} |",
+                        r.id.as_deref().unwrap_or("–"),
+                        r.line,
+                        mm(ol.norm_mm),
+                        fixed(ol.ratio, 2)
+                    );
+                }
+            }
+        }
+        None => s.push_str("Not screened (no degrees of freedom).\n"),
+    }
+
+    let _ = writeln!(s, "\n## Worst identification points (identified model)\n");
+    worst_md(&mut s, &o.used, &fit_res, a.worst);
+
+    if let Some(v) = &o.validation {
+        let _ = writeln!(s, "\n## Validation on {}\n", v.source);
+        let _ = writeln!(
+            s,
+            "{} poses never used to identify. Before: the nominal model (after registration, \
+             if any: the model the fit started from) vs measured; after: the identified \
+             model's prediction vs measured. e = measured − predicted.\n",
+            v.rows.len()
+        );
+        table4_md(&mut s, &v.table, start_label(o));
+        if let Some((mean, max)) = v.self_registered {
+            let _ = writeln!(
+                s,
+                "\nFor reference, the nominal model rigidly registered on these validation \
+                 points themselves (the best any frame alone can do): mean {} mm, max {} mm.",
+                fixed(mean, 3),
+                fixed(max, 3)
+            );
+        }
+        s.push_str("\n### Worst validation points (identified model)\n\n");
+        worst_md(&mut s, &v.rows, &v.after, a.worst);
+    } else {
+        s.push_str("\n## Validation\n\nNo validation data (`--validate FILE` or `--every K`).\n");
+    }
+    s
+}

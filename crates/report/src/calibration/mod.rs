@@ -1,0 +1,100 @@
+//! Everything a real-data calibration shows (`kincal identify`): a [`calibrate::Calibration`]
+//! rendered as the files of the output directory ([`render`]) and the console summary
+//! ([`summary`]).
+//!
+//! | file | what | by |
+//! |---|---|---|
+//! | [`ROBOT_FILE`] | the calibrated robot | [`calibrate::Calibration::identified_robot`] |
+//! | [`REGISTERED_FILE`] | the nominal robot in the data's frame | [`calibrate::Calibration::registered_robot`] |
+//! | [`PARAMETERS_FILE`] | the parameter table | [`parameters_json`] |
+//! | [`REPORT_FILE`] | the report | [`markdown`] |
+//! | [`REPORT_HTML_FILE`] | the report with its plots inline | [`plots::identify_page`] |
+//! | [`plots::IDENTIFY_PLOT_FILES`] | the plots, as SVG | [`plots::identify_plots`] |
+//!
+//! Numbers follow [`crate::fmt`]. Where today's files print a signed value with Rust's own
+//! fixed notation (a `-0.000` kept, an explicit `+`), the text keeps it: those cells are
+//! marked `signed` below.
+
+mod markdown;
+mod parameters;
+pub mod plots;
+mod summary;
+
+pub use markdown::markdown;
+pub use parameters::parameters_json;
+pub use summary::summary;
+
+use calibrate::{Calibration, file_name, row_label};
+
+use crate::plot::PlotError;
+
+/// File names in the output directory: the calibrated robot.
+pub const ROBOT_FILE: &str = "identified.json";
+/// The nominal robot in the measurement frame (its base registered on the data).
+pub const REGISTERED_FILE: &str = "registered-nominal.json";
+/// The parameter table.
+pub const PARAMETERS_FILE: &str = "parameters.json";
+/// The report.
+pub const REPORT_FILE: &str = "report.md";
+/// The report as a self-contained HTML page with the plots inline.
+pub const REPORT_HTML_FILE: &str = "report.html";
+
+/// Renders the output files of `cal` in memory, as `(file name, contents)` in writing order:
+/// [`ROBOT_FILE`], [`REGISTERED_FILE`], [`PARAMETERS_FILE`], [`REPORT_FILE`], then
+/// [`REPORT_HTML_FILE`] with the plots of [`plots::identify_plots`] (errors of the start model
+/// and of the identified one on the screened identification rows and on the validation rows;
+/// the outlier screen) inline, and those plots as SVG files. The caller writes them (all or
+/// nothing: `measurements::write_all_atomically`).
+///
+/// # Errors
+/// [`PlotError`] when an error is not finite (nothing can be drawn).
+pub fn render(cal: &Calibration) -> Result<Vec<(String, String)>, PlotError> {
+    let nom = &cal.nominal.robot;
+    let data = file_name(&cal.request.data);
+    let report_md = markdown(cal);
+    let (id_before, id_after) = cal.screened_residuals();
+    let flagged = cal.screen.as_ref().map_or_else(Vec::new, |s| s.indices());
+    let labels: Vec<String> = flagged
+        .iter()
+        .map(|&i| row_label(&cal.screened_rows[i]))
+        .collect();
+    let plots = plots::identify_plots(&plots::IdentifyPlotData {
+        robot: nom.name(),
+        identification_before_mm: &id_before,
+        identification_after_mm: &id_after,
+        validation_before_mm: cal.validation.as_ref().map(|v| v.before.as_slice()),
+        validation_after_mm: cal.validation.as_ref().map(|v| v.after.as_slice()),
+        outlier_threshold: cal.screen.as_ref().map(|s| (s.threshold_mm, s.k)),
+        outliers: &flagged,
+        outlier_labels: &labels,
+    })?;
+    let html = plots::identify_page(
+        &format!("Calibration of {} on {data}", nom.name()),
+        &report_md,
+        &plots,
+    );
+    let mut files = vec![
+        (
+            ROBOT_FILE.to_string(),
+            cal.identified_robot().to_spec().to_json_string(),
+        ),
+        (
+            REGISTERED_FILE.to_string(),
+            cal.registered_robot().to_spec().to_json_string(),
+        ),
+        (PARAMETERS_FILE.to_string(), parameters_json(cal)),
+        (REPORT_FILE.to_string(), report_md),
+        (REPORT_HTML_FILE.to_string(), html),
+    ];
+    files.extend(plots);
+    Ok(files)
+}
+
+/// `nominal, registered` or `nominal`: the model the fit started from.
+fn start_label(cal: &Calibration) -> &'static str {
+    if cal.registered() {
+        "nominal, registered"
+    } else {
+        "nominal"
+    }
+}
