@@ -40,8 +40,14 @@ fn kincal_error(e: &(dyn std::error::Error + 'static)) -> PyErr {
 
 /// Writes a file the way every kincal front end does (atomically: temporary file, rename).
 fn write_file(path: &std::path::Path, text: &str) -> PyResult<()> {
-    measurements::write_atomically(path, text.as_bytes())
-        .map_err(|e| KincalError::new_err(format!("writing {}: {e}", path.display())))
+    measurements::write_atomically(path, text.as_bytes()).map_err(|e| {
+        let (msg, file) = (e.to_string(), path.display().to_string());
+        KincalError::new_err(if msg.contains(&file) {
+            msg
+        } else {
+            format!("writing {file}: {msg}")
+        })
+    })
 }
 
 /// A robot model: the nominal or calibrated kinematics of a serial robot (a kincal robot file,

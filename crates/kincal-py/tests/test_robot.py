@@ -155,8 +155,9 @@ def test_load_errors_name_the_file_and_field(tmp_path):
 def test_save_error_names_the_file(tmp_path):
     robot = kincal.Robot.load(ROBOTS / "ur10.json")
     target = tmp_path / "no-such-dir" / "robot.json"
-    with pytest.raises(kincal.KincalError, match=re.escape(f"writing {target}")):
+    with pytest.raises(kincal.KincalError, match=re.escape(f"writing {target}")) as e:
         robot.save(target)
+    assert str(e.value).count(str(target)) == 1, str(e.value)
     with pytest.raises(kincal.KincalError, match=re.escape(f"writing {target}")):
         robot.to_urdf(target)
 
