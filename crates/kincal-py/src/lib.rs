@@ -74,7 +74,10 @@ impl PyRobot {
     /// expanded first) into a robot, exactly (`docs/urdf.md`); `base`'s frame becomes the
     /// measurement frame and the measured point is `tool_mm` in `tip`'s frame.
     #[staticmethod]
-    #[pyo3(signature = (path, base, tip, *, tool_mm = (0.0, 0.0, 0.0), name = None))]
+    #[pyo3(
+        signature = (path, base, tip, *, tool_mm = (0.0, 0.0, 0.0), name = None),
+        text_signature = "(path, base, tip, *, tool_mm=(0.0, 0.0, 0.0), name=None)"
+    )]
     fn from_urdf(
         py: Python<'_>,
         path: PathBuf,

@@ -13,12 +13,14 @@ This stub is the contract of the package's API (issue 32). Two parts:
 
 from collections.abc import Callable, Mapping, Sequence
 from os import PathLike
-from typing import Any, Literal, TypedDict, Union
+from typing import Any, Literal, TypedDict, Union, final
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 _Path = Union[str, PathLike[str]]
+
+__all__ = ["KincalError", "Robot", "__version__"]
 
 __version__: str
 """The package version, the kincal workspace's version (e.g. ``"0.1.0"``)."""
@@ -39,6 +41,7 @@ class ParameterRecord(TypedDict):
     unit: str
     """``"deg"``, ``"mm"`` or the unit of an extended parameter (e.g. compliance)."""
 
+@final
 class Robot:
     """A robot model: the nominal or calibrated kinematics of a serial robot (a kincal robot
     file, docs/model.md §4). Immutable; angles in degrees, lengths in millimetres."""
