@@ -307,3 +307,21 @@ def test_every_public_callable_has_a_docstring():
     for attr in ["load", "from_urdf", "save", "to_urdf", "fk", "parameters", "n_joints", "n_params", "name"]:
         assert getattr(kincal.Robot, attr).__doc__, attr
     assert kincal.__doc__
+
+
+def lock_versions(path):
+    """{(name, version)} of a Cargo.lock."""
+    text = path.read_text()
+    return set(re.findall(r'\[\[package\]\]\nname = "([^"]+)"\nversion = "([^"]+)"', text))
+
+
+def test_the_crates_lock_has_the_workspaces_versions():
+    """crates/kincal-py is outside the workspace with its own Cargo.lock; every dependency it
+    shares with the workspace must have the workspace's version (else it is compiled twice and
+    may behave differently). To re-seed: copy the workspace's Cargo.lock over it and run
+    `cargo metadata --manifest-path crates/kincal-py/Cargo.toml --format-version 1 >/dev/null`."""
+    ours = lock_versions(REPO / "crates" / "kincal-py" / "Cargo.lock")
+    workspace = lock_versions(REPO / "Cargo.lock")
+    names = {n for n, _ in workspace}
+    differ = sorted(f"{n} {v}" for n, v in ours if n in names and (n, v) not in workspace)
+    assert not differ, f"versions not in the workspace's Cargo.lock: {differ}"
