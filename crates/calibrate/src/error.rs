@@ -59,9 +59,10 @@ pub enum CalibrateError {
     Design {
         /// What was being chosen.
         context: String,
-        /// Why.
+        /// Why (boxed: a design error carries a whole measurement error, and this variant would
+        /// otherwise set the size of every `Result` of this crate).
         #[source]
-        source: design::DesignError,
+        source: Box<design::DesignError>,
     },
     /// The parameter spec of the request does not fit the robot (an unknown name, a family
     /// member of a joint the robot does not have, compliance without a mass model).
@@ -150,9 +151,10 @@ pub enum Refusal {
         selected: usize,
         /// Rows of the file.
         rows: usize,
-        /// The file, with the rows found and needed.
+        /// The file, with the rows found and needed (boxed: it would set the size of every
+        /// `Result` of this crate).
         #[source]
-        source: MeasurementError,
+        source: Box<MeasurementError>,
     },
     /// A validation file beside a split that validates on the rows it does not identify on.
     #[error(

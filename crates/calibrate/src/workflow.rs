@@ -228,11 +228,11 @@ fn split_rows(
                         offset,
                         selected: sel.len(),
                         rows: n_file_rows,
-                        source: MeasurementError::TooFewRows {
+                        source: Box::new(MeasurementError::TooFewRows {
                             file: data.source.clone(),
                             found: sel.len(),
                             needed: min_rows,
-                        },
+                        }),
                     }
                     .into(),
                 ));
@@ -278,7 +278,7 @@ fn split_rows(
                         data.source,
                         criterion.as_str()
                     ),
-                    source,
+                    source: Box::new(source),
                 })?;
             let (mut sel, mut rest) = (Vec::new(), Vec::new());
             for (i, r) in data.rows.iter().enumerate() {

@@ -14,11 +14,13 @@ use kinematics::RobotSpec;
   kincal urdf export ur10-cal/identified.json --out ur10-calibrated.urdf --offsets offsets.json \\
       --nominal ur10-cal/registered-nominal.json")]
 pub struct UrdfArgs {
+    /// `import` or `export`.
     #[command(subcommand)]
     pub cmd: UrdfCmd,
 }
 
 #[allow(rustdoc::broken_intra_doc_links, rustdoc::invalid_html_tags)] // clap help text
+/// The `urdf` subcommands.
 #[derive(clap::Subcommand)]
 pub enum UrdfCmd {
     /// A plain URDF (expand xacro first) → a robot file for the serial chain from --base to

@@ -244,10 +244,11 @@ pub enum MeasurementError {
         line: usize,
         /// The pose's first row.
         first_line: usize,
-        /// The pose id.
-        id: String,
+        /// The pose id (`Box<str>`, not `String`: this variant sets the size of every error
+        /// that carries a `MeasurementError`).
+        id: Box<str>,
         /// The first joint column that disagrees.
-        column: String,
+        column: Box<str>,
         /// Its value on `line`, degrees.
         value: f64,
         /// Its value on `first_line`, degrees.
@@ -364,8 +365,8 @@ impl MeasurementError {
             | Self::ColumnConflict { column, .. }
             | Self::EulerConventionMissing { column, .. }
             | Self::NotUnitQuaternion { column, .. }
-            | Self::InvalidField { column, .. }
-            | Self::PoseJointsDisagree { column, .. } => Some(column),
+            | Self::InvalidField { column, .. } => Some(column),
+            Self::PoseJointsDisagree { column, .. } => Some(column),
             Self::DuplicateTarget { .. } | Self::InconsistentTarget { .. } => Some("target"),
             Self::RaggedRow {
                 first_missing_column,
