@@ -106,12 +106,15 @@ impl Observer for Progress {
     }
 }
 
-/// The library's error, with the command-line option it is about (if any) in front of it.
-fn with_option(e: CampaignError) -> anyhow::Error {
+/// The library's error, with the command-line option it is about (if any) in front of it;
+/// `out_given`: the output directory came from `--out`.
+fn with_option(e: CampaignError, out_given: bool) -> anyhow::Error {
     let option = match &e {
         CampaignError::ZeroTrials => "--trials 0".to_string(),
         CampaignError::ZeroCheckpointInterval => "--checkpoint-every 0".to_string(),
-        CampaignError::OutputIsAFile { path } | CampaignError::CreateDir { path, .. } => {
+        CampaignError::OutputIsAFile { path } | CampaignError::CreateDir { path, .. }
+            if out_given =>
+        {
             format!("--out {}", path.display())
         }
         CampaignError::UnfinishedCheckpoint { .. } => {
@@ -152,10 +155,13 @@ pub fn campaign(args: CampaignArgs) -> Result<()> {
     run.iso_off = args.no_iso;
     run.budget_off = args.no_budget;
     run.threads = args.threads;
-    run.out = args.out;
     run.shard = args.shard.as_deref().map(parse_shard).transpose()?;
     run.checkpoint = Some(checkpointing(args.resume, args.checkpoint_every));
-    let outcome = run.run(&Progress::new(false)).map_err(with_option)?;
+    let out_given = args.out.is_some();
+    run.out = args.out;
+    let outcome = run
+        .run(&Progress::new(false))
+        .map_err(|e| with_option(e, out_given))?;
     print_campaign(&outcome, args.quiet);
     Ok(())
 }
@@ -197,8 +203,9 @@ pub fn print_campaign(outcome: &CampaignOutcome, quiet: bool) {
 /// `kincal merge`.
 pub fn merge(args: MergeArgs) -> Result<()> {
     let mut run = MergeRun::new(args.shards);
+    let out_given = args.out.is_some();
     run.out = args.out;
-    let outcome = run.run().map_err(with_option)?;
+    let outcome = run.run().map_err(|e| with_option(e, out_given))?;
     println!("{}", outcome.summary.to_markdown());
     eprintln!(
         "merged {} shards → {}",
@@ -212,7 +219,7 @@ pub fn merge(args: MergeArgs) -> Result<()> {
 pub fn simulate(args: SimulateArgs) -> Result<()> {
     let mut run = SimulateRun::new(&args.scenario, &args.out);
     run.trial = args.trial;
-    let sim = run.run().map_err(with_option)?;
+    let sim = run.run().map_err(|e| with_option(e, true))?;
     let t = sim.truth.sampling.total();
     eprintln!(
         "{} identification and {} validation measurements, truth → {}\n\
@@ -238,9 +245,12 @@ pub fn sweep(args: SweepArgs) -> Result<()> {
     let mut run = SweepRun::new(&args.sweep);
     run.trials = args.trials;
     run.threads = args.threads;
-    run.out = args.out;
     run.checkpoint = Some(checkpointing(args.resume, args.checkpoint_every));
-    let outcome = run.run(&Progress::new(true)).map_err(with_option)?;
+    let out_given = args.out.is_some();
+    run.out = args.out;
+    let outcome = run
+        .run(&Progress::new(true))
+        .map_err(|e| with_option(e, out_given))?;
     print_sweep(&outcome, false);
     Ok(())
 }
