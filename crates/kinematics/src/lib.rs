@@ -4,7 +4,10 @@
 //! the analytic identification Jacobian, and damped-Newton inverse kinematics valid for any
 //! parameter values.
 //!
-//! No randomness and no I/O but the model file. Internally angles are radians and lengths
+//! Random poses within the joint limits that are admissible for measuring (away from the
+//! wrist and other singularities) come from [`sampling`], the one pose sampler, with a
+//! generator the caller supplies: the crate draws nothing of its own and does no I/O but the
+//! model file. Internally angles are radians and lengths
 //! millimetres; interfaces (files, reports) use degrees and millimetres.
 
 mod error;
@@ -13,6 +16,7 @@ mod ik;
 mod model;
 mod params;
 mod robot;
+pub mod sampling;
 pub mod simd;
 pub mod trig;
 
@@ -26,3 +30,4 @@ pub use params::{BETA_ALPHA_TOL_DEG, ParamInfo, ParamKind, ParamLayout, Unit};
 pub use robot::{
     Frame, MAX_PARAMS, POSE_LANES, PoseLanes, PoseTrig, Robot, gram_of_axes, joint_sin_cos,
 };
+pub use sampling::PoseSampler;
