@@ -16,7 +16,7 @@ use evaluate::{AxisStats, ErrorStats, Table4, improvement_pct};
 use identify::{
     Damping, Fit, IdentifiabilityOptions, IdentifiabilityReport, IdentifyOptions, LmOptions,
     OutlierScreen, ParamSet, Problem, Redundant, RegistrationPolicy, RegistrationReport, analyze,
-    identify, mean_point_error, outliers, random_poses, register_base,
+    generic_poses, identify, mean_point_error, outliers, register_base,
 };
 use kinematics::Robot;
 use measurements::{Measurement, MeasurementError};
@@ -268,7 +268,7 @@ fn free_count(robot: &Robot, set: &ParamSet, opts: &IdentifiabilityOptions) -> R
             .len(),
         ParamSet::Minimal => {
             let all: Vec<usize> = (0..robot.n_params()).collect();
-            random_poses(robot, robot.n_params(), 1)
+            generic_poses(robot)
                 .ok()
                 .and_then(|poses| analyze(robot, &poses, None, &all, opts).ok())
                 .map_or(robot.n_params(), |a| a.identifiable.len())

@@ -7,7 +7,7 @@
 //! Every column of the (weighted) stacked Jacobian `J` (3m × P) is divided by its Euclidean
 //! norm: `J̃ = J·S`, `S = diag(1/‖J_k‖)`. Rank and singular values of J̃ do not depend on
 //! units (rad vs mm) or on how far a parameter sits from the points; a scaled unit is "one mm
-//! of RSS point motion". A column below [`crate::lm::ZERO_COLUMN_RTOL_SQ`] (squared,
+//! of RSS point motion". A column below [`ZERO_COLUMN_RTOL_SQ`] (squared,
 //! relative to the largest) is set to exactly zero: that parameter does not move the point.
 //!
 //! # Rank and null space
@@ -48,10 +48,16 @@ use nalgebra::{DMatrix, DVector, linalg::SVD};
 use serde::{Deserialize, Serialize};
 
 use crate::error::IdentifyError;
-use crate::lm::ZERO_COLUMN_RTOL_SQ;
 use crate::problem::{
     NormalWork, check_free, check_poses, check_start, check_weights, weighted_jacobian,
 };
+
+/// A column whose squared norm is below this fraction of the largest squared column norm is
+/// treated as zero (the parameter does not move the measured point): the analysis here counts
+/// it as a zero column and LM's column scaling leaves it unscaled (one threshold for both)
+/// [1e-20, i.e. a column norm ratio of 1e-10, well above rounding (≈1e-16) in columns that
+/// are exactly zero, e.g. θ6 with the ball on the flange axis].
+pub const ZERO_COLUMN_RTOL_SQ: f64 = 1e-20;
 
 /// Iteration cap of the SVDs (nalgebra's `try_new`); far beyond what 34 columns need.
 const SVD_MAX_ITER: usize = 10_000;

@@ -40,15 +40,9 @@ use serde::{Deserialize, Serialize};
 use kinematics::{PoseTrig, Robot};
 
 use crate::error::IdentifyError;
-use crate::identifiability::{IdentifiabilityOptions, redundant_positions};
+use crate::identifiability::{IdentifiabilityOptions, ZERO_COLUMN_RTOL_SQ, redundant_positions};
 use crate::linalg;
 use crate::problem::{NormalWork, Problem, assemble_normal, weighted_rss, weighted_rss_trig};
-
-/// A column whose squared norm is below this fraction of the largest squared column norm is
-/// treated as zero (the parameter does not move the measured point): it is not scaled
-/// [1e-20, i.e. a column norm ratio of 1e-10, well above rounding (≈1e-16) in columns that
-/// are exactly zero, e.g. θ6 with the ball on the flange axis].
-pub const ZERO_COLUMN_RTOL_SQ: f64 = 1e-20;
 
 /// When the damped matrix fails to factorise, μ is raised to at least this fraction of
 /// max diag(Ã) (and by ×10 each further failure) [1e-12: a thousand times the rounding level
@@ -1067,8 +1061,10 @@ fn solve_free(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use kinematics::{RobotSpec, Unit};
+    use kinematics::{PoseSampler, RobotSpec, Unit};
     use nalgebra::Vector3;
+    use rand::SeedableRng;
+    use rand::rngs::ChaCha8Rng;
 
     /// The trial-point assembly changes no bit of the iteration or of the final system, on
     /// runs where steps are rejected in mid-run (the next accepted step must not take over
@@ -1090,7 +1086,10 @@ mod tests {
                 };
         }
         let truth = nominal.with_params(&x).unwrap();
-        let poses = crate::random_poses(&nominal, 50, 501).unwrap();
+        let poses = PoseSampler::default()
+            .sample(&nominal, 50, &mut ChaCha8Rng::seed_from_u64(501))
+            .unwrap()
+            .rad;
         let points: Vec<Vector3<f64>> = truth
             .points(&poses)
             .iter()
