@@ -12,6 +12,7 @@
 
 mod error;
 mod extended;
+mod frame;
 mod ik;
 mod model;
 mod params;
@@ -21,13 +22,13 @@ pub mod simd;
 pub mod trig;
 
 pub use error::ModelError;
-pub use extended::{ExtendedKind, ExtendedModel, Gravity, expand_family};
+pub use extended::{ExtendedModel, Gravity, expand_family};
+pub use frame::Frame;
 pub use ik::{IkError, IkOptions, IkReport, IkTarget, Lower6, cholesky6};
 pub use model::{
     BaseSpec, ExtendedParamSpec, JointSpec, LinkMassSpec, MAX_JOINTS, MassModelSpec, RobotSpec,
 };
-pub use params::{BETA_ALPHA_TOL_DEG, ParamInfo, ParamKind, ParamLayout, Unit};
-pub use robot::{
-    Frame, MAX_PARAMS, POSE_LANES, PoseLanes, PoseTrig, Robot, gram_of_axes, joint_sin_cos,
-};
+pub use params::{BETA_ALPHA_TOL_DEG, ExtendedKind, ParamInfo, ParamKind, ParamLayout, Unit};
+pub use robot::{MAX_PARAMS, POSE_LANES, PoseLanes, PoseTrig, Robot, gram_of_axes};
 pub use sampling::PoseSampler;
+pub use trig::joint_sin_cos;

@@ -21,7 +21,8 @@ use rand::{Rng, RngExt};
 
 use crate::ik::cholesky6;
 use crate::model::MAX_JOINTS;
-use crate::robot::{Robot, gram_of_axes, joint_sin_cos};
+use crate::robot::{Robot, gram_of_axes};
+use crate::trig::joint_sin_cos;
 
 /// The admissibility rule of [`PoseSampler::sample`]. Defaults in brackets.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -35,7 +36,7 @@ pub struct PoseSampler {
     /// Length weighing rotation against translation in that Jacobian, mm [1000, the order of
     /// a large robot's reach].
     pub orientation_scale_mm: f64,
-    /// Draws allowed per pose wanted before giving up [1000].
+    /// Draws allowed per pose wanted before giving up \[1000\].
     pub max_draws_per_pose: u64,
 }
 
