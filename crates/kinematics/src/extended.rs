@@ -17,9 +17,14 @@
 //!
 //! Because `q̃` is linear in `x` with weights that do not depend on any parameter, the
 //! identification Jacobian extends exactly by the chain rule: the column of `x_k` is
-//! `w_k(q) · ∂p/∂θ_j (q̃)`, the θ_j column of [`crate::Robot::point_jacobian_into`] at `q̃` scaled
-//! by the weight, and the geometric columns are those of the chain at `q̃`
+//! `w_k(q) · ∂p/∂θ_j (q̃)`, the θ_j column of [`crate::Robot::point_jacobian_into`] at `q̃`
+//! scaled by the weight, and the geometric columns are those of the chain at `q̃`
 //! (tested against central differences).
+//!
+//! This module knows frames, not robots: the entry points that evaluate a robot's chain
+//! ([`ExtendedModel::new`], [`ExtendedModel::weights`], [`Gravity::torques_nm`]) are written
+//! next to [`crate::Robot`] (`robot/families.rs`), which imports this module and not the
+//! other way round.
 
 use nalgebra::Vector3;
 
@@ -71,7 +76,8 @@ impl Gravity {
     }
 
     /// τ_i (N·m) for every joint from the chain's frames (`frames[i]` the frame before joint
-    /// i+1, as [`crate::Robot::frames_into`] writes them), into `out[..n_joints]`. No allocation.
+    /// i+1, as [`crate::Robot::frames_into`] writes them), into `out[..n_joints]`. No
+    /// allocation.
     pub fn torques_from_frames(&self, frames: &[Frame; MAX_JOINTS + 1], out: &mut [f64]) {
         let n = self.links.len();
         let g = frames[0].rot.column(2) * (-self.gravity_m_per_s2);
