@@ -104,11 +104,10 @@ pub fn run(args: &IdentifiabilityArgs) -> Result<()> {
     } else {
         let n = args.random_poses.expect("clap requires one pose source");
         let mut rng = ChaCha8Rng::seed_from_u64(args.seed);
-        let poses = (PoseSampler::default()
+        let sampled = PoseSampler::default()
             .sample(&robot, n, &mut rng)
-            .map(|s| s.rad))
-        .with_context(|| format!("drawing {n} random poses"))?;
-        (poses, format!("{n} random poses, seed {}", args.seed))
+            .with_context(|| format!("drawing {n} random poses"))?;
+        (sampled.rad, format!("{n} random poses, seed {}", args.seed))
     };
 
     // `--params BASE+FAMILY+…`: the extended families join the geometric parameters.
