@@ -810,7 +810,7 @@ impl Robot {
 
 /// `J Jᵀ` (6 × 6) of the geometric Jacobian whose column i is `(z_i × (p − o_i), s·z_i)` for
 /// the joint axes `(z_i, o_i)` in order and the point `p`, summed joint by joint (the one
-/// implementation behind [`Robot::geometric_gram`] and the pose samplers' condition tests).
+/// implementation behind [`Robot::geometric_gram`] and the pose sampler's condition test).
 pub fn gram_of_axes(
     axes: impl Iterator<Item = (Vector3<f64>, Vector3<f64>)>,
     p: &Vector3<f64>,
