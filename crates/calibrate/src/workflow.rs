@@ -10,8 +10,8 @@ use std::time::Instant;
 use evaluate::Table4;
 use identify::{
     Fit, IdentifiabilityOptions, IdentifiabilityReport, IdentifyError, IdentifyOptions,
-    OutlierScreen, ParamSpec, Problem, RegistrationPolicy, RegistrationReport, analyze, identify,
-    mean_point_error, outliers, random_poses, register_base,
+    OutlierScreen, ParamSpec, Problem, RegistrationPolicy, RegistrationReport, analyze,
+    generic_poses, identify, mean_point_error, outliers, register_base,
 };
 use kinematics::Robot;
 use measurements::{Measurement, MeasurementError, MeasurementSet};
@@ -87,7 +87,7 @@ fn free_count(
         Some(names) => names.len(),
         None => {
             let all: Vec<usize> = (0..robot.n_params()).collect();
-            random_poses(robot, robot.n_params(), 1)
+            generic_poses(robot)
                 .ok()
                 .and_then(|poses| analyze(robot, &poses, None, &all, opts).ok())
                 .map_or(robot.n_params(), |a| a.identifiable.len())

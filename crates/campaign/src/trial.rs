@@ -599,7 +599,11 @@ mod tests {
         let text = std::fs::read_to_string(&path).unwrap();
         let spec = kinematics::RobotSpec::from_json_str(&text, "kr1000").unwrap();
         let robot = Robot::from_spec(&spec).unwrap();
-        let poses = identify::random_poses(&robot, 50, 3).unwrap();
+        let mut rng = <rand::rngs::ChaCha8Rng as rand::SeedableRng>::seed_from_u64(3);
+        let poses = kinematics::PoseSampler::default()
+            .sample(&robot, 50, &mut rng)
+            .unwrap()
+            .rad;
         let points = robot.points(&poses);
         let opts = identify::IdentifiabilityOptions::default();
         let free = ParamSet::Minimal

@@ -8,13 +8,18 @@ use std::time::Duration;
 
 use criterion::{Criterion as Bench, criterion_group, criterion_main};
 use design::{Criterion, DesignOptions, InfoModel, Scale, select};
-use kinematics::Robot;
+use kinematics::{PoseSampler, Robot};
+use rand::SeedableRng;
+use rand::rngs::ChaCha8Rng;
 
 fn benches(c: &mut Bench) {
     let path =
         Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenarios/robots/kr1000-titan.json");
     let robot = Robot::from_file(&path).expect("robot");
-    let pool = identify::random_poses(&robot, 10_000, 1).expect("pool");
+    let pool = PoseSampler::default()
+        .sample(&robot, 10_000, &mut ChaCha8Rng::seed_from_u64(1))
+        .expect("pool")
+        .rad;
     let mut g = c.benchmark_group("design");
     g.sample_size(10).measurement_time(Duration::from_secs(10));
     for crit in [Criterion::D, Criterion::I] {

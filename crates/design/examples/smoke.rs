@@ -1,7 +1,9 @@
 //! Prints each criterion's design of 50 of K random KR1000 poses with timings:
 //! `cargo run --release -p design --example smoke -- K N`.
 use design::{Criterion, DesignOptions, InfoModel, Scale, select};
-use kinematics::Robot;
+use kinematics::{PoseSampler, Robot};
+use rand::SeedableRng;
+use rand::rngs::ChaCha8Rng;
 use std::time::Instant;
 fn main() {
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -9,7 +11,10 @@ fn main() {
     let robot = Robot::from_file(&path).unwrap();
     let k: usize = std::env::args().nth(1).map_or(1000, |s| s.parse().unwrap());
     let n: usize = std::env::args().nth(2).map_or(50, |s| s.parse().unwrap());
-    let pool = identify::random_poses(&robot, k, 1).unwrap();
+    let pool = PoseSampler::default()
+        .sample(&robot, k, &mut ChaCha8Rng::seed_from_u64(1))
+        .unwrap()
+        .rad;
     for crit in [
         Criterion::D,
         Criterion::A,

@@ -1,11 +1,10 @@
-//! Candidate pools: from the virtual robot's pose sampler, from a joint CSV (ids kept), or
-//! from the joint columns of a measurement file.
+//! Candidate pools: poses drawn by the caller (the virtual robot's sampler, in the front end
+//! and the campaign), a joint CSV (ids kept), or the joint columns of a measurement file.
 
 use std::path::Path;
 
 use kinematics::Robot;
 use measurements::{Measurement, MeasurementSet, ReadOptions};
-use virtual_robot::{PoseSet, Setup, VirtualRobotConfig};
 
 use crate::error::DesignError;
 
@@ -65,31 +64,26 @@ impl Candidates {
         Ok(Candidates::from_set(&set))
     }
 
-    /// `count` poses from the virtual robot's sampler (joint limits, floor clearance,
-    /// tracker window and range, wrist and condition limits of `cfg.poses`), drawn as trial
-    /// `trial`'s identification poses of `seed` (the same stream a campaign uses). Ids are
-    /// `c0001`, `c0002`, …
-    pub fn from_sampler(
-        robot: &Robot,
-        cfg: &VirtualRobotConfig,
-        seed: u64,
-        trial: u64,
-        count: usize,
-    ) -> Result<Candidates, DesignError> {
-        let mut cfg = cfg.clone();
-        cfg.poses.identification = PoseSet::Count(count);
-        cfg.poses.validation = PoseSet::Count(1);
-        cfg.validate(robot)?;
-        let world = Setup::new(robot, &cfg, seed)?.world(trial)?;
+    /// A pool of poses drawn by the caller (e.g. the virtual robot's identification poses
+    /// of a trial: joint limits, floor, tracker window and range, wrist and condition
+    /// limits): joints in degrees, flat with stride `n_joints`, converted with `to_radians`
+    /// (the bits the sampler drew them from). `source` labels the pool; ids are `c0001`,
+    /// `c0002`, … (at least four digits).
+    pub fn from_poses_deg(
+        source: impl Into<String>,
+        n_joints: usize,
+        q_deg: Vec<f64>,
+    ) -> Candidates {
+        let count = q_deg.len() / n_joints.max(1);
         let width = count.to_string().len().max(4);
-        Ok(Candidates {
-            source: format!("sampler (seed {seed}, trial {trial})"),
-            n_joints: robot.n_joints(),
-            q_rad: world.identification_poses_rad().to_vec(),
-            q_deg: world.identification_poses_deg().to_vec(),
+        Candidates {
+            source: source.into(),
+            n_joints,
+            q_rad: q_deg.iter().map(|d| d.to_radians()).collect(),
+            q_deg,
             ids: (1..=count).map(|i| Some(format!("c{i:0width$}"))).collect(),
             lines: vec![0; count],
-        })
+        }
     }
 
     /// The chosen candidates as a joints-only measurement set (ids kept, input order of

@@ -69,12 +69,6 @@ pub enum DesignError {
     /// A candidate or workspace file is bad (names file, line and column).
     #[error(transparent)]
     Measurements(#[from] measurements::MeasurementError),
-    /// The virtual robot's sampler failed.
-    #[error("pose sampler: {0}")]
-    Sampler(#[from] virtual_robot::SimError),
-    /// The virtual robot's configuration does not fit the robot.
-    #[error("pose sampler: {0}")]
-    SamplerConfig(#[from] virtual_robot::ConfigError),
     /// A numerical failure (a matrix that should be positive definite is not).
     #[error("numerical failure: {0}")]
     Numerical(String),

@@ -4,10 +4,11 @@
 //! candidates ─► design (criterion, N) ─► plan.csv ─► measure / simulate ─► identify ─► evaluate
 //! ```
 //!
-//! * [`Candidates`]: a pool of joint configurations — from the virtual robot's pose sampler
-//!   (joint limits, floor, tracker window, singularity distance), from a joint CSV (ids
-//!   kept) or from the joints of a measurement file; files are read by `measurements`, so a
-//!   bad value is reported with its file, line and column.
+//! * [`Candidates`]: a pool of joint configurations — poses drawn by the caller (the front
+//!   end and the campaign sample them with the virtual robot: joint limits, floor, tracker
+//!   window, singularity distance; this crate does not link the simulator), a joint CSV (ids
+//!   kept) or the joints of a measurement file; files are read by `measurements`, so a bad
+//!   value is reported with its file, line and column.
 //! * [`InfoModel`]: each candidate's 3 × p identification-Jacobian block on the minimal
 //!   identifiable set (`identify`'s rank decision, `kinematics::Robot`'s analytic Jacobian),
 //!   columns multiplied by a physical [`Scale`] (the expected size of each parameter's error),
@@ -23,12 +24,15 @@
 //!
 //! ```
 //! use design::{Candidates, Criterion, DesignOptions, InfoModel, Scale, select};
-//! use kinematics::Robot;
+//! use kinematics::{PoseSampler, Robot};
+//! use rand::{SeedableRng, rngs::ChaCha8Rng};
 //!
 //! let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
 //!     .join("../../scenarios/robots/kr1000-titan.json");
 //! let robot = Robot::from_file(&path)?;
-//! let pool = identify::random_poses(&robot, 200, 1)?;
+//! let pool = PoseSampler::default()
+//!     .sample(&robot, 200, &mut ChaCha8Rng::seed_from_u64(1))?
+//!     .rad;
 //! let model = InfoModel::new(&robot, &pool, None, None, &Scale::default())?;
 //! assert_eq!(model.p, 27); // the KR1000's minimal set
 //! let design = select(&model, &DesignOptions::new(Criterion::D, 15))?;

@@ -1,7 +1,7 @@
 //! The information model of a candidate pool: the scaled 3 × p blocks of every candidate on
 //! the minimal identifiable set, and the workspace matrix W of the I criterion.
 
-use identify::{IdentifiabilityOptions, ParamSet, analyze, random_poses};
+use identify::{IdentifiabilityOptions, ParamSet, analyze, generic_poses};
 use kinematics::{ParamKind, Robot, Unit};
 use nalgebra::DMatrix;
 use serde::{Deserialize, Serialize};
@@ -134,11 +134,6 @@ pub const EXTENDED_GEAR_SCALE_ARCSEC: f64 = 10.0;
 
 /// Rounding allowance at a joint limit (a limit read in degrees and converted).
 const LIMIT_TOL_RAD: f64 = 1e-12;
-/// Poses of the generic identifiability analysis that fixes the minimal set
-/// ([`InfoModel::new`] without explicit parameters).
-const GENERIC_POSES: usize = 60;
-/// Seed of those poses.
-const GENERIC_SEED: u64 = 0x6465_7369_676e; // "design"
 /// λ_min/λ_max of the pool's unit-diagonal information matrix below which the pool is
 /// checked by the identifiability analysis (σ ratio 10⁻⁷, far above rounding).
 const POOL_RANK_RTOL: f64 = 1e-14;
@@ -230,9 +225,9 @@ impl InfoModel {
     /// Builds the model of the candidate pool `candidates_rad` (flat, stride N, radians).
     ///
     /// * `params`: the parameters to design for; `None`: the robot's minimal identifiable
-    ///   set, decided by `identify`'s analysis on 60 admissible random poses
-    ///   ([`identify::random_poses`], fixed seed), i.e. what the robot can show from a
-    ///   generic pose set.
+    ///   set, decided by `identify`'s analysis on the generic pose set
+    ///   ([`identify::generic_poses`], the one calibrate's free-parameter count uses too),
+    ///   i.e. what the robot can show from poses in general position.
     /// * The pool must observe every one of them: if its information matrix (unit diagonal)
     ///   has λ_min/λ_max < 10⁻¹⁴, `identify::analyze` on the pool names the parameters the
     ///   pool cannot observe ([`DesignError::RankDeficientPool`]).
@@ -279,7 +274,7 @@ impl InfoModel {
                 p
             }
             None => {
-                let generic = random_poses(robot, GENERIC_POSES, GENERIC_SEED)?;
+                let generic = generic_poses(robot)?;
                 ParamSet::Minimal.resolve(robot, &generic, None, &id_opts)?
             }
         };

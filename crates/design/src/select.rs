@@ -802,13 +802,18 @@ pub fn select(model: &InfoModel, opts: &DesignOptions) -> Result<Design, DesignE
 mod tests {
     use super::*;
     use crate::model::Scale;
-    use kinematics::Robot;
+    use kinematics::{PoseSampler, Robot};
+    use rand::SeedableRng;
+    use rand::rngs::ChaCha8Rng;
 
     fn model(k: usize, seed: u64) -> InfoModel {
         let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
             .join("../../scenarios/robots/kr1000-titan.json");
         let robot = Robot::from_file(&path).unwrap();
-        let pool = identify::random_poses(&robot, k, seed).unwrap();
+        let pool = PoseSampler::default()
+            .sample(&robot, k, &mut ChaCha8Rng::seed_from_u64(seed))
+            .unwrap()
+            .rad;
         InfoModel::new(&robot, &pool, None, None, &Scale::default()).unwrap()
     }
 

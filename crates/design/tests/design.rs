@@ -5,8 +5,18 @@ use design::{
     Candidates, Criterion, DesignError, DesignOptions, InfoModel, Scale, report, select,
     select_rows,
 };
-use kinematics::Robot;
+use kinematics::{PoseSampler, Robot};
 use proptest::prelude::*;
+use rand::SeedableRng;
+use rand::rngs::ChaCha8Rng;
+
+/// `k` admissible random poses of `robot` (the workspace's one sampler, seeded).
+fn random_poses(robot: &Robot, k: usize, seed: u64) -> Vec<f64> {
+    PoseSampler::default()
+        .sample(robot, k, &mut ChaCha8Rng::seed_from_u64(seed))
+        .unwrap()
+        .rad
+}
 
 fn kr1000() -> Robot {
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -20,7 +30,7 @@ const SMALL: [&str; 10] = [
 ];
 
 fn small_model(robot: &Robot, k: usize, seed: u64) -> InfoModel {
-    let pool = identify::random_poses(robot, k, seed).unwrap();
+    let pool = random_poses(robot, k, seed);
     let params = robot.layout().select(&SMALL).unwrap();
     InfoModel::new(robot, &pool, None, Some(&params), &Scale::default()).unwrap()
 }
@@ -87,7 +97,7 @@ fn greedy_and_exchange_match_exhaustive_search_on_4_of_12() {
 #[test]
 fn designs_are_deterministic() {
     let robot = kr1000();
-    let pool = identify::random_poses(&robot, 150, 21).unwrap();
+    let pool = random_poses(&robot, 150, 21);
     for crit in [Criterion::D, Criterion::I, Criterion::E] {
         let mut opts = DesignOptions::new(crit, 14);
         opts.restarts = 2;
@@ -122,7 +132,7 @@ proptest! {
     ) {
         let crit = [Criterion::D, Criterion::A, Criterion::I, Criterion::O1, Criterion::E][c];
         let robot = kr1000();
-        let pool = identify::random_poses(&robot, k, seed).unwrap();
+        let pool = random_poses(&robot, k, seed);
         let model = InfoModel::new(&robot, &pool, None, None, &Scale::default()).unwrap();
         let d = select(&model, &DesignOptions::new(crit, n)).unwrap();
         for w in d.trace.windows(2) {
@@ -138,7 +148,7 @@ proptest! {
 #[test]
 fn the_report_compares_with_random_sets() {
     let robot = kr1000();
-    let pool = identify::random_poses(&robot, 300, 4).unwrap();
+    let pool = random_poses(&robot, 300, 4);
     let model = InfoModel::new(&robot, &pool, None, None, &Scale::default()).unwrap();
     for crit in [Criterion::D, Criterion::I] {
         let d = select(&model, &DesignOptions::new(crit, 20)).unwrap();
@@ -156,7 +166,7 @@ fn the_report_compares_with_random_sets() {
 #[test]
 fn too_few_poses_and_candidates_are_refused() {
     let robot = kr1000();
-    let pool = identify::random_poses(&robot, 10, 3).unwrap();
+    let pool = random_poses(&robot, 10, 3);
     let model = InfoModel::new(&robot, &pool, None, None, &Scale::default()).unwrap();
     let e = select(&model, &DesignOptions::new(Criterion::D, 8)).unwrap_err();
     assert!(
@@ -190,7 +200,7 @@ fn bad_candidate_files_name_the_line() {
     let e = Candidates::from_str(&robot, out, "c.csv").unwrap_err();
     assert!(e.to_string().starts_with("c.csv:3:"), "{e}");
     // In memory: index and joint.
-    let mut pool = identify::random_poses(&robot, 20, 3).unwrap();
+    let mut pool = random_poses(&robot, 20, 3);
     pool[6 * 5 + 2] = f64::NAN;
     let e = InfoModel::new(&robot, &pool, None, None, &Scale::default()).unwrap_err();
     assert_eq!(e.to_string(), "candidate 5: q3 is not a number (NaN)");
@@ -204,7 +214,7 @@ fn bad_candidate_files_name_the_line() {
 #[test]
 fn a_rank_deficient_pool_names_what_it_cannot_observe() {
     let robot = kr1000();
-    let mut pool = identify::random_poses(&robot, 200, 8).unwrap();
+    let mut pool = random_poses(&robot, 200, 8);
     for q in pool.chunks_exact_mut(6) {
         q[0] = 0.3;
     }
@@ -221,7 +231,7 @@ fn a_rank_deficient_pool_names_what_it_cannot_observe() {
 #[test]
 fn select_rows_returns_row_indices() {
     let robot = kr1000();
-    let pool = identify::random_poses(&robot, 60, 2).unwrap();
+    let pool = random_poses(&robot, 60, 2);
     let deg: Vec<f64> = pool.iter().map(|r| r.to_degrees()).collect();
     let rows = select_rows(&robot, &deg, 15, Criterion::D, None).unwrap();
     assert_eq!(rows.len(), 15);

@@ -9,9 +9,9 @@ use std::time::Duration;
 use criterion::{Criterion, criterion_group, criterion_main};
 use identify::{
     Damping, IdentifyOptions, LmOptions, ParamSet, Problem, RegistrationPolicy, SimdLevel,
-    identify, random_poses, set_simd_level, solve,
+    identify, set_simd_level, solve,
 };
-use kinematics::{Robot, RobotSpec};
+use kinematics::{PoseSampler, Robot, RobotSpec};
 use nalgebra::{DMatrix, DVector, Vector3};
 use rand::SeedableRng;
 use rand::rngs::ChaCha8Rng;
@@ -65,7 +65,10 @@ fn ur10_data() -> Option<(Vec<f64>, Vec<Vector3<f64>>)> {
 fn benches(c: &mut Criterion) {
     let nominal = robot("kr1000-titan.json", Some([60.0, 20.0, 150.0]));
     let truth = perturbed(&nominal);
-    let poses = random_poses(&nominal, 50, 1).expect("poses");
+    let poses = PoseSampler::default()
+        .sample(&nominal, 50, &mut ChaCha8Rng::seed_from_u64(1))
+        .expect("poses")
+        .rad;
     let mut rng = ChaCha8Rng::seed_from_u64(7);
     let noise = Normal::new(0.0, 0.02).expect("normal");
     let measured: Vec<Vector3<f64>> = truth

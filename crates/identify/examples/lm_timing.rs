@@ -4,10 +4,11 @@
 use std::time::Instant;
 
 use identify::{
-    IdentifyOptions, LmOptions, ParamSet, Problem, RegistrationPolicy, analyze, identify,
-    random_poses, solve,
+    IdentifyOptions, LmOptions, ParamSet, Problem, RegistrationPolicy, analyze, identify, solve,
 };
-use kinematics::{Robot, RobotSpec};
+use kinematics::{PoseSampler, Robot, RobotSpec};
+use rand::SeedableRng;
+use rand::rngs::ChaCha8Rng;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let path = concat!(
@@ -18,7 +19,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         &std::fs::read_to_string(path)?,
         path,
     )?)?;
-    let poses = random_poses(&nominal, 50, 1)?;
+    let poses = PoseSampler::default()
+        .sample(&nominal, 50, &mut ChaCha8Rng::seed_from_u64(1))?
+        .rad;
     let mut x = nominal.params();
     for (k, v) in x.iter_mut().enumerate() {
         *v += 1e-3 * ((k as f64) * 0.7).sin();

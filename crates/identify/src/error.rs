@@ -156,16 +156,6 @@ pub enum IdentifyError {
         reason: &'static str,
     },
     /// The pose sampler could not find enough admissible poses.
-    #[error(
-        "pose sampling: found only {found} of {wanted} admissible poses in {attempts} attempts \
-         (limits, wrist and conditioning constraints too tight?)"
-    )]
-    Sampling {
-        /// Poses found.
-        found: usize,
-        /// Poses wanted.
-        wanted: usize,
-        /// Attempts made.
-        attempts: usize,
-    },
+    #[error(transparent)]
+    Sampling(#[from] kinematics::sampling::SamplingError),
 }

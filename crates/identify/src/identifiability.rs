@@ -53,10 +53,10 @@ use crate::problem::{
 };
 
 /// A column whose squared norm is below this fraction of the largest squared column norm is
-/// treated as zero (the parameter does not move the measured point): it is not scaled, here
-/// or in the solver ([`crate::lm`] imports it from here) [1e-20, i.e. a column norm ratio of
-/// 1e-10, well above rounding (≈1e-16) in columns that are exactly zero, e.g. θ6 with the ball
-/// on the flange axis].
+/// treated as zero (the parameter does not move the measured point): the analysis here counts
+/// it as a zero column and LM's column scaling leaves it unscaled (one threshold for both)
+/// [1e-20, i.e. a column norm ratio of 1e-10, well above rounding (≈1e-16) in columns that
+/// are exactly zero, e.g. θ6 with the ball on the flange axis].
 pub const ZERO_COLUMN_RTOL_SQ: f64 = 1e-20;
 
 /// Iteration cap of the SVDs (nalgebra's `try_new`); far beyond what 34 columns need.

@@ -15,15 +15,18 @@
 //!   [`ParamSpec`] adds the non-geometric parameters after `+` (`paper+compliance+gears`).
 //! * [`register_base`] / [`kabsch`]: closed-form rigid registration re-expressed in the base
 //!   parameters.
-//! * [`random_poses`]: admissible random poses (stand-in for scenario pose sets).
+//! * [`generic_poses`]: the generic pose set, on which the structural questions (minimal
+//!   set, free-parameter count) are answered; random poses come from
+//!   [`kinematics::sampling`].
 //! * [`outliers::screen`]: points whose 3-D residual exceeds k·σ̂₃ after a fit.
 //!
 //! Units: internally radians and millimetres (the kinematics crate's parameter vector);
 //! every report converts to degrees and millimetres. Kinematics is never re-implemented here.
 //!
 //! ```
-//! use identify::{IdentifyOptions, ParamSet, Problem, identify, random_poses};
-//! use kinematics::{Robot, RobotSpec};
+//! use identify::{IdentifyOptions, ParamSet, Problem, identify};
+//! use kinematics::{PoseSampler, Robot, RobotSpec};
+//! use rand::{SeedableRng, rngs::ChaCha8Rng};
 //!
 //! let text = std::fs::read_to_string(concat!(
 //!     env!("CARGO_MANIFEST_DIR"),
@@ -34,7 +37,9 @@
 //! let mut x = nominal.params();
 //! x[nominal.layout().index_of("a2")?] += 0.3;
 //! let truth = nominal.with_params(&x)?;
-//! let poses = random_poses(&nominal, 40, 7)?;
+//! let poses = PoseSampler::default()
+//!     .sample(&nominal, 40, &mut ChaCha8Rng::seed_from_u64(7))?
+//!     .rad;
 //! let points = truth.points(&poses);
 //!
 //! let free = ParamSet::Minimal.resolve(&nominal, &poses, None, &Default::default())?;
@@ -51,6 +56,7 @@ pub mod compensation;
 pub mod covariance;
 mod error;
 mod fit;
+mod generic;
 pub mod identifiability;
 mod linalg;
 pub mod lm;
@@ -58,13 +64,13 @@ pub mod outliers;
 pub mod params;
 mod problem;
 pub mod registration;
-pub mod sampling;
 pub mod simd;
 
 pub use compensation::{compensate, compensation_target, compensation_target_trig};
 pub use covariance::{CorrelatedPair, Covariance, covariance, covariance_at_solution};
 pub use error::IdentifyError;
 pub use fit::{Fit, IdentifyOptions, ParamEstimate, identify};
+pub use generic::{GENERIC_POSE_COUNT, GENERIC_POSE_SEED, generic_poses};
 pub use identifiability::{
     ConfoundTerm, IdentifiabilityOptions, IdentifiabilityReport, Observability, ParamSet,
     Redundancy, analyze, keep_priority,
@@ -76,5 +82,4 @@ pub use problem::{Problem, SAME_POSE_TOL_RAD};
 pub use registration::{
     RegistrationPolicy, RegistrationReport, RigidTransform, kabsch, mean_point_error, register_base,
 };
-pub use sampling::{PoseSampler, random_poses};
 pub use simd::{SimdLevel, set_simd_level, simd_level};

@@ -1061,8 +1061,10 @@ fn solve_free(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use kinematics::{RobotSpec, Unit};
+    use kinematics::{PoseSampler, RobotSpec, Unit};
     use nalgebra::Vector3;
+    use rand::SeedableRng;
+    use rand::rngs::ChaCha8Rng;
 
     /// The trial-point assembly changes no bit of the iteration or of the final system, on
     /// runs where steps are rejected in mid-run (the next accepted step must not take over
@@ -1084,7 +1086,10 @@ mod tests {
                 };
         }
         let truth = nominal.with_params(&x).unwrap();
-        let poses = crate::random_poses(&nominal, 50, 501).unwrap();
+        let poses = PoseSampler::default()
+            .sample(&nominal, 50, &mut ChaCha8Rng::seed_from_u64(501))
+            .unwrap()
+            .rad;
         let points: Vec<Vector3<f64>> = truth
             .points(&poses)
             .iter()

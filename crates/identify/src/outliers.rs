@@ -124,8 +124,10 @@ pub fn screen(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::{IdentifyOptions, ParamSet, Problem, identify, random_poses};
-    use kinematics::RobotSpec;
+    use crate::{IdentifyOptions, ParamSet, Problem, identify};
+    use kinematics::{PoseSampler, RobotSpec};
+    use rand::SeedableRng;
+    use rand::rngs::ChaCha8Rng;
 
     #[test]
     fn a_gross_error_is_flagged_and_nothing_else() {
@@ -134,7 +136,10 @@ mod tests {
         let mut x = nominal.params();
         x[nominal.layout().index_of("a2").unwrap()] += 0.4;
         let truth = nominal.with_params(&x).unwrap();
-        let poses = random_poses(&nominal, 60, 3).unwrap();
+        let poses = PoseSampler::default()
+            .sample(&nominal, 60, &mut ChaCha8Rng::seed_from_u64(3))
+            .unwrap()
+            .rad;
         let mut points = truth.points(&poses);
         // Deterministic "noise" of ±0.02 mm per axis, and one point off by 2 mm.
         for (j, p) in points.iter_mut().enumerate() {

@@ -7,6 +7,7 @@ use clap::{ArgGroup, Args};
 use design::{Candidates, Criterion, DesignOptions, design_plan};
 use identify::ParamSpec;
 use kinematics::Robot;
+use virtual_robot::World;
 
 /// Arguments of `design`.
 #[allow(rustdoc::broken_intra_doc_links, rustdoc::invalid_html_tags)] // clap help text
@@ -83,14 +84,12 @@ pub fn run(args: &DesignArgs) -> Result<()> {
                 .with_context(|| format!("loading {}", path.display()))?;
             // The virtual robot samples on the geometric model (its physics beyond geometry
             // is the scenario's `unmodelled` section).
-            Candidates::from_sampler(
-                &geometric,
-                &loaded.virtual_robot(),
-                loaded.scenario.seed,
-                0,
-                n,
-            )
-            .with_context(|| format!("sampling candidates of {}", path.display()))?
+            let seed = loaded.scenario.seed;
+            let q_deg =
+                World::identification_pool_deg(&geometric, &loaded.virtual_robot(), seed, 0, n)
+                    .with_context(|| format!("sampling candidates of {}", path.display()))?;
+            let source = format!("sampler (seed {seed}, trial 0)");
+            Candidates::from_poses_deg(source, geometric.n_joints(), q_deg)
         }
         _ => bail!("give --candidates FILE, or --scenario FILE with --random N"),
     };

@@ -4,10 +4,11 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result};
 use clap::{ArgGroup, Args};
-use identify::{IdentifiabilityOptions, IdentifiabilityReport, ParamSpec, analyze, random_poses};
-use kinematics::Robot;
+use identify::{IdentifiabilityOptions, IdentifiabilityReport, ParamSpec, analyze};
+use kinematics::{PoseSampler, Robot};
 use measurements::{ReadOptions, read_file};
 use nalgebra::Vector3;
+use rand::{SeedableRng, rngs::ChaCha8Rng};
 
 /// Arguments of `identifiability`.
 #[allow(rustdoc::broken_intra_doc_links, rustdoc::invalid_html_tags)] // clap help text
@@ -102,9 +103,11 @@ pub fn run(args: &IdentifiabilityArgs) -> Result<()> {
         )
     } else {
         let n = args.random_poses.expect("clap requires one pose source");
-        let poses = random_poses(&robot, n, args.seed)
+        let mut rng = ChaCha8Rng::seed_from_u64(args.seed);
+        let sampled = PoseSampler::default()
+            .sample(&robot, n, &mut rng)
             .with_context(|| format!("drawing {n} random poses"))?;
-        (poses, format!("{n} random poses, seed {}", args.seed))
+        (sampled.rad, format!("{n} random poses, seed {}", args.seed))
     };
 
     // The extended parameters after `+` join the geometric ones.

@@ -2,7 +2,7 @@
 //! `docs/extended-model.md` (joint compliance and gear / encoder harmonics).
 //!
 //! Both families perturb the joint angle before the geometric chain: the extended model
-//! evaluates the MD-H chain of [`Robot`] at
+//! evaluates the MD-H chain of [`crate::Robot`] at
 //!
 //! `q̃_j = q_j + Σ_k w_k(q) · x_k`, for the parameters k acting on joint j,
 //!
@@ -17,17 +17,21 @@
 //!
 //! Because `q̃` is linear in `x` with weights that do not depend on any parameter, the
 //! identification Jacobian extends exactly by the chain rule: the column of `x_k` is
-//! `w_k(q) · ∂p/∂θ_j (q̃)`, the θ_j column of [`Robot::point_jacobian_into`] at `q̃` scaled
-//! by the weight, and the geometric columns are those of the chain at `q̃`
+//! `w_k(q) · ∂p/∂θ_j (q̃)`, the θ_j column of [`crate::Robot::point_jacobian_into`] at `q̃`
+//! scaled by the weight, and the geometric columns are those of the chain at `q̃`
 //! (tested against central differences).
+//!
+//! This module knows frames, not robots: the entry points that evaluate a robot's chain
+//! ([`ExtendedModel::new`], [`ExtendedModel::weights`], [`Gravity::torques_nm`]) are written
+//! next to [`crate::Robot`] (`robot/families.rs`), which imports this module and not the
+//! other way round.
 
 use nalgebra::Vector3;
 
-use crate::MAX_JOINTS;
 use crate::error::ModelError;
-use crate::model::MassModelSpec;
-use crate::params::Unit;
-use crate::robot::{Frame, Robot, joint_sin_cos};
+use crate::frame::Frame;
+use crate::model::{MAX_JOINTS, MassModelSpec};
+use crate::params::ExtendedKind;
 
 /// The gravity torque about every joint of a chain with a mass model.
 ///
@@ -72,7 +76,8 @@ impl Gravity {
     }
 
     /// τ_i (N·m) for every joint from the chain's frames (`frames[i]` the frame before joint
-    /// i+1, as [`Robot::frames_into`] writes them), into `out[..n_joints]`. No allocation.
+    /// i+1, as [`crate::Robot::frames_into`] writes them), into `out[..n_joints]`. No
+    /// allocation.
     pub fn torques_from_frames(&self, frames: &[Frame; MAX_JOINTS + 1], out: &mut [f64]) {
         let n = self.links.len();
         let g = frames[0].rot.column(2) * (-self.gravity_m_per_s2);
@@ -88,13 +93,6 @@ impl Gravity {
             let lever_m = (moment - frames[i].pos_mm * mass) * 1e-3;
             out[i] = axis.dot(&lever_m.cross(&g));
         }
-    }
-
-    /// τ_i (N·m) at the joints `q_rad` of `robot`, into `out[..n_joints]`. No allocation.
-    pub fn torques_nm(&self, robot: &Robot, q_rad: &[f64], out: &mut [f64]) {
-        let mut frames = [Frame::identity(); MAX_JOINTS + 1];
-        robot.frames_into(q_rad, &mut frames);
-        self.torques_from_frames(&frames, out);
     }
 }
 
@@ -112,100 +110,8 @@ pub fn expand_family(item: &str, n_joints: usize) -> Vec<String> {
     }
 }
 
-/// Radians per arcsecond.
-const RAD_PER_ARCSEC: f64 = std::f64::consts::PI / (180.0 * 3600.0);
-
-/// What a non-geometric parameter is.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
-pub enum ExtendedKind {
-    /// Compliance of joint `i` (0-based): Δθ = c · τ_i(q).
-    Compliance(usize),
-    /// Sine term of harmonic `harmonic` on joint `joint` (0-based): Δθ = s · sin(k q).
-    GearSin {
-        /// Joint, 0-based.
-        joint: usize,
-        /// Harmonic k ≥ 1.
-        harmonic: u32,
-    },
-    /// Cosine term: Δθ = c · cos(k q).
-    GearCos {
-        /// Joint, 0-based.
-        joint: usize,
-        /// Harmonic k ≥ 1.
-        harmonic: u32,
-    },
-}
-
-impl ExtendedKind {
-    /// The joint (0-based) the parameter acts on.
-    pub fn joint(self) -> usize {
-        match self {
-            ExtendedKind::Compliance(j)
-            | ExtendedKind::GearSin { joint: j, .. }
-            | ExtendedKind::GearCos { joint: j, .. } => j,
-        }
-    }
-
-    /// The stable name: `compliance_2`, `gear_1_h1_sin`, `gear_1_h1_cos` (joints 1-based).
-    pub fn name(self) -> String {
-        match self {
-            ExtendedKind::Compliance(j) => format!("compliance_{}", j + 1),
-            ExtendedKind::GearSin { joint, harmonic } => {
-                format!("gear_{}_h{harmonic}_sin", joint + 1)
-            }
-            ExtendedKind::GearCos { joint, harmonic } => {
-                format!("gear_{}_h{harmonic}_cos", joint + 1)
-            }
-        }
-    }
-
-    /// Parses a stable name (the inverse of [`ExtendedKind::name`]); `None` if `name` is not
-    /// of either family's form.
-    pub fn parse(name: &str) -> Option<ExtendedKind> {
-        let joint = |s: &str| s.parse::<usize>().ok().filter(|j| *j >= 1).map(|j| j - 1);
-        if let Some(j) = name.strip_prefix("compliance_") {
-            return joint(j).map(ExtendedKind::Compliance);
-        }
-        let rest = name.strip_prefix("gear_")?;
-        let (j, rest) = rest.split_once("_h")?;
-        let (k, kind) = rest.split_once('_')?;
-        let joint = joint(j)?;
-        let harmonic = k.parse::<u32>().ok().filter(|k| *k >= 1)?;
-        match kind {
-            "sin" => Some(ExtendedKind::GearSin { joint, harmonic }),
-            "cos" => Some(ExtendedKind::GearCos { joint, harmonic }),
-            _ => None,
-        }
-    }
-
-    /// The interface unit: µrad/(N·m) ([`Unit::MicroradPerNm`]) or arcseconds
-    /// ([`Unit::Arcsec`]).
-    pub fn unit(self) -> Unit {
-        match self {
-            ExtendedKind::Compliance(_) => Unit::MicroradPerNm,
-            _ => Unit::Arcsec,
-        }
-    }
-
-    /// Internal value (rad/(N·m) or rad) → display value (µrad/(N·m) or arcsec).
-    pub fn to_display(self, internal: f64) -> f64 {
-        match self {
-            ExtendedKind::Compliance(_) => internal * 1e6,
-            _ => internal / RAD_PER_ARCSEC,
-        }
-    }
-
-    /// Display value → internal value.
-    pub fn from_display(self, display: f64) -> f64 {
-        match self {
-            ExtendedKind::Compliance(_) => display * 1e-6,
-            _ => display * RAD_PER_ARCSEC,
-        }
-    }
-}
-
 /// The non-geometric part of an extended model: which parameters, their values, and the
-/// gravity model compliance needs. [`Robot::with_extended`] carries one and evaluates the
+/// gravity model compliance needs. [`crate::Robot::with_extended`] carries one and evaluates the
 /// chain with it; the weights and offsets below are the one implementation it calls.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ExtendedModel {
@@ -217,16 +123,14 @@ pub struct ExtendedModel {
 }
 
 impl ExtendedModel {
-    /// The model with parameters `names` (stable names, e.g. `compliance_2`,
-    /// `gear_1_h1_sin`), all zero, for `robot`. `source_name` labels errors, which name the
-    /// field: a name of neither family, a joint the robot does not have, a repeated name, or
-    /// a compliance parameter on a robot file without `mass_model`.
-    pub fn new<S: AsRef<str>>(
-        robot: &Robot,
+    /// [`ExtendedModel::new`] for a chain of `n` joints with the robot file's mass model
+    /// `mass_model` (the checks and errors of `new`).
+    pub(crate) fn for_chain<S: AsRef<str>>(
+        n: usize,
+        mass_model: Option<&MassModelSpec>,
         names: &[S],
         source_name: &str,
     ) -> Result<ExtendedModel, ModelError> {
-        let n = robot.n_joints();
         let invalid = |field: String, message: String| ModelError::Invalid {
             source_name: source_name.to_string(),
             field,
@@ -262,7 +166,7 @@ impl ExtendedModel {
         let needs_mass = kinds
             .iter()
             .any(|k| matches!(k, ExtendedKind::Compliance(_)));
-        let gravity = robot.mass_model().map(Gravity::from_spec);
+        let gravity = mass_model.map(Gravity::from_spec);
         if needs_mass && gravity.is_none() {
             return Err(invalid(
                 "mass_model".into(),
@@ -317,39 +221,34 @@ impl ExtendedModel {
         Ok(())
     }
 
-    /// The per-pose weights `w_k(q)` of every parameter at the commanded joints `q_rad`,
-    /// with the torques on `nominal` (see the module docs), into `out[..len]`.
-    pub fn weights(&self, nominal: &Robot, q_rad: &[f64], out: &mut [f64]) {
-        assert_eq!(q_rad.len(), self.n_joints, "joint vector length");
-        let mut sc = [[0.0; 2]; MAX_JOINTS];
-        joint_sin_cos(q_rad, &mut sc);
-        self.weights_trig(nominal, &sc[..q_rad.len()], out);
+    /// Joints of the chain the model is for.
+    pub(crate) fn n_joints(&self) -> usize {
+        self.n_joints
     }
 
-    /// [`ExtendedModel::weights`] at the pose whose `[sin q, cos q]` are `sc`: τ from the
-    /// frames of `nominal` there, `sin(kq)`/`cos(kq)` by angle addition.
-    pub fn weights_trig(&self, nominal: &Robot, sc: &[[f64; 2]], out: &mut [f64]) {
-        let mut frames = [Frame::identity(); MAX_JOINTS + 1];
-        self.weights_trig_in(nominal, sc, &mut frames, out);
-    }
-
-    /// [`ExtendedModel::weights_trig`] with a scratch buffer for the frames (the same bits;
-    /// for loops over many poses, which then set it up once).
-    pub fn weights_trig_in(
-        &self,
-        nominal: &Robot,
-        sc: &[[f64; 2]],
-        frames: &mut [Frame; MAX_JOINTS + 1],
-        out: &mut [f64],
-    ) {
-        let mut tau = [0.0; MAX_JOINTS];
-        if let Some(g) = &self.gravity
+    /// Whether the weights need the gravity torques (a compliance parameter and a mass
+    /// model), i.e. the frames of the torque geometry at the pose.
+    pub(crate) fn needs_torques(&self) -> bool {
+        self.gravity.is_some()
             && self
                 .kinds
                 .iter()
                 .any(|k| matches!(k, ExtendedKind::Compliance(_)))
+    }
+
+    /// The weights `w_k` at the pose whose `[sin q, cos q]` are `sc` and whose torque-geometry
+    /// frames are `frames` (read only when [`ExtendedModel::needs_torques`]), into
+    /// `out[..len]`: τ_j from the frames, `sin(kq)`/`cos(kq)` by angle addition.
+    pub(crate) fn weights_from_frames(
+        &self,
+        sc: &[[f64; 2]],
+        frames: &[Frame; MAX_JOINTS + 1],
+        out: &mut [f64],
+    ) {
+        let mut tau = [0.0; MAX_JOINTS];
+        if let Some(g) = &self.gravity
+            && self.needs_torques()
         {
-            nominal.frames_trig(sc, frames);
             g.torques_from_frames(frames, &mut tau);
         }
         for (w, k) in out.iter_mut().zip(&self.kinds) {

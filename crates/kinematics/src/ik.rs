@@ -13,8 +13,10 @@
 
 use nalgebra::{Matrix3, Rotation3, Vector3, Vector6};
 
+use crate::frame::Frame;
 use crate::model::MAX_JOINTS;
-use crate::robot::{Frame, Robot, joint_sin_cos};
+use crate::robot::Robot;
+use crate::trig::joint_sin_cos;
 
 /// What the IK must reach: a point fixed in the flange frame at a position, with the flange at
 /// an orientation (both in the measurement frame).

@@ -4,25 +4,31 @@
 //! the analytic identification Jacobian, and damped-Newton inverse kinematics valid for any
 //! parameter values.
 //!
-//! No randomness and no I/O but the model file. Internally angles are radians and lengths
+//! Random poses within the joint limits that are admissible for measuring (away from the
+//! wrist and other singularities) come from [`sampling`], the one pose sampler, with a
+//! generator the caller supplies: the crate draws nothing of its own and does no I/O but the
+//! model file. Internally angles are radians and lengths
 //! millimetres; interfaces (files, reports) use degrees and millimetres.
 
 mod error;
 mod extended;
+mod frame;
 mod ik;
 mod model;
 mod params;
 mod robot;
+pub mod sampling;
 pub mod simd;
 pub mod trig;
 
 pub use error::ModelError;
-pub use extended::{ExtendedKind, ExtendedModel, Gravity, expand_family};
+pub use extended::{ExtendedModel, Gravity, expand_family};
+pub use frame::Frame;
 pub use ik::{IkError, IkOptions, IkReport, IkTarget, Lower6, cholesky6};
 pub use model::{
     BaseSpec, ExtendedParamSpec, JointSpec, LinkMassSpec, MAX_JOINTS, MassModelSpec, RobotSpec,
 };
-pub use params::{BETA_ALPHA_TOL_DEG, ParamInfo, ParamKind, ParamLayout, Unit};
-pub use robot::{
-    Frame, MAX_PARAMS, POSE_LANES, PoseLanes, PoseTrig, Robot, gram_of_axes, joint_sin_cos,
-};
+pub use params::{BETA_ALPHA_TOL_DEG, ExtendedKind, ParamInfo, ParamKind, ParamLayout, Unit};
+pub use robot::{MAX_PARAMS, POSE_LANES, PoseLanes, PoseTrig, Robot, gram_of_axes};
+pub use sampling::PoseSampler;
+pub use trig::joint_sin_cos;

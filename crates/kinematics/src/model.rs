@@ -27,11 +27,14 @@
 //! Values are in the interface units (degrees, millimetres, kilograms); [`crate::Robot`]
 //! converts to radians inside.
 
+use std::fmt;
 use std::path::Path;
 
-use serde::{Deserialize, Serialize};
+use serde::de::{self, MapAccess, Visitor};
+use serde::{Deserialize, Deserializer, Serialize};
 
 use crate::error::ModelError;
+use crate::frame::Frame;
 
 /// Largest number of joints a chain may have (frames live in fixed-size arrays on the stack).
 pub const MAX_JOINTS: usize = 16;
@@ -56,8 +59,11 @@ pub struct JointSpec {
     pub limits_deg: [f64; 2],
 }
 
-/// Pose of the robot base in the measurement frame:
-/// `T_base = Trans(dx, dy, dz) · Rz(rz) · Ry(ry) · Rx(rx)`.
+/// A base pose `T = Trans(dx, dy, dz) · Rz(rz) · Ry(ry) · Rx(rx)` in interface units: the
+/// robot file's `base` (the robot base in the measurement frame; all six fields required)
+/// and the scenario's `tracker.base_residual` (the error of the base frame built from the
+/// tracker; omitted fields are zero, [`BaseSpec::deserialize_omitted_zero`]). The one
+/// base-frame type of the workspace; [`BaseSpec::frame`] is its transform.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct BaseSpec {
@@ -73,6 +79,113 @@ pub struct BaseSpec {
     pub dy_mm: f64,
     /// Translation along z, mm.
     pub dz_mm: f64,
+}
+
+impl BaseSpec {
+    /// The field names, in the order of [`BaseSpec::values`].
+    pub const FIELDS: [&'static str; 6] = ["rx_deg", "ry_deg", "rz_deg", "dx_mm", "dy_mm", "dz_mm"];
+
+    /// The six values in the order rx, ry, rz (deg), dx, dy, dz (mm).
+    pub fn values(&self) -> [f64; 6] {
+        [
+            self.rx_deg,
+            self.ry_deg,
+            self.rz_deg,
+            self.dx_mm,
+            self.dy_mm,
+            self.dz_mm,
+        ]
+    }
+
+    /// The base pose with these six values (order of [`BaseSpec::values`]).
+    pub fn from_values([rx_deg, ry_deg, rz_deg, dx_mm, dy_mm, dz_mm]: [f64; 6]) -> BaseSpec {
+        BaseSpec {
+            rx_deg,
+            ry_deg,
+            rz_deg,
+            dx_mm,
+            dy_mm,
+            dz_mm,
+        }
+    }
+
+    /// The first field (name and value) that is not a finite number: what both the robot
+    /// file's and the scenario's validation refuse, each naming it by its own path.
+    pub fn first_non_finite(&self) -> Option<(&'static str, f64)> {
+        Self::FIELDS
+            .into_iter()
+            .zip(self.values())
+            .find(|(_, v)| !v.is_finite())
+    }
+
+    /// True if all six values are zero.
+    pub fn is_zero(&self) -> bool {
+        self.values().iter().all(|v| *v == 0.0)
+    }
+
+    /// The rotations (rx, ry, rz) in radians.
+    pub fn rotations_rad(&self) -> [f64; 3] {
+        [
+            self.rx_deg.to_radians(),
+            self.ry_deg.to_radians(),
+            self.rz_deg.to_radians(),
+        ]
+    }
+
+    /// The translation (dx, dy, dz) in mm.
+    pub fn translation_mm(&self) -> [f64; 3] {
+        [self.dx_mm, self.dy_mm, self.dz_mm]
+    }
+
+    /// The base pose of rotations in radians and a translation in mm (the inverse of
+    /// [`BaseSpec::rotations_rad`] and [`BaseSpec::translation_mm`]).
+    pub fn from_internal(r_rad: [f64; 3], d_mm: [f64; 3]) -> BaseSpec {
+        let [rx, ry, rz] = r_rad;
+        let [dx_mm, dy_mm, dz_mm] = d_mm;
+        BaseSpec {
+            rx_deg: rx.to_degrees(),
+            ry_deg: ry.to_degrees(),
+            rz_deg: rz.to_degrees(),
+            dx_mm,
+            dy_mm,
+            dz_mm,
+        }
+    }
+
+    /// `T = Trans(dx, dy, dz) · Rz(rz) · Ry(ry) · Rx(rx)` ([`Frame::from_base_pose`]).
+    pub fn frame(&self) -> Frame {
+        Frame::from_base_pose(self.rotations_rad(), self.translation_mm())
+    }
+
+    /// Deserializes a base pose whose omitted fields are zero, for a serde field
+    /// `#[serde(deserialize_with = "BaseSpec::deserialize_omitted_zero")]` (the scenario's
+    /// `tracker.base_residual`). Unknown and repeated fields are errors, as in the robot
+    /// file, whose `base` (the derived `Deserialize`) requires all six.
+    pub fn deserialize_omitted_zero<'de, D: Deserializer<'de>>(d: D) -> Result<BaseSpec, D::Error> {
+        struct OmittedZero;
+        impl<'de> Visitor<'de> for OmittedZero {
+            type Value = BaseSpec;
+            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+                f.write_str("a base pose (rx_deg, ry_deg, rz_deg, dx_mm, dy_mm, dz_mm)")
+            }
+            fn visit_map<A: MapAccess<'de>>(self, mut map: A) -> Result<BaseSpec, A::Error> {
+                let mut values = [0.0; 6];
+                let mut seen = [false; 6];
+                while let Some(key) = map.next_key::<String>()? {
+                    let Some(k) = BaseSpec::FIELDS.iter().position(|f| *f == key) else {
+                        return Err(de::Error::unknown_field(&key, &BaseSpec::FIELDS));
+                    };
+                    if seen[k] {
+                        return Err(de::Error::duplicate_field(BaseSpec::FIELDS[k]));
+                    }
+                    seen[k] = true;
+                    values[k] = map.next_value()?;
+                }
+                Ok(BaseSpec::from_values(values))
+            }
+        }
+        d.deserialize_struct("BaseSpec", &Self::FIELDS, OmittedZero)
+    }
 }
 
 /// Mass and centre of mass of one link (the body moved by joint i), in the link frame after
@@ -230,16 +343,8 @@ impl RobotSpec {
                 ));
             }
         }
-        let b = &self.base;
-        for (name, v) in [
-            ("base.rx_deg", b.rx_deg),
-            ("base.ry_deg", b.ry_deg),
-            ("base.rz_deg", b.rz_deg),
-            ("base.dx_mm", b.dx_mm),
-            ("base.dy_mm", b.dy_mm),
-            ("base.dz_mm", b.dz_mm),
-        ] {
-            finite(name.into(), v)?;
+        if let Some((name, v)) = self.base.first_non_finite() {
+            finite(format!("base.{name}"), v)?;
         }
         for (k, v) in self.tool_mm.iter().enumerate() {
             finite(format!("tool_mm[{k}]"), *v)?;

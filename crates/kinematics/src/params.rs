@@ -51,7 +51,99 @@ pub enum ParamKind {
     ToolZ,
     /// A non-geometric joint-error parameter (`compliance_j`, `gear_j_hk_sin|cos`), after the
     /// tool in the layout of an extended robot ([`crate::Robot::with_extended`]).
-    Extended(crate::ExtendedKind),
+    Extended(ExtendedKind),
+}
+
+/// Radians per arcsecond.
+const RAD_PER_ARCSEC: f64 = std::f64::consts::PI / (180.0 * 3600.0);
+
+/// What a non-geometric parameter is.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
+pub enum ExtendedKind {
+    /// Compliance of joint `i` (0-based): Δθ = c · τ_i(q).
+    Compliance(usize),
+    /// Sine term of harmonic `harmonic` on joint `joint` (0-based): Δθ = s · sin(k q).
+    GearSin {
+        /// Joint, 0-based.
+        joint: usize,
+        /// Harmonic k ≥ 1.
+        harmonic: u32,
+    },
+    /// Cosine term: Δθ = c · cos(k q).
+    GearCos {
+        /// Joint, 0-based.
+        joint: usize,
+        /// Harmonic k ≥ 1.
+        harmonic: u32,
+    },
+}
+
+impl ExtendedKind {
+    /// The joint (0-based) the parameter acts on.
+    pub fn joint(self) -> usize {
+        match self {
+            ExtendedKind::Compliance(j)
+            | ExtendedKind::GearSin { joint: j, .. }
+            | ExtendedKind::GearCos { joint: j, .. } => j,
+        }
+    }
+
+    /// The stable name: `compliance_2`, `gear_1_h1_sin`, `gear_1_h1_cos` (joints 1-based).
+    pub fn name(self) -> String {
+        match self {
+            ExtendedKind::Compliance(j) => format!("compliance_{}", j + 1),
+            ExtendedKind::GearSin { joint, harmonic } => {
+                format!("gear_{}_h{harmonic}_sin", joint + 1)
+            }
+            ExtendedKind::GearCos { joint, harmonic } => {
+                format!("gear_{}_h{harmonic}_cos", joint + 1)
+            }
+        }
+    }
+
+    /// Parses a stable name (the inverse of [`ExtendedKind::name`]); `None` if `name` is not
+    /// of either family's form.
+    pub fn parse(name: &str) -> Option<ExtendedKind> {
+        let joint = |s: &str| s.parse::<usize>().ok().filter(|j| *j >= 1).map(|j| j - 1);
+        if let Some(j) = name.strip_prefix("compliance_") {
+            return joint(j).map(ExtendedKind::Compliance);
+        }
+        let rest = name.strip_prefix("gear_")?;
+        let (j, rest) = rest.split_once("_h")?;
+        let (k, kind) = rest.split_once('_')?;
+        let joint = joint(j)?;
+        let harmonic = k.parse::<u32>().ok().filter(|k| *k >= 1)?;
+        match kind {
+            "sin" => Some(ExtendedKind::GearSin { joint, harmonic }),
+            "cos" => Some(ExtendedKind::GearCos { joint, harmonic }),
+            _ => None,
+        }
+    }
+
+    /// The interface unit: µrad/(N·m) ([`Unit::MicroradPerNm`]) or arcseconds
+    /// ([`Unit::Arcsec`]).
+    pub fn unit(self) -> Unit {
+        match self {
+            ExtendedKind::Compliance(_) => Unit::MicroradPerNm,
+            _ => Unit::Arcsec,
+        }
+    }
+
+    /// Internal value (rad/(N·m) or rad) → display value (µrad/(N·m) or arcsec).
+    pub fn to_display(self, internal: f64) -> f64 {
+        match self {
+            ExtendedKind::Compliance(_) => internal * 1e6,
+            _ => internal / RAD_PER_ARCSEC,
+        }
+    }
+
+    /// Display value → internal value.
+    pub fn from_display(self, display: f64) -> f64 {
+        match self {
+            ExtendedKind::Compliance(_) => display * 1e-6,
+            _ => display * RAD_PER_ARCSEC,
+        }
+    }
 }
 
 /// The interface unit of a parameter.
@@ -205,7 +297,7 @@ impl ParamLayout {
     }
 
     /// This layout with the non-geometric parameters `kinds` appended (after the tool).
-    pub fn with_extended(&self, kinds: &[crate::ExtendedKind]) -> ParamLayout {
+    pub fn with_extended(&self, kinds: &[ExtendedKind]) -> ParamLayout {
         let mut params: Vec<ParamInfo> = self
             .params
             .iter()

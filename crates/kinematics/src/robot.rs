@@ -5,57 +5,17 @@ use nalgebra::{DMatrix, Matrix3, Matrix6, Rotation3, Vector3, Vector6};
 
 use crate::error::ModelError;
 use crate::extended::ExtendedModel;
+use crate::frame::Frame;
 use crate::model::{BaseSpec, ExtendedParamSpec, JointSpec, MAX_JOINTS, MassModelSpec, RobotSpec};
 use crate::params::{ParamKind, ParamLayout};
 
+mod families;
 mod fast;
-pub use fast::{POSE_LANES, PoseLanes, PoseTrig, joint_sin_cos};
+use crate::trig::joint_sin_cos;
+pub use fast::{POSE_LANES, PoseLanes, PoseTrig};
 
 /// Largest parameter-vector length: 5 per joint plus base and tool.
 pub const MAX_PARAMS: usize = 5 * MAX_JOINTS + 9;
-
-/// A rigid transform `x ↦ rot · x + pos_mm` (rotation matrix and translation in mm).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Frame {
-    /// Rotation (orthonormal, det +1).
-    pub rot: Matrix3<f64>,
-    /// Translation, mm.
-    pub pos_mm: Vector3<f64>,
-}
-
-impl Frame {
-    /// The identity transform.
-    pub fn identity() -> Self {
-        Frame {
-            rot: Matrix3::identity(),
-            pos_mm: Vector3::zeros(),
-        }
-    }
-
-    /// `self · other`.
-    #[inline]
-    pub fn compose(&self, other: &Frame) -> Frame {
-        Frame {
-            rot: self.rot * other.rot,
-            pos_mm: self.rot * other.pos_mm + self.pos_mm,
-        }
-    }
-
-    /// Maps a point given in this frame into the parent frame.
-    #[inline]
-    pub fn transform_point(&self, p_mm: &Vector3<f64>) -> Vector3<f64> {
-        self.rot * p_mm + self.pos_mm
-    }
-
-    /// The inverse transform.
-    pub fn inverse(&self) -> Frame {
-        let rt = self.rot.transpose();
-        Frame {
-            rot: rt,
-            pos_mm: -(rt * self.pos_mm),
-        }
-    }
-}
 
 /// One joint in internal units, with the trigonometry of its constant angles cached.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -121,13 +81,9 @@ struct Base {
 }
 
 impl Base {
-    /// `Trans(d) · Rz(rz) · Ry(ry) · Rx(rx)`.
+    /// `Trans(d) · Rz(rz) · Ry(ry) · Rx(rx)` ([`Frame::from_base_pose`]).
     fn frame(&self) -> Frame {
-        let [rx, ry, rz] = self.r_rad;
-        Frame {
-            rot: *Rotation3::from_euler_angles(rx, ry, rz).matrix(),
-            pos_mm: Vector3::from(self.d_mm),
-        }
+        Frame::from_base_pose(self.r_rad, self.d_mm)
     }
 
     /// The axes of the base rotations in the measurement frame: `Rz Ry e_x` (rx),
@@ -237,14 +193,9 @@ impl Robot {
             })
             .collect();
         refresh_links(&mut links);
-        let b = &spec.base;
         let base = Base {
-            r_rad: [
-                b.rx_deg.to_radians(),
-                b.ry_deg.to_radians(),
-                b.rz_deg.to_radians(),
-            ],
-            d_mm: [b.dx_mm, b.dy_mm, b.dz_mm],
+            r_rad: spec.base.rotations_rad(),
+            d_mm: spec.base.translation_mm(),
         };
         let base_index = layout.len() - 9;
         Ok(Robot {
@@ -470,14 +421,7 @@ impl Robot {
                     limits_deg: [l.limits_rad[0].to_degrees(), l.limits_rad[1].to_degrees()],
                 })
                 .collect(),
-            base: BaseSpec {
-                rx_deg: self.base.r_rad[0].to_degrees(),
-                ry_deg: self.base.r_rad[1].to_degrees(),
-                rz_deg: self.base.r_rad[2].to_degrees(),
-                dx_mm: self.base.d_mm[0],
-                dy_mm: self.base.d_mm[1],
-                dz_mm: self.base.d_mm[2],
-            },
+            base: BaseSpec::from_internal(self.base.r_rad, self.base.d_mm),
             tool_mm: self.tool_mm.into(),
             joint_names: self.joint_names.clone(),
             mass_model: self.mass_model.clone(),
@@ -866,7 +810,7 @@ impl Robot {
 
 /// `J Jᵀ` (6 × 6) of the geometric Jacobian whose column i is `(z_i × (p − o_i), s·z_i)` for
 /// the joint axes `(z_i, o_i)` in order and the point `p`, summed joint by joint (the one
-/// implementation behind [`Robot::geometric_gram`] and the pose samplers' condition tests).
+/// implementation behind [`Robot::geometric_gram`] and the pose sampler's condition test).
 pub fn gram_of_axes(
     axes: impl Iterator<Item = (Vector3<f64>, Vector3<f64>)>,
     p: &Vector3<f64>,

@@ -12,6 +12,8 @@
 //! Arguments of magnitude below 2¹⁹·π/2 (≈ 8·10⁵ rad) take the fast path; larger or
 //! non-finite ones fall back to `f64::sin_cos` (they do not occur in kinematics).
 
+use crate::model::MAX_JOINTS;
+
 /// 2/π.
 const INV_PIO2: f64 = std::f64::consts::FRAC_2_PI;
 /// π/2 = p1 + p2 + p3 + p3t: three pieces of 33 bits and a tail (fdlibm's `pio2_1`,
@@ -211,6 +213,19 @@ pub fn sin_cos_slice(x: &[f64], s: &mut [f64], c: &mut [f64]) {
         #[inline(always)]
         || slice_impl(x, s, c),
     )
+}
+
+/// `[sin q_i, cos q_i]` of one joint vector ([`sin_cos`]), into
+/// `out[..q_rad.len()]`; at most [`MAX_JOINTS`] values.
+#[inline]
+pub fn joint_sin_cos(q_rad: &[f64], out: &mut [[f64; 2]]) {
+    let n = q_rad.len();
+    let mut s = [0.0; MAX_JOINTS];
+    let mut c = [0.0; MAX_JOINTS];
+    sin_cos_slice(q_rad, &mut s[..n], &mut c[..n]);
+    for (o, (s, c)) in out.iter_mut().zip(s.iter().zip(&c)).take(n) {
+        *o = [*s, *c];
+    }
 }
 
 #[cfg(test)]

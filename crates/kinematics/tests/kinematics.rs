@@ -414,3 +414,46 @@ fn bad_robot_files_name_the_field() {
     let r = Robot::from_file(std::path::Path::new("/nonexistent/robot.json"));
     assert!(matches!(r, Err(ModelError::Io { .. })));
 }
+
+/// One base-frame type, two formats: the robot file's `base` requires all six fields; the
+/// scenario's form ([`BaseSpec::deserialize_omitted_zero`]) lets them be omitted (zero).
+/// Both refuse unknown fields, and both give the same transform for the same values.
+#[test]
+fn base_spec_requires_six_in_the_robot_file_and_defaults_in_the_scenario_form() {
+    let partial = KR1000.replacen(", \"dz_mm\": 0 }", " }", 1);
+    assert_ne!(partial, KR1000);
+    let msg = spec_error(&partial);
+    assert!(msg.contains("base") && msg.contains("dz_mm"), "{msg}");
+    let nan = KR1000.replacen("\"dy_mm\": 0", "\"dy_mm\": NaN", 1);
+    let msg = spec_error(&nan);
+    assert!(msg.contains("base.dy_mm"), "{msg}");
+
+    #[derive(serde::Deserialize)]
+    struct Scenario {
+        #[serde(deserialize_with = "BaseSpec::deserialize_omitted_zero")]
+        base: BaseSpec,
+    }
+    let read = |text: &str| serde_json::from_str::<Scenario>(text).map(|s| s.base);
+    let b = read(r#"{ "base": { "rz_deg": 0.002, "dx_mm": 0.05 } }"#).unwrap();
+    assert_eq!(b.values(), [0.0, 0.0, 0.002, 0.05, 0.0, 0.0]);
+    assert!(!b.is_zero() && read(r#"{ "base": {} }"#).unwrap().is_zero());
+    let e = read(r#"{ "base": { "rz_deg": 1, "gear": 1 } }"#).unwrap_err();
+    assert!(e.to_string().contains("unknown field `gear`"), "{e}");
+    let e = read(r#"{ "base": { "rz_deg": 1, "rz_deg": 2 } }"#).unwrap_err();
+    assert!(e.to_string().contains("duplicate field `rz_deg`"), "{e}");
+    let full: BaseSpec = serde_json::from_str(
+        r#"{ "rx_deg": 1, "ry_deg": -2, "rz_deg": 3, "dx_mm": 4, "dy_mm": 5, "dz_mm": 6 }"#,
+    )
+    .unwrap();
+    let same = read(
+        r#"{ "base": { "dz_mm": 6, "dy_mm": 5, "dx_mm": 4, "rz_deg": 3, "ry_deg": -2, "rx_deg": 1 } }"#,
+    )
+    .unwrap();
+    assert_eq!(full, same);
+    assert_eq!(full.frame(), same.frame());
+    // The robot's base frame is the same transform of the same values.
+    let mut spec = RobotSpec::from_json_str(KR1000, "kr1000").unwrap();
+    spec.base = full.clone();
+    let robot = Robot::from_spec(&spec).unwrap();
+    assert_eq!(robot.base_frame(), full.frame());
+}

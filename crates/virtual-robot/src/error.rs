@@ -2,7 +2,7 @@
 
 use std::path::PathBuf;
 
-use crate::poses::SamplingStats;
+use crate::sampling::SamplingStats;
 
 /// A scenario section has a value the virtual robot does not accept. Every variant names the
 /// offending field by its path in the scenario file, e.g. `tracker.sigma_fraction` or

@@ -137,6 +137,7 @@ pub mod config;
 pub mod error;
 pub mod poses;
 pub mod rng;
+pub mod sampling;
 pub mod simulate;
 mod sincos;
 pub mod tracker;
@@ -147,12 +148,11 @@ pub mod world;
 
 pub use config::VirtualRobotConfig;
 pub use error::{ConfigError, NotMeasurable, SimError};
-pub use poses::{
-    PoseSampling, PoseSet, SAMPLING_MARGIN_DEG, SAMPLING_MARGIN_MM, SamplingReport, SamplingStats,
-};
+pub use poses::{PoseSampling, PoseSet, SAMPLING_MARGIN_DEG, SAMPLING_MARGIN_MM};
 pub use rng::{MAX_TRIAL, Purpose, stream};
+pub use sampling::{SamplingReport, SamplingStats};
 pub use simulate::{IDENTIFICATION_FILE, Simulation, TRUTH_FILE, VALIDATION_FILE, simulate};
-pub use tracker::{BaseResidual, NoiseModel, Tracker, TrackerConfig};
+pub use tracker::{NoiseModel, Tracker, TrackerConfig};
 pub use truth::{ErrorDistribution, InjectedErrors, RandomErrors, ScaleOutcome, ScaleTarget};
 pub use unmodelled::{
     ComplianceConfig, ComplianceModel, DriftConfig, GearConfig, GearTerm, KR1000_BASE_MASS_KG,

@@ -20,6 +20,8 @@
 //! `base_residual` is the error of that construction, applied to every reading as
 //! `p_meas = T_res · p` with `T_res = Trans(dx, dy, dz)·Rz(rz)·Ry(ry)·Rx(rx)` (the base
 //! convention of `docs/model.md` §2, so the six `base_*` parameters can absorb it exactly).
+//! It is a [`BaseSpec`], the robot file's base type, read with
+//! [`BaseSpec::deserialize_omitted_zero`]: here a field left out is zero.
 //!
 //! ```json
 //! "tracker": {
@@ -32,8 +34,8 @@
 //! }
 //! ```
 
-use kinematics::{Frame, Robot};
-use nalgebra::{Rotation3, Vector3};
+use kinematics::{BaseSpec, Frame, Robot};
+use nalgebra::Vector3;
 use rand::{Rng, RngExt};
 use rand_distr::StandardNormal;
 use serde::{Deserialize, Serialize};
@@ -50,56 +52,6 @@ pub enum NoiseModel {
     Anisotropic,
     /// The same σ = f·MPE along every axis.
     Isotropic,
-}
-
-/// Residual error of the base frame built from the tracker (applied to every reading).
-#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct BaseResidual {
-    /// Rotation about x, degrees.
-    pub rx_deg: f64,
-    /// Rotation about y, degrees.
-    pub ry_deg: f64,
-    /// Rotation about z, degrees.
-    pub rz_deg: f64,
-    /// Translation along x, mm.
-    pub dx_mm: f64,
-    /// Translation along y, mm.
-    pub dy_mm: f64,
-    /// Translation along z, mm.
-    pub dz_mm: f64,
-}
-
-impl BaseResidual {
-    /// The six values in the order rx, ry, rz (deg), dx, dy, dz (mm).
-    pub fn values(&self) -> [f64; 6] {
-        [
-            self.rx_deg,
-            self.ry_deg,
-            self.rz_deg,
-            self.dx_mm,
-            self.dy_mm,
-            self.dz_mm,
-        ]
-    }
-
-    /// True if all six values are zero.
-    pub fn is_zero(&self) -> bool {
-        self.values().iter().all(|v| *v == 0.0)
-    }
-
-    /// `T_res = Trans(dx, dy, dz) · Rz(rz) · Ry(ry) · Rx(rx)`.
-    pub fn frame(&self) -> Frame {
-        Frame {
-            rot: *Rotation3::from_euler_angles(
-                self.rx_deg.to_radians(),
-                self.ry_deg.to_radians(),
-                self.rz_deg.to_radians(),
-            )
-            .matrix(),
-            pos_mm: Vector3::new(self.dx_mm, self.dy_mm, self.dz_mm),
-        }
-    }
 }
 
 /// The `tracker` section (see the module docs for the model).
@@ -132,8 +84,10 @@ pub struct TrackerConfig {
     pub elevation_limit_deg: f64,
     /// Measurable range `[min, max]`, metres (default 0.8–20 m).
     pub range_m: [f64; 2],
-    /// Residual error of the base frame built from the tracker (default zero).
-    pub base_residual: BaseResidual,
+    /// Residual error of the base frame built from the tracker (default zero; fields left
+    /// out are zero).
+    #[serde(deserialize_with = "BaseSpec::deserialize_omitted_zero")]
+    pub base_residual: BaseSpec,
 }
 
 impl Default for TrackerConfig {
@@ -151,7 +105,7 @@ impl Default for TrackerConfig {
             noise_scale: 1.0,
             elevation_limit_deg: 45.0,
             range_m: [0.8, 20.0],
-            base_residual: BaseResidual::default(),
+            base_residual: BaseSpec::default(),
         }
     }
 }
@@ -211,15 +165,7 @@ impl TrackerConfig {
                 format!("need 0 ≤ min < max, got [{lo}, {hi}]"),
             ));
         }
-        let r = &self.base_residual;
-        for (name, v) in [
-            ("rx_deg", r.rx_deg),
-            ("ry_deg", r.ry_deg),
-            ("rz_deg", r.rz_deg),
-            ("dx_mm", r.dx_mm),
-            ("dy_mm", r.dy_mm),
-            ("dz_mm", r.dz_mm),
-        ] {
+        if let Some((name, v)) = self.base_residual.first_non_finite() {
             finite(&format!("tracker.base_residual.{name}"), v)?;
         }
         Ok(())

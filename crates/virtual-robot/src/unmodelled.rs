@@ -668,11 +668,37 @@ impl CmdTrig {
     /// only with `None`).
     #[inline]
     pub(crate) fn compute(&mut self, unmodelled: Option<&Unmodelled>, q_cmd: &[f64]) {
+        self.fill(unmodelled, q_cmd, None);
+    }
+
+    /// [`CmdTrig::compute`] given the joints' `[sin q_i, cos q_i]` already (`sc`, as
+    /// [`kinematics::joint_sin_cos`] gives them: the same bits), which are then not computed
+    /// again unless the gear terms' kernel call computes them along.
+    #[inline]
+    pub(crate) fn compute_with_joints(
+        &mut self,
+        unmodelled: Option<&Unmodelled>,
+        q_cmd: &[f64],
+        sc: &[[f64; 2]],
+    ) {
+        self.fill(unmodelled, q_cmd, Some(sc));
+    }
+
+    #[inline]
+    fn fill(
+        &mut self,
+        unmodelled: Option<&Unmodelled>,
+        q_cmd: &[f64],
+        joints: Option<&[[f64; 2]]>,
+    ) {
         let n = q_cmd.len();
         let gears: &[GearRad] = unmodelled.map_or(&[], |u| &u.gears);
         let k = gears.len();
         if k == 0 || n + k > CMD_LANES {
-            crate::sincos::joint_trig(q_cmd, &mut self.sc);
+            match joints {
+                Some(sc) => self.sc[..n].copy_from_slice(sc),
+                None => crate::sincos::joint_trig(q_cmd, &mut self.sc),
+            }
             self.gears_done = false;
             return;
         }

@@ -11,8 +11,9 @@ use serde::{Deserialize, Serialize};
 
 use crate::config::VirtualRobotConfig;
 use crate::error::{NotMeasurable, SimError};
-use crate::poses::{PoseSet, Sampled, SamplingReport, SamplingStats, sample};
+use crate::poses::{PoseSet, Sampled, sample};
 use crate::rng::{MAX_TRIAL, Purpose, stream};
+use crate::sampling::{SamplingReport, SamplingStats};
 use crate::tracker::Tracker;
 use crate::truth::{ScaleOutcome, solve_scale};
 use crate::unmodelled::{CmdTrig, Unmodelled};
@@ -362,6 +363,25 @@ impl World {
         trial: u64,
     ) -> Result<World, SimError> {
         Setup::new(nominal, cfg, seed)?.world(trial)
+    }
+
+    /// `count` poses drawn as trial `trial`'s identification poses of `seed` (the stream and
+    /// constraints a campaign's trial uses: joint limits, floor clearance, tracker window and
+    /// range, wrist and condition limits of `cfg.poses`, checked where that trial's true
+    /// robot puts the point), joints in degrees, flat with stride N: the candidate pool of a
+    /// pose design (`design::Candidates::from_poses_deg`). The validation set is cut to one
+    /// pose; nothing is measured.
+    pub fn identification_pool_deg(
+        nominal: &Robot,
+        cfg: &VirtualRobotConfig,
+        seed: u64,
+        trial: u64,
+        count: usize,
+    ) -> Result<Vec<f64>, SimError> {
+        let mut cfg = cfg.clone();
+        cfg.poses.identification = PoseSet::Count(count);
+        cfg.poses.validation = PoseSet::Count(1);
+        Ok(World::new(nominal, &cfg, seed, trial)?.id_deg)
     }
 
     /// Measures the point at commanded joints `q_cmd_rad`: the true robot (drifted to the

@@ -182,6 +182,14 @@ fn json_errors_name_the_field() {
     assert_eq!(e.field(), "truth.random.sigma");
     let e = parse(r#"{ "extra": 1 }"#);
     assert_eq!(e.field(), "extra");
+    // The base residual (a `kinematics::BaseSpec`) refuses unknown fields like the rest.
+    let e = parse(r#"{ "tracker": { "base_residual": { "rz_deg": 0.01, "dw_mm": 1 } } }"#);
+    assert!(
+        e.field().starts_with("tracker.base_residual"),
+        "{}",
+        e.field()
+    );
+    assert!(e.to_string().contains("unknown field `dw_mm`"), "{e}");
 }
 
 #[test]
@@ -197,6 +205,10 @@ fn json_round_trip_and_partial_sections() {
     .unwrap();
     assert_eq!(c.truth.scale_to, Some(ScaleTarget::default()));
     assert_eq!(c.tracker.base_residual.rz_deg, 0.01);
+    assert_eq!(
+        c.tracker.base_residual.values(),
+        [0.0, 0.0, 0.01, 0.0, 0.0, 0.0]
+    );
     assert_eq!(c.tracker.position_mm, [4000.0, -1500.0, 1200.0]);
     assert!(c.unmodelled.gears.enabled && c.unmodelled.compliance.enabled);
     assert_eq!(c.poses.identification, PoseSet::Count(30));

@@ -1,8 +1,7 @@
 //! Shared helpers of the integration tests.
 #![allow(dead_code)]
 
-use identify::random_poses;
-use kinematics::{Robot, RobotSpec};
+use kinematics::{PoseSampler, Robot, RobotSpec};
 use nalgebra::Vector3;
 use rand::rngs::ChaCha8Rng;
 use rand::{RngExt, SeedableRng};
@@ -25,7 +24,10 @@ pub const TOOL: [f64; 3] = [60.0, 20.0, 150.0];
 
 /// Poses for identification and for validation (different seeds).
 pub fn poses(robot: &Robot, n: usize, seed: u64) -> Vec<f64> {
-    random_poses(robot, n, seed).expect("poses")
+    PoseSampler::default()
+        .sample(robot, n, &mut ChaCha8Rng::seed_from_u64(seed))
+        .expect("poses")
+        .rad
 }
 
 /// A "true" robot: the nominal one with realistic errors on the parameters selected by

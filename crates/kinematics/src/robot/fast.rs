@@ -28,7 +28,8 @@
 
 use nalgebra::Vector3;
 
-use super::{Frame, Link, Robot};
+use super::{Link, Robot};
+use crate::frame::Frame;
 use crate::model::MAX_JOINTS;
 use crate::trig::{sin_cos_slice, sin_cos_small_lanes};
 
@@ -173,19 +174,6 @@ impl PoseTrig {
             weights: &self.lane_w[block * self.n_ext..(block + 1) * self.n_ext],
             weights_of: self.weights_of,
         }
-    }
-}
-
-/// `[sin q_i, cos q_i]` of one joint vector ([`crate::trig::sin_cos`]), into
-/// `out[..q_rad.len()]`; at most [`MAX_JOINTS`] values.
-#[inline]
-pub fn joint_sin_cos(q_rad: &[f64], out: &mut [[f64; 2]]) {
-    let n = q_rad.len();
-    let mut s = [0.0; MAX_JOINTS];
-    let mut c = [0.0; MAX_JOINTS];
-    sin_cos_slice(q_rad, &mut s[..n], &mut c[..n]);
-    for (o, (s, c)) in out.iter_mut().zip(s.iter().zip(&c)).take(n) {
-        *o = [*s, *c];
     }
 }
 
