@@ -74,7 +74,7 @@ pub(crate) fn workspace_root() -> Result<PathBuf> {
         })
 }
 
-use kincal::cpu_model_name;
+use campaign::cpu_model_name;
 
 fn cpu_model() -> String {
     cpu_model_name().unwrap_or_else(|| "unknown".into())

@@ -102,13 +102,20 @@ impl Default for IdentificationConfig {
 }
 
 impl IdentificationConfig {
+    /// `params` and `extended` as the one parameter spec of every front end
+    /// ([`identify::ParamSpec`]: `paper+compliance` is `params = "paper"`, `extended =
+    /// ["compliance"]`).
+    pub fn param_spec(&self) -> identify::ParamSpec {
+        identify::ParamSpec {
+            base: self.params.clone(),
+            extended: self.extended.clone(),
+        }
+    }
+
     /// The extended parameters' names for an `n_joints` robot, families expanded, in the
-    /// order given.
+    /// order given ([`identify::ParamSpec::extended_names`]).
     pub fn extended_names(&self, n_joints: usize) -> Vec<String> {
-        self.extended
-            .iter()
-            .flat_map(|e| kinematics::expand_family(e.trim(), n_joints))
-            .collect()
+        self.param_spec().extended_names(n_joints)
     }
 }
 

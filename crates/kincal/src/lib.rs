@@ -87,14 +87,3 @@ pub fn exit_on_error(result: Result<()>) {
         std::process::exit(1);
     }
 }
-
-/// The CPU's model name from `/proc/cpuinfo` (`None` where there is none): recorded beside
-/// every wall-clock figure (`bench.json`, a campaign's `timing.json`).
-pub fn cpu_model_name() -> Option<String> {
-    std::fs::read_to_string("/proc/cpuinfo").ok().and_then(|s| {
-        s.lines()
-            .find(|l| l.starts_with("model name"))
-            .and_then(|l| l.split_once(':'))
-            .map(|(_, v)| v.trim().to_string())
-    })
-}
