@@ -18,7 +18,7 @@
 //! * [`select()`]: greedy forward selection with rank-3 updates, then exchange until no swap
 //!   improves the criterion, optional seeded restarts (see the [`mod@select`] module for the
 //!   algebra). Deterministic.
-//! * [`report()`]: the design's criterion, condition number and O1–O5 beside the medians of
+//! * [`compare()`]: the design's criterion, condition number and O1–O5 beside the medians of
 //!   random sets of the same size.
 //! * [`select_rows`]: the real-data entry point (rows of a recording chosen by their joints).
 //!
@@ -44,17 +44,17 @@
 #![warn(missing_docs)]
 
 pub mod candidates;
+pub mod comparison;
 pub mod criterion;
 mod error;
 pub mod model;
-pub mod report;
 pub mod select;
 
 pub use candidates::Candidates;
+pub use comparison::{DesignComparison, SetFigures, compare};
 pub use criterion::{Criterion, condition_number, dense_value, observability};
 pub use error::DesignError;
 pub use model::{InfoModel, Scale};
-pub use report::{DesignReport, SetFigures, report};
 pub use select::{Design, DesignOptions, select};
 
 use kinematics::Robot;
@@ -80,7 +80,7 @@ pub fn select_rows(
 /// `params` (names; `None`: the minimal identifiable set), with the I criterion's workspace
 /// `workspace` (`None`: the candidates), and compares with `random_sets` random sets of the
 /// same size. Returns the plan (joints-only measurement set, candidate ids kept, in pool
-/// order) and the report. Nothing is written.
+/// order) and its comparison with random sets. Nothing is written.
 pub fn design_plan(
     robot: &Robot,
     candidates: &Candidates,
@@ -88,7 +88,7 @@ pub fn design_plan(
     params: Option<&[String]>,
     opts: &DesignOptions,
     random_sets: usize,
-) -> Result<(measurements::MeasurementSet, DesignReport), DesignError> {
+) -> Result<(measurements::MeasurementSet, DesignComparison), DesignError> {
     let params = params.map(|p| robot.layout().select(p)).transpose()?;
     let model = InfoModel::new(
         robot,
@@ -99,7 +99,7 @@ pub fn design_plan(
     )
     .map_err(|e| with_ids(e, candidates))?;
     let d = select(&model, opts)?;
-    let rep = report(&model, &d, random_sets, opts.seed);
+    let rep = compare(&model, &d, random_sets, opts.seed);
     Ok((candidates.plan(&d.selected, &candidates.source), rep))
 }
 

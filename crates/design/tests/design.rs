@@ -2,7 +2,7 @@
 //! the exchange never making the criterion worse, and every bad input.
 
 use design::{
-    Candidates, Criterion, DesignError, DesignOptions, InfoModel, Scale, report, select,
+    Candidates, Criterion, DesignError, DesignOptions, InfoModel, Scale, compare, select,
     select_rows,
 };
 use kinematics::{PoseSampler, Robot};
@@ -152,7 +152,7 @@ fn the_report_compares_with_random_sets() {
     let model = InfoModel::new(&robot, &pool, None, None, &Scale::default()).unwrap();
     for crit in [Criterion::D, Criterion::I] {
         let d = select(&model, &DesignOptions::new(crit, 20)).unwrap();
-        let r = report(&model, &d, 100, 1);
+        let r = compare(&model, &d, 100, 1);
         assert!(crit.utility(r.design.value) > crit.utility(r.random_median.value));
         assert!(r.design.condition_number < r.random_median.condition_number);
         let text = r.to_text();

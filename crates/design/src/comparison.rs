@@ -1,4 +1,4 @@
-//! The design report: the design's criterion value, condition number and O1–O5 beside the
+//! The design's comparison with random sets: the design's criterion value, condition number and O1–O5 beside the
 //! median of the same figures over random sets of the same size from the same pool.
 
 use std::fmt::Write as _;
@@ -39,7 +39,7 @@ impl SetFigures {
 
 /// What [`report`] finds.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct DesignReport {
+pub struct DesignComparison {
     /// The criterion.
     pub criterion: Criterion,
     /// Poses chosen.
@@ -78,7 +78,12 @@ fn median(mut v: Vec<f64>) -> f64 {
 
 /// The figures of `design` and the medians over `random_sets` random subsets of the pool of
 /// the same size (ChaCha8 from `seed`, stream 1000 + k for set k).
-pub fn report(model: &InfoModel, design: &Design, random_sets: usize, seed: u64) -> DesignReport {
+pub fn compare(
+    model: &InfoModel,
+    design: &Design,
+    random_sets: usize,
+    seed: u64,
+) -> DesignComparison {
     let n = design.selected.len();
     let figures: Vec<SetFigures> = (0..random_sets)
         .map(|k| {
@@ -94,7 +99,7 @@ pub fn report(model: &InfoModel, design: &Design, random_sets: usize, seed: u64)
         condition_number: med(&|s| s.condition_number),
         o: [0, 1, 2, 3, 4].map(|k| med(&|s: &SetFigures| s.o[k])),
     };
-    DesignReport {
+    DesignComparison {
         criterion: design.criterion,
         poses: n,
         candidates: model.n_candidates,
@@ -108,7 +113,7 @@ pub fn report(model: &InfoModel, design: &Design, random_sets: usize, seed: u64)
     }
 }
 
-impl DesignReport {
+impl DesignComparison {
     /// The report as text (a few lines for a terminal).
     pub fn to_text(&self) -> String {
         let mut s = String::new();
