@@ -14,7 +14,7 @@ use campaign::{
 };
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 
-pub use args::{CampaignArgs, MergeArgs, SimulateArgs, SweepArgs};
+pub use args::{CampaignArgs, CheckpointArgs, MergeArgs, SimulateArgs, SweepArgs};
 
 /// Progress on stderr: a bar per phase of trials (hidden when `CI` is set) and, if asked,
 /// a line per sweep point; the line `resuming from …` when a run continues a checkpoint.
@@ -141,10 +141,10 @@ fn parse_shard(s: &str) -> Result<Shard> {
     Shard::new(k, n).with_context(|| format!("--shard {s:?}"))
 }
 
-fn checkpointing(resume: bool, every_trials: Option<u64>) -> Checkpointing {
+fn checkpointing(args: &CheckpointArgs) -> Checkpointing {
     Checkpointing {
-        resume,
-        every_trials,
+        resume: args.resume,
+        every_trials: args.checkpoint_every,
     }
 }
 
@@ -156,7 +156,7 @@ pub fn campaign(args: CampaignArgs) -> Result<()> {
     run.budget_off = args.no_budget;
     run.threads = args.threads;
     run.shard = args.shard.as_deref().map(parse_shard).transpose()?;
-    run.checkpoint = Some(checkpointing(args.resume, args.checkpoint_every));
+    run.checkpoint = Some(checkpointing(&args.checkpoint));
     let out_given = args.out.is_some();
     run.out = args.out;
     let outcome = run
@@ -245,7 +245,7 @@ pub fn sweep(args: SweepArgs) -> Result<()> {
     let mut run = SweepRun::new(&args.sweep);
     run.trials = args.trials;
     run.threads = args.threads;
-    run.checkpoint = Some(checkpointing(args.resume, args.checkpoint_every));
+    run.checkpoint = Some(checkpointing(&args.checkpoint));
     let out_given = args.out.is_some();
     run.out = args.out;
     let outcome = run

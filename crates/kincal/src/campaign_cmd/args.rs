@@ -35,13 +35,9 @@ pub struct CampaignArgs {
     /// error source outside the model off in turn; `residual_budget` in the scenario).
     #[arg(long)]
     pub no_budget: bool,
-    /// Continue an interrupted run from the checkpoint in the output directory (a fresh
-    /// start if there is none; refused if it belongs to another run, saying what differs).
-    #[arg(long)]
-    pub resume: bool,
-    /// Checkpoint every N trials (default: every 10 s, in chunks of 64 trials per thread).
-    #[arg(long, value_name = "N")]
-    pub checkpoint_every: Option<u64>,
+    /// `--resume`, `--checkpoint-every`.
+    #[command(flatten)]
+    pub checkpoint: CheckpointArgs,
 }
 
 /// Arguments of `merge`.
@@ -91,6 +87,15 @@ pub struct SweepArgs {
     /// Output directory [results/<sweep name>].
     #[arg(long)]
     pub out: Option<PathBuf>,
+    /// `--resume`, `--checkpoint-every`.
+    #[command(flatten)]
+    pub checkpoint: CheckpointArgs,
+}
+
+/// The checkpoint options of `campaign` and `sweep`.
+#[allow(rustdoc::broken_intra_doc_links, rustdoc::invalid_html_tags)] // clap help text
+#[derive(clap::Args)]
+pub struct CheckpointArgs {
     /// Continue an interrupted run from the checkpoint in the output directory (a fresh
     /// start if there is none; refused if it belongs to another run, saying what differs).
     #[arg(long)]
