@@ -37,7 +37,7 @@ impl SetFigures {
     }
 }
 
-/// What [`report`] finds.
+/// What [`compare`] finds.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct DesignComparison {
     /// The criterion.
