@@ -24,4 +24,4 @@ pub use error::{CalibrateError, Refusal, Result};
 pub use files::{LoadedRobot, file_name, points_mm, poses_rad, radians_notice, row_label};
 pub use joints::{Compensation, Prediction, SAME_FRAME_MM, compensate_targets, predict};
 pub use request::{IdentifyRequest, Split};
-pub use workflow::{Calibration, Validation, mean_max, norms, residuals, run};
+pub use workflow::{Calibration, Inputs, Validation, calibrate, mean_max, norms, residuals, run};

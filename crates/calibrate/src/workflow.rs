@@ -5,6 +5,7 @@
 //! validate → a [`Calibration`], the values every output is rendered from (by the `report`
 //! crate's `report::calibration`; the front ends write the files).
 
+use std::path::Path;
 use std::time::Instant;
 
 use evaluate::Table4;
@@ -41,10 +42,15 @@ pub struct Validation {
 /// A finished calibration: everything the outputs are rendered from.
 #[derive(Clone, Debug)]
 pub struct Calibration {
-    /// What was asked.
+    /// What was asked. Its paths are those of the files read by [`run`]; a calibration of
+    /// [`Inputs`] built in memory ([`calibrate`]) names its sources by [`Calibration::data_source`]
+    /// and the nominal's [`LoadedRobot::path`].
     pub request: IdentifyRequest,
     /// The nominal robot file.
     pub nominal: LoadedRobot,
+    /// Where the identification data come from ([`MeasurementSet::source`]: the file's path as
+    /// given, or the name an in-memory set was given).
+    pub data_source: String,
     /// The model the fit started from (the nominal after registration).
     pub start: Robot,
     /// The registration, if considered.
@@ -201,8 +207,8 @@ fn split_rows(
     request: &IdentifyRequest,
     nominal: &LoadedRobot,
     data: &MeasurementSet,
+    validate: Option<MeasurementSet>,
     (free, min_rows): (usize, usize),
-    notices: &mut Vec<String>,
 ) -> Result<SplitRows> {
     let n_file_rows = data.rows.len();
     let too_few = |source: CalibrateError| CalibrateError::TooFewRows {
@@ -302,14 +308,7 @@ fn split_rows(
             (sel, val, text)
         }
         Split::All => {
-            let val = match &request.validate {
-                Some(path) => {
-                    let v = nominal.read_set(path, true, (1, None), "validation data")?;
-                    notices.extend(v.notices);
-                    Some((v.source, v.rows))
-                }
-                None => None,
-            };
+            let val = validate.map(|v| (v.source, v.rows));
             (data.rows.clone(), val, format!("all {n_file_rows} rows"))
         }
     })
@@ -344,47 +343,141 @@ fn validate(
     })
 }
 
+/// What a calibration reads, loaded: the nominal robot, the identification data and the
+/// validation data (with [`Split::All`] only). [`Inputs::load`] reads the request's files; a
+/// binding builds them in memory and calls [`calibrate`].
+#[derive(Clone, Debug)]
+pub struct Inputs {
+    /// The nominal robot (geometric: the request's extended parameters are applied by the
+    /// calibration).
+    pub nominal: LoadedRobot,
+    /// The identification data (points required).
+    pub data: MeasurementSet,
+    /// Validation data, if any.
+    pub validate: Option<MeasurementSet>,
+}
+
+impl Inputs {
+    /// Reads the files of `request`: the robot, the identification data (at least the rows
+    /// the request's free parameters need) and the validation file.
+    ///
+    /// # Errors
+    /// As [`run`], for the reading part.
+    pub fn load(request: &IdentifyRequest) -> Result<Self> {
+        check(request)?;
+        let nominal = LoadedRobot::load(&request.robot, "robot")?;
+        let (_, n_free, min_rows) = extended(request, &nominal)?;
+        let data = nominal
+            .read_set(&request.data, true, (min_rows, None), "identification data")
+            .map_err(|e| too_few_rows(request, n_free, min_rows, e))?;
+        let validate = match (&request.validate, &request.split) {
+            (Some(path), Split::All) => {
+                Some(nominal.read_set(path, true, (1, None), "validation data")?)
+            }
+            _ => None,
+        };
+        Ok(Inputs {
+            nominal,
+            data,
+            validate,
+        })
+    }
+}
+
+/// The nominal of `request` extended by its `+` parameters, with the number of free
+/// parameters and the identification rows they need (⌈free / 3⌉).
+fn extended(request: &IdentifyRequest, nominal: &LoadedRobot) -> Result<(Robot, usize, usize)> {
+    let spec_err = |source| CalibrateError::Params {
+        spec: request.params.to_string(),
+        source,
+    };
+    let robot = request
+        .params
+        .apply(&nominal.robot, &nominal.path.display().to_string())
+        .map_err(spec_err)?;
+    let n_free = free_count(&robot, &request.params, &IdentifiabilityOptions::default())
+        .map_err(spec_err)?;
+    Ok((robot, n_free, n_free.div_ceil(3)))
+}
+
+/// A reading error of the identification data: too few rows says why so many are needed.
+fn too_few_rows(
+    request: &IdentifyRequest,
+    free: usize,
+    needed: usize,
+    e: CalibrateError,
+) -> CalibrateError {
+    match e {
+        CalibrateError::Read {
+            source: MeasurementError::TooFewRows { .. },
+            ..
+        } => CalibrateError::TooFewRows {
+            free,
+            spec: request.params.to_string(),
+            needed,
+            source: Box::new(e),
+        },
+        e => e,
+    }
+}
+
 /// Runs the whole calibration of `request` and returns what the outputs are rendered from;
-/// nothing is written.
+/// nothing is written: [`Inputs::load`] then [`calibrate`].
 ///
 /// # Errors
 /// A [`Refusal`] naming the request field before anything is read; then the files' errors
 /// (file, line, column), [`CalibrateError::Params`] for a spec that does not fit the robot,
 /// [`CalibrateError::TooFewRows`], and the identification's.
 pub fn run(request: &IdentifyRequest) -> Result<Calibration> {
+    let inputs = Inputs::load(request)?;
+    calibrate(request, inputs)
+}
+
+/// Calibrates loaded `inputs` with the options of `request` (its paths are not read: the
+/// sources are named by the inputs).
+///
+/// # Errors
+/// As [`run`], without the reading errors; too few identification rows is
+/// [`CalibrateError::TooFewRows`] as when reading.
+pub fn calibrate(request: &IdentifyRequest, inputs: Inputs) -> Result<Calibration> {
     check(request)?;
     let args = request;
-    let mut nominal = LoadedRobot::load(&args.robot, "robot")?;
+    let Inputs {
+        mut nominal,
+        data,
+        validate: validation_set,
+    } = inputs;
     let spec_err = |source| CalibrateError::Params {
         spec: args.params.to_string(),
         source,
     };
+    let (robot, n_free, min_rows) = extended(request, &nominal)?;
     // The extended parameters after `+` join the geometric ones.
-    nominal.robot = args
-        .params
-        .apply(&nominal.robot, &args.robot.display().to_string())
-        .map_err(spec_err)?;
+    nominal.robot = robot;
     let nom = &nominal.robot;
     let id_opts = IdentifiabilityOptions::default();
-    let n_free = free_count(nom, &args.params, &id_opts).map_err(spec_err)?;
-    let min_rows = n_free.div_ceil(3);
-    let data = nominal
-        .read_set(&args.data, true, (min_rows, None), "identification data")
-        .map_err(|e| match e {
-            CalibrateError::Read {
-                source: MeasurementError::TooFewRows { .. },
-                ..
-            } => CalibrateError::TooFewRows {
-                free: n_free,
-                spec: args.params.to_string(),
+    if data.rows.len() < min_rows {
+        let e = CalibrateError::Read {
+            context: format!(
+                "reading the identification data {} for {} ({} joints)",
+                data.source,
+                nom.name(),
+                nom.n_joints()
+            ),
+            source: MeasurementError::TooFewRows {
+                file: data.source.clone(),
+                found: data.rows.len(),
                 needed: min_rows,
-                source: Box::new(e),
             },
-            e => e,
-        })?;
+        };
+        return Err(too_few_rows(request, n_free, min_rows, e));
+    }
     let mut notices = data.notices.clone();
+    if let Some(v) = &validation_set {
+        notices.extend(v.notices.iter().cloned());
+    }
     let (id_rows, val_rows, selection) =
-        split_rows(args, &nominal, &data, (n_free, min_rows), &mut notices)?;
+        split_rows(args, &nominal, &data, validation_set, (n_free, min_rows))?;
 
     let started = Instant::now();
     let poses = poses_rad(&id_rows);
@@ -419,7 +512,7 @@ pub fn run(request: &IdentifyRequest) -> Result<Calibration> {
             fit.robot =
                 Robot::from_spec(&fit.robot.to_spec()).map_err(|source| CalibrateError::Robot {
                     what: "identified robot",
-                    path: args.robot.clone(),
+                    path: nominal.path.clone(),
                     source,
                 })?;
         }
@@ -465,6 +558,7 @@ pub fn run(request: &IdentifyRequest) -> Result<Calibration> {
     let elapsed_ms = started.elapsed().as_secs_f64() * 1e3;
     Ok(Calibration {
         request: request.clone(),
+        data_source: data.source.clone(),
         nominal: nominal.clone(),
         start,
         registration,
@@ -497,7 +591,7 @@ impl Calibration {
         robot.set_name(format!(
             "{}, identified from {}",
             self.nominal.robot.name(),
-            file_name(&self.request.data)
+            file_name(Path::new(&self.data_source))
         ));
         robot
     }
@@ -510,7 +604,7 @@ impl Calibration {
             registered.set_name(format!(
                 "{}, base registered on {}",
                 self.nominal.robot.name(),
-                file_name(&self.request.data)
+                file_name(Path::new(&self.data_source))
             ));
         }
         registered

@@ -50,7 +50,7 @@ pub const REPORT_HTML_FILE: &str = "report.html";
 /// [`PlotError`] when an error is not finite (nothing can be drawn).
 pub fn render(cal: &Calibration) -> Result<Vec<(String, String)>, PlotError> {
     let nom = &cal.nominal.robot;
-    let data = file_name(&cal.request.data);
+    let data = file_name(std::path::Path::new(&cal.data_source));
     let report_md = markdown(cal);
     let (id_before, id_after) = cal.screened_residuals();
     let flagged = cal.screen.as_ref().map_or_else(Vec::new, |s| s.indices());

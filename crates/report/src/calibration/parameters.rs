@@ -93,8 +93,8 @@ pub fn parameters_json(o: &Calibration) -> String {
     let table = ParamTable {
         format: "kincal-parameters/1",
         robot_file: ROBOT_FILE,
-        nominal_robot: o.request.robot.display().to_string(),
-        data: o.request.data.display().to_string(),
+        nominal_robot: o.nominal.path.display().to_string(),
+        data: o.data_source.clone(),
         rows: o.used.len(),
         params: o.request.params.to_string(),
         free: o.free.len(),
