@@ -44,9 +44,9 @@ pub struct TrialReport {
     pub notes: Vec<String>,
 }
 
-/// A length in a table, mm: 3 decimals.
+/// A length in a table, mm: `report::fmt`'s before/after column rule.
 fn mm(v: f64) -> String {
-    fmt::fixed(v, 3)
+    fmt::mm_col(v)
 }
 
 /// An improvement, %, or `n/a` when it is undefined.
@@ -56,7 +56,7 @@ fn pct(v: Option<f64>) -> String {
 
 /// A parameter value (mm or deg): 4 decimals.
 fn param(v: f64) -> String {
-    fmt::fixed(v, 4)
+    fmt::param(v, 4)
 }
 
 impl TrialReport {

@@ -14,7 +14,25 @@
 //! A cell that shows several statistics of one quantity (`mean ± sd [p5, p95]`) uses the
 //! precision its mean calls for, for all of them, so the column stays aligned.
 //!
-//! Negative zero prints as `0`, never `-0.000`.
+//! Negative zero prints as `0`, never `-0.000`, except in the signed rules below.
+//!
+//! Fixed-column and signed rules, for the files whose layout predates the rules above (the
+//! trial report `trial-*.md`, the calibration report and its console summary): committed
+//! files and documented outputs keep their bytes, and every cell still goes through a named
+//! rule here.
+//!
+//! | quantity | rule | function | example |
+//! |---|---|---|---|
+//! | length in a before/after column (mm) | 3 decimals always | [`mm_col`] | `0.030` |
+//! | distance of a frame change (mm) | 1 decimal | [`mm_coarse`] | `2954.1` |
+//! | rotation of a frame change (°) | 3 decimals | [`deg_coarse`] | `20.076` |
+//! | parameter value or standard error in a table | `d` decimals as the table states | [`param`] | `0.0040` |
+//! | signed component (error vector, translation, base, Δ, improvement) | sign kept on zero | [`signed`] | `-0.000` |
+//! | weight or correlation | explicit sign | [`plus`] | `+0.982` |
+//! | ratio, condition number | 2 decimals | [`ratio`] | `3.41` |
+//! | duration (ms) | 1 decimal | [`ms`] | `12.5` |
+//! | singular value (observability O1–O5 of a calibration) | 5 significant digits, scientific | [`sci5`] | `1.2345e-3` |
+//! | a setting echoed as given (outlier k) | shortest round-trip form | [`setting`] | `3`, `2.5` |
 
 /// Arcseconds per degree.
 pub const ARCSEC_PER_DEG: f64 = 3600.0;
@@ -39,6 +57,62 @@ pub fn fixed(v: f64, d: usize) -> String {
     } else {
         s
     }
+}
+
+/// A length in a before/after column, mm: 3 decimals always, so a column of errors stays
+/// aligned whatever its magnitude (the trial and calibration reports).
+pub fn mm_col(v: f64) -> String {
+    fixed(v, 3)
+}
+
+/// The distance of a frame change (a registration's translation), mm: 1 decimal (a tracker
+/// frame is metres away; its tenth of a millimetre is below the fit's own uncertainty).
+pub fn mm_coarse(v: f64) -> String {
+    fixed(v, 1)
+}
+
+/// The rotation angle of a frame change, degrees: 3 decimals.
+pub fn deg_coarse(v: f64) -> String {
+    fixed(v, 3)
+}
+
+/// A parameter value or standard error in a table with `d` decimals (the trial report's 4,
+/// the calibration report's 5), without a minus sign on a value that rounds to zero.
+pub fn param(v: f64, d: usize) -> String {
+    fixed(v, d)
+}
+
+/// A signed component with `d` decimals (an error vector's component, a translation, a base
+/// value, a Δ, an improvement): Rust's fixed notation, the sign kept even when the value
+/// rounds to zero (`-0.000`), so the direction of a small error still shows.
+pub fn signed(v: f64, d: usize) -> String {
+    format!("{v:.d$}")
+}
+
+/// A weight or a correlation with `d` decimals and an explicit sign (`+0.982`, `-0.500`).
+pub fn plus(v: f64, d: usize) -> String {
+    format!("{v:+.d$}")
+}
+
+/// A ratio or a condition number: 2 decimals.
+pub fn ratio(v: f64) -> String {
+    fixed(v, 2)
+}
+
+/// A duration in milliseconds: 1 decimal.
+pub fn ms(v: f64) -> String {
+    fixed(v, 1)
+}
+
+/// A singular value (a calibration's observability indices O1–O5): scientific notation with
+/// 5 significant digits (`1.2345e-3`); they span decades, and the report compares them.
+pub fn sci5(v: f64) -> String {
+    format!("{v:.4e}")
+}
+
+/// A setting echoed as the user gave it: Rust's shortest round-trip form (`3`, `2.5`).
+pub fn setting(v: f64) -> String {
+    format!("{v}")
 }
 
 /// A length in mm: 3 decimals, 4 below 0.1 mm.
@@ -215,6 +289,24 @@ mod tests {
         assert_eq!(arcsec_from_deg(0.004), "14.4");
         assert_eq!(z(-13.7966), "-13.80");
         assert_eq!(z(-0.001), "0.00");
+    }
+
+    #[test]
+    fn fixed_column_and_signed_rules() {
+        assert_eq!(mm_col(0.0312), "0.031");
+        assert_eq!(mm_col(-0.0001), "0.000");
+        assert_eq!(signed(-0.0001, 3), "-0.000");
+        assert_eq!(signed(1.23456, 3), "1.235");
+        assert_eq!(plus(0.5, 3), "+0.500");
+        assert_eq!(plus(-0.9821, 4), "-0.9821");
+        assert_eq!(sci5(0.018591), "1.8591e-2");
+        assert_eq!(setting(3.0), "3");
+        assert_eq!(setting(2.5), "2.5");
+        assert_eq!(mm_coarse(3820.64), "3820.6");
+        assert_eq!(deg_coarse(20.0764), "20.076");
+        assert_eq!(param(-0.00001, 4), "0.0000");
+        assert_eq!(ratio(3.414), "3.41");
+        assert_eq!(ms(7.46), "7.5");
     }
 
     #[test]

@@ -8,16 +8,16 @@ use identify::RegistrationPolicy;
 use measurements::Measurement;
 
 use super::start_label;
-use crate::fmt::{fixed, mm, number};
+use crate::fmt::{deg_coarse, mm, mm_col, number, param, plus, ratio, sci5, setting, signed};
 
 fn stats_row(out: &mut String, name: &str, before: f64, after: f64) {
-    // signed: an improvement of -0.04 % prints `-0.0`.
-    let pct = improvement_pct(before, after).map_or_else(|| "n/a".into(), |p| format!("{p:.1}"));
+    // An improvement of -0.04 % prints `-0.0`.
+    let pct = improvement_pct(before, after).map_or_else(|| "n/a".into(), |p| signed(p, 1));
     let _ = writeln!(
         out,
         "| {name} | {} | {} | {pct} |",
-        fixed(before, 3),
-        fixed(after, 3)
+        mm_col(before),
+        mm_col(after)
     );
 }
 
@@ -60,16 +60,15 @@ fn worst_md(out: &mut String, rows: &[Measurement], errors: &[[f64; 3]], n: usiz
     out.push_str("| point | line | ‖e‖ (mm) | e_x | e_y | e_z |\n|---|---:|---:|---:|---:|---:|\n");
     for &i in idx.iter().take(n) {
         let e = errors[i];
-        // signed: the components.
         let _ = writeln!(
             out,
-            "| {} | {} | {} | {:.3} | {:.3} | {:.3} |",
+            "| {} | {} | {} | {} | {} | {} |",
             rows[i].id.as_deref().unwrap_or("–"),
             rows[i].line,
-            fixed(nrm[i], 3),
-            e[0],
-            e[1],
-            e[2]
+            mm_col(nrm[i]),
+            signed(e[0], 3),
+            signed(e[1], 3),
+            signed(e[2], 3)
         );
     }
 }
@@ -86,14 +85,14 @@ pub fn markdown(o: &Calibration) -> String {
     let _ = writeln!(
         s,
         "- nominal robot: `{}` ({} joints, {} parameters)",
-        a.robot.display(),
+        o.nominal.path.display(),
         nom.n_joints(),
         nom.n_params()
     );
     let _ = writeln!(
         s,
         "- identification data: `{}`, {}{}",
-        a.data.display(),
+        o.data_source,
         o.selection,
         if o.rejected {
             format!(
@@ -138,24 +137,23 @@ pub fn markdown(o: &Calibration) -> String {
     }
     match &o.registration {
         Some(r) if r.applied => {
-            // signed: the translation and the base.
             let _ = writeln!(
                 s,
                 "- registration: applied — mean point error of the nominal model {} mm → {} mm \
-                 after a rigid fit (rotation {}°, translation ({:.3}, {:.3}, {:.3}) mm); base \
-                 (rx, ry, rz °; dx, dy, dz mm) = ({:.4}, {:.4}, {:.4}; {:.3}, {:.3}, {:.3})",
-                fixed(r.mean_error_before_mm, 3),
-                fixed(r.mean_error_after_mm, 3),
-                fixed(r.rotation_deg, 3),
-                r.translation_mm[0],
-                r.translation_mm[1],
-                r.translation_mm[2],
-                r.base_after[0],
-                r.base_after[1],
-                r.base_after[2],
-                r.base_after[3],
-                r.base_after[4],
-                r.base_after[5]
+                 after a rigid fit (rotation {}°, translation ({}, {}, {}) mm); base \
+                 (rx, ry, rz °; dx, dy, dz mm) = ({}, {}, {}; {}, {}, {})",
+                mm_col(r.mean_error_before_mm),
+                mm_col(r.mean_error_after_mm),
+                deg_coarse(r.rotation_deg),
+                signed(r.translation_mm[0], 3),
+                signed(r.translation_mm[1], 3),
+                signed(r.translation_mm[2], 3),
+                signed(r.base_after[0], 4),
+                signed(r.base_after[1], 4),
+                signed(r.base_after[2], 4),
+                signed(r.base_after[3], 3),
+                signed(r.base_after[4], 3),
+                signed(r.base_after[5], 3)
             );
         }
         Some(r) => {
@@ -166,7 +164,7 @@ pub fn markdown(o: &Calibration) -> String {
             let _ = writeln!(
                 s,
                 "- registration: not needed (nominal mean point error {} mm ≤ {threshold} mm)",
-                fixed(r.mean_error_before_mm, 3)
+                mm_col(r.mean_error_before_mm)
             );
         }
         None => s.push_str("- registration: off (`--registration never`)\n"),
@@ -230,16 +228,20 @@ pub fn markdown(o: &Calibration) -> String {
         let _ = writeln!(
             s,
             "Condition number of the identifiable part: {}.",
-            fixed(c, 2)
+            ratio(c)
         );
     }
     if let Some(ob) = &an.observability {
-        // Scientific with 5 significant digits: no rule of `fmt` (its indices take 3).
         let _ = writeln!(
             s,
             "\nObservability (singular values of the column-scaled Jacobian, m = {}): \
-             O1 {:.4e}, O2 {:.4e}, O3 {:.4e}, O4 {:.4e}, O5 {:.4e}.",
-            an.n_poses, ob.o1, ob.o2, ob.o3, ob.o4, ob.o5
+             O1 {}, O2 {}, O3 {}, O4 {}, O5 {}.",
+            an.n_poses,
+            sci5(ob.o1),
+            sci5(ob.o2),
+            sci5(ob.o3),
+            sci5(ob.o4),
+            sci5(ob.o5)
         );
     }
     if an.redundancies.is_empty() {
@@ -251,11 +253,10 @@ pub fn markdown(o: &Calibration) -> String {
             an.redundant.len()
         );
         for r in &an.redundancies {
-            // signed, with an explicit `+`.
             let with: Vec<String> = r
                 .confounded_with
                 .iter()
-                .map(|t| format!("{} ({:+.3})", t.name, t.weight))
+                .map(|t| format!("{} ({})", t.name, plus(t.weight, 3)))
                 .collect();
             let with = if with.is_empty() {
                 "nothing: it does not move the point".to_string()
@@ -285,14 +286,15 @@ pub fn markdown(o: &Calibration) -> String {
         } else {
             "no"
         };
-        // signed: nominal, identified, Δ.
         let _ = writeln!(
             s,
-            "| {} | {} | {n:.5} | {v:.5} | {:.5} | {} | {ident} |",
+            "| {} | {} | {} | {} | {} | {} | {ident} |",
             info.name,
             info.unit.as_str(),
-            v - n,
-            se.map_or_else(|| "–".into(), |e| fixed(e, 5))
+            signed(n, 5),
+            signed(v, 5),
+            signed(v - n, 5),
+            se.map_or_else(|| "–".into(), |e| param(e, 5))
         );
     }
 
@@ -301,8 +303,7 @@ pub fn markdown(o: &Calibration) -> String {
         Some(c) if !c.high_correlations.is_empty() => {
             s.push_str("| a | b | ρ |\n|---|---|---:|\n");
             for p in &c.high_correlations {
-                // signed, with an explicit `+`.
-                let _ = writeln!(s, "| {} | {} | {:+.4} |", p.a, p.b, p.rho);
+                let _ = writeln!(s, "| {} | {} | {} |", p.a, p.b, plus(p.rho, 4));
             }
         }
         Some(_) => s.push_str("None.\n"),
@@ -312,12 +313,11 @@ pub fn markdown(o: &Calibration) -> String {
     s.push_str("\n## Outliers\n\n");
     match &o.screen {
         Some(sc) => {
-            // k as given (`{}`: the shortest text that reads back as the value).
             let _ = writeln!(
                 s,
                 "Screened after the first fit: ‖e‖ > k·σ̂₃ = {} × {} = {} mm (σ̂₃ = √3·σ̂, \
                  first-fit RMS {} mm).",
-                sc.k,
+                setting(sc.k),
                 mm(sc.sigma_3d_mm),
                 mm(sc.threshold_mm),
                 mm(o.first.rms_mm)
@@ -348,7 +348,7 @@ pub fn markdown(o: &Calibration) -> String {
                         r.id.as_deref().unwrap_or("–"),
                         r.line,
                         mm(ol.norm_mm),
-                        fixed(ol.ratio, 2)
+                        ratio(ol.ratio)
                     );
                 }
             }
@@ -374,8 +374,8 @@ pub fn markdown(o: &Calibration) -> String {
                 s,
                 "\nFor reference, the nominal model rigidly registered on these validation \
                  points themselves (the best any frame alone can do): mean {} mm, max {} mm.",
-                fixed(mean, 3),
-                fixed(max, 3)
+                mm_col(mean),
+                mm_col(max)
             );
         }
         s.push_str("\n### Worst validation points (identified model)\n\n");

@@ -6,7 +6,7 @@ use calibrate::{Calibration, mean_max, norms, row_label};
 use nalgebra::Vector3;
 
 use super::start_label;
-use crate::fmt::{fixed, mm};
+use crate::fmt::{deg_coarse, mm, mm_coarse, mm_col, ms};
 
 /// The console summary of a calibration, one line each: what was fitted, the registration,
 /// the fit, the held parameters, a warning when the solver did not converge, the outliers,
@@ -20,7 +20,7 @@ pub fn summary(o: &Calibration) -> String {
         "{} — {} of {} ({} free parameters, --params {}, {} damping)",
         nom.name(),
         o.selection,
-        a.data.display(),
+        o.data_source,
         o.free.len(),
         a.params,
         a.damping.name()
@@ -31,10 +31,10 @@ pub fn summary(o: &Calibration) -> String {
         let _ = writeln!(
             out,
             "registration: nominal mean error {} mm → {} mm (rotation {}°, translation {} mm)",
-            fixed(r.mean_error_before_mm, 3),
-            fixed(r.mean_error_after_mm, 3),
-            fixed(r.rotation_deg, 3),
-            fixed(Vector3::from(r.translation_mm).norm(), 1)
+            mm_col(r.mean_error_before_mm),
+            mm_col(r.mean_error_after_mm),
+            deg_coarse(r.rotation_deg),
+            mm_coarse(Vector3::from(r.translation_mm).norm())
         );
     }
     let (_, fit_max) = mean_max(&norms(&o.fit_residuals().1));
@@ -50,7 +50,7 @@ pub fn summary(o: &Calibration) -> String {
         o.free.len(),
         o.fit.stop,
         o.fit.iterations,
-        fixed(o.elapsed_ms, 1)
+        ms(o.elapsed_ms)
     );
     if !o.fit.held.is_empty() {
         let _ = writeln!(
@@ -124,10 +124,10 @@ pub fn summary(o: &Calibration) -> String {
             } else {
                 "nominal (registered)"
             },
-            fixed(b.mean_mm, 3),
-            fixed(b.max_mm, 3),
-            fixed(af.mean_mm, 3),
-            fixed(af.max_mm, 3)
+            mm_col(b.mean_mm),
+            mm_col(b.max_mm),
+            mm_col(af.mean_mm),
+            mm_col(af.max_mm)
         );
     }
     out
