@@ -13,6 +13,7 @@ use campaign::{
     SimulateRun, SweepOutcome, SweepRun,
 };
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use report::fmt;
 
 pub use args::{CampaignArgs, CheckpointArgs, MergeArgs, SimulateArgs, SweepArgs};
 
@@ -180,8 +181,9 @@ pub fn print_campaign(outcome: &CampaignOutcome, quiet: bool) {
                 println!("{}", summary.to_markdown());
             }
             eprintln!(
-                "{} trials in {seconds:.2} s on {threads} thread(s) → {}",
+                "{} trials in {} s on {threads} thread(s) → {}",
                 summary.scenario.trials,
+                fmt::secs(*seconds),
                 out.display()
             );
         }
@@ -191,9 +193,10 @@ pub fn print_campaign(outcome: &CampaignOutcome, quiet: bool) {
             file,
             seconds,
         } => eprintln!(
-            "shard {shard}: trials {}..{} in {seconds:.2} s → {}",
+            "shard {shard}: trials {}..{} in {} s → {}",
             trials.start,
             trials.end,
+            fmt::secs(*seconds),
             file.display()
         ),
         _ => {}
@@ -223,14 +226,14 @@ pub fn simulate(args: SimulateArgs) -> Result<()> {
     let t = sim.truth.sampling.total();
     eprintln!(
         "{} identification and {} validation measurements, truth → {}\n\
-         pose sampling: {} candidate draws, {} rejected ({:.1} %: wrist {}, floor {}, \
+         pose sampling: {} candidate draws, {} rejected ({} %: wrist {}, floor {}, \
          elevation {}, range {}, condition {})",
         sim.identification.rows.len(),
         sim.validation.rows.len(),
         args.out.display(),
         t.draws,
         t.rejected(),
-        100.0 * t.rejection_rate(),
+        fmt::pct(100.0 * t.rejection_rate()),
         t.rejected_wrist,
         t.rejected_floor,
         t.rejected_elevation,
@@ -263,11 +266,11 @@ pub fn print_sweep(outcome: &SweepOutcome, quiet: bool) {
         println!("{}", r.to_markdown());
     }
     eprintln!(
-        "{}: {} points × {} trials in {:.1} s → {}",
+        "{}: {} points × {} trials in {} s → {}",
         r.spec.name,
         r.points.len(),
         r.spec.trials,
-        outcome.seconds,
+        fmt::secs(outcome.seconds),
         outcome.out.display()
     );
 }

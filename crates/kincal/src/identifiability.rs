@@ -4,7 +4,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result};
 use clap::{ArgGroup, Args};
-use identify::{IdentifiabilityOptions, IdentifiabilityReport, ParamSpec, analyze};
+use identify::{IdentifiabilityOptions, ParamSpec, analyze};
 use kinematics::{PoseSampler, Robot};
 use measurements::{ReadOptions, read_file};
 use nalgebra::Vector3;
@@ -126,7 +126,15 @@ pub fn run(args: &IdentifiabilityArgs) -> Result<()> {
     if args.json {
         println!("{}", serde_json::to_string_pretty(&report)?);
     } else {
-        print_report(&report, &args.params.to_string(), &source, robot.tool_mm());
+        print!(
+            "{}",
+            report::identifiability::console(
+                &report,
+                &args.params.to_string(),
+                &source,
+                robot.tool_mm()
+            )
+        );
     }
     Ok(())
 }
@@ -150,73 +158,6 @@ fn read_poses(robot: &Robot, path: &Path) -> Result<Vec<f64>> {
         .iter()
         .flat_map(|r| r.q_deg.iter().map(|q| q.to_radians()))
         .collect())
-}
-
-fn print_report(r: &IdentifiabilityReport, params: &str, source: &str, tool: Vector3<f64>) {
-    println!("{} — {source}", r.robot);
-    println!(
-        "{} poses ({} equations), {} parameters ({params}), ball at ({}, {}, {}) mm in the flange frame",
-        r.n_poses, r.n_equations, r.parameter_count, tool.x, tool.y, tool.z
-    );
-    println!("scaling: {}", r.scaling);
-    println!(
-        "rank {} of {} (σ_i > {:e}·σ_max = {:.3e})",
-        r.rank, r.parameter_count, r.rank_rtol, r.rank_tolerance
-    );
-    let sv = &r.singular_values;
-    if r.rank > 0 {
-        print!(
-            "singular values: σ_max {:.4}, σ_r {:.4e}",
-            sv[0],
-            sv[r.rank - 1]
-        );
-        if let Some(next) = sv.get(r.rank) {
-            print!(", next {next:.3e}");
-        }
-        println!();
-    }
-    if let (Some(c), Some(o)) = (r.condition_number, &r.observability) {
-        println!("condition number (identifiable part): {c:.2}");
-        println!(
-            "observability (on σ_1..σ_r of the scaled Jacobian, m = {}): O1 {:.4e}  O2 {:.4e}  O3 {:.4e}  O4 {:.4e}  O5 {:.4e}",
-            r.n_poses, o.o1, o.o2, o.o3, o.o4, o.o5
-        );
-    }
-    if !r.zero_columns.is_empty() {
-        println!(
-            "no effect on the point (zero columns): {}",
-            r.zero_columns.join(", ")
-        );
-    }
-    println!("redundant ({}):", r.redundant.len());
-    for red in &r.redundancies {
-        let with: Vec<String> = red
-            .confounded_with
-            .iter()
-            .map(|t| format!("{} ({:+.3})", t.name, t.weight))
-            .collect();
-        let with = if with.is_empty() {
-            "nothing (zero column)".to_string()
-        } else {
-            with.join(", ")
-        };
-        println!("  {:<10} confounded with {with}", red.name);
-    }
-    if !r.confounded_groups.is_empty() {
-        let groups: Vec<String> = r
-            .confounded_groups
-            .iter()
-            .map(|g| format!("{{{}}}", g.join(", ")))
-            .collect();
-        println!("confounded groups: {}", groups.join(" "));
-    }
-    println!(
-        "identifiable ({}): {}",
-        r.identifiable.len(),
-        r.identifiable.join(", ")
-    );
-    let all: Vec<String> = sv.iter().map(|s| format!("{s:.3e}")).collect();
-    println!("all singular values: {}", all.join(" "));
 }
 
 #[cfg(test)]

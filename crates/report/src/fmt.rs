@@ -31,8 +31,9 @@
 //! | weight or correlation | explicit sign | [`plus`] | `+0.982` |
 //! | ratio, condition number | 2 decimals | [`ratio`] | `3.41` |
 //! | duration (ms) | 1 decimal | [`ms`] | `12.5` |
-//! | singular value (observability O1–O5 of a calibration) | 5 significant digits, scientific | [`sci5`] | `1.2345e-3` |
-//! | a setting echoed as given (outlier k) | shortest round-trip form | [`setting`] | `3`, `2.5` |
+//! | wall-clock duration (s) | 2 decimals | [`secs`] | `3.07` |
+//! | singular value, observability O1–O5, rank threshold | scientific, `d` decimals | [`sci`] | `1.2345e-3` |
+//! | a setting echoed as given (outlier k, a tool offset) | shortest round-trip form | [`setting`], [`setting_sci`] | `3`, `2.5`, `1e-10` |
 
 /// Arcseconds per degree.
 pub const ARCSEC_PER_DEG: f64 = 3600.0;
@@ -99,20 +100,32 @@ pub fn ratio(v: f64) -> String {
     fixed(v, 2)
 }
 
+/// A wall-clock duration in seconds: 2 decimals.
+pub fn secs(v: f64) -> String {
+    fixed(v, 2)
+}
+
 /// A duration in milliseconds: 1 decimal.
 pub fn ms(v: f64) -> String {
     fixed(v, 1)
 }
 
-/// A singular value (a calibration's observability indices O1–O5): scientific notation with
-/// 5 significant digits (`1.2345e-3`); they span decades, and the report compares them.
-pub fn sci5(v: f64) -> String {
-    format!("{v:.4e}")
+/// A singular value, an observability index O1–O5 of a calibration or a rank threshold:
+/// scientific notation with `d` decimals in the mantissa (`1.2345e-3` for 4); they span
+/// decades.
+pub fn sci(v: f64, d: usize) -> String {
+    format!("{v:.d$e}")
 }
 
 /// A setting echoed as the user gave it: Rust's shortest round-trip form (`3`, `2.5`).
 pub fn setting(v: f64) -> String {
     format!("{v}")
+}
+
+/// A setting that is a tolerance, echoed in scientific notation in its shortest round-trip
+/// form (`1e-10`).
+pub fn setting_sci(v: f64) -> String {
+    format!("{v:e}")
 }
 
 /// A length in mm: 3 decimals, 4 below 0.1 mm.
@@ -299,7 +312,8 @@ mod tests {
         assert_eq!(signed(1.23456, 3), "1.235");
         assert_eq!(plus(0.5, 3), "+0.500");
         assert_eq!(plus(-0.9821, 4), "-0.9821");
-        assert_eq!(sci5(0.018591), "1.8591e-2");
+        assert_eq!(sci(0.018591, 4), "1.8591e-2");
+        assert_eq!(setting_sci(1e-10), "1e-10");
         assert_eq!(setting(3.0), "3");
         assert_eq!(setting(2.5), "2.5");
         assert_eq!(mm_coarse(3820.64), "3820.6");

@@ -10,6 +10,7 @@
 pub mod calibration;
 pub mod fmt;
 pub mod html;
+pub mod identifiability;
 pub mod plot;
 
 pub use plot::{Figure, LegendAt, PlotError, RefLine, Scale, Series, Style};

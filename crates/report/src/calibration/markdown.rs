@@ -8,7 +8,7 @@ use identify::RegistrationPolicy;
 use measurements::Measurement;
 
 use super::start_label;
-use crate::fmt::{deg_coarse, mm, mm_col, number, param, plus, ratio, sci5, setting, signed};
+use crate::fmt::{deg_coarse, mm, mm_col, number, param, plus, ratio, sci, setting, signed};
 
 fn stats_row(out: &mut String, name: &str, before: f64, after: f64) {
     // An improvement of -0.04 % prints `-0.0`.
@@ -237,11 +237,11 @@ pub fn markdown(o: &Calibration) -> String {
             "\nObservability (singular values of the column-scaled Jacobian, m = {}): \
              O1 {}, O2 {}, O3 {}, O4 {}, O5 {}.",
             an.n_poses,
-            sci5(ob.o1),
-            sci5(ob.o2),
-            sci5(ob.o3),
-            sci5(ob.o4),
-            sci5(ob.o5)
+            sci(ob.o1, 4),
+            sci(ob.o2, 4),
+            sci(ob.o3, 4),
+            sci(ob.o4, 4),
+            sci(ob.o5, 4)
         );
     }
     if an.redundancies.is_empty() {

@@ -1,0 +1,107 @@
+//! The console text of `kincal identifiability`: rank, singular values, observability,
+//! redundant and identifiable sets of an [`IdentifiabilityReport`]. Numbers follow
+//! [`crate::fmt`].
+
+use std::fmt::Write as _;
+
+use identify::IdentifiabilityReport;
+use nalgebra::Vector3;
+
+use crate::fmt::{fixed, plus, ratio, sci, setting, setting_sci};
+
+/// The text `kincal identifiability` prints for `r` (the parameter spec `params` as written,
+/// the poses' `source`, the measured point `tool` in the flange frame, mm).
+pub fn console(
+    r: &IdentifiabilityReport,
+    params: &str,
+    source: &str,
+    tool: Vector3<f64>,
+) -> String {
+    let mut out = String::new();
+    let _ = writeln!(out, "{} — {source}", r.robot);
+    let _ = writeln!(
+        out,
+        "{} poses ({} equations), {} parameters ({params}), ball at ({}, {}, {}) mm in the \
+         flange frame",
+        r.n_poses,
+        r.n_equations,
+        r.parameter_count,
+        setting(tool.x),
+        setting(tool.y),
+        setting(tool.z)
+    );
+    let _ = writeln!(out, "scaling: {}", r.scaling);
+    let _ = writeln!(
+        out,
+        "rank {} of {} (σ_i > {}·σ_max = {})",
+        r.rank,
+        r.parameter_count,
+        setting_sci(r.rank_rtol),
+        sci(r.rank_tolerance, 3)
+    );
+    let sv = &r.singular_values;
+    if r.rank > 0 {
+        let _ = write!(
+            out,
+            "singular values: σ_max {}, σ_r {}",
+            fixed(sv[0], 4),
+            sci(sv[r.rank - 1], 4)
+        );
+        if let Some(next) = sv.get(r.rank) {
+            let _ = write!(out, ", next {}", sci(*next, 3));
+        }
+        out.push('\n');
+    }
+    if let (Some(c), Some(o)) = (r.condition_number, &r.observability) {
+        let _ = writeln!(out, "condition number (identifiable part): {}", ratio(c));
+        let _ = writeln!(
+            out,
+            "observability (on σ_1..σ_r of the scaled Jacobian, m = {}): O1 {}  O2 {}  O3 {}  \
+             O4 {}  O5 {}",
+            r.n_poses,
+            sci(o.o1, 4),
+            sci(o.o2, 4),
+            sci(o.o3, 4),
+            sci(o.o4, 4),
+            sci(o.o5, 4)
+        );
+    }
+    if !r.zero_columns.is_empty() {
+        let _ = writeln!(
+            out,
+            "no effect on the point (zero columns): {}",
+            r.zero_columns.join(", ")
+        );
+    }
+    let _ = writeln!(out, "redundant ({}):", r.redundant.len());
+    for red in &r.redundancies {
+        let with: Vec<String> = red
+            .confounded_with
+            .iter()
+            .map(|t| format!("{} ({})", t.name, plus(t.weight, 3)))
+            .collect();
+        let with = if with.is_empty() {
+            "nothing (zero column)".to_string()
+        } else {
+            with.join(", ")
+        };
+        let _ = writeln!(out, "  {:<10} confounded with {with}", red.name);
+    }
+    if !r.confounded_groups.is_empty() {
+        let groups: Vec<String> = r
+            .confounded_groups
+            .iter()
+            .map(|g| format!("{{{}}}", g.join(", ")))
+            .collect();
+        let _ = writeln!(out, "confounded groups: {}", groups.join(" "));
+    }
+    let _ = writeln!(
+        out,
+        "identifiable ({}): {}",
+        r.identifiable.len(),
+        r.identifiable.join(", ")
+    );
+    let all: Vec<String> = sv.iter().map(|s| sci(*s, 3)).collect();
+    let _ = writeln!(out, "all singular values: {}", all.join(" "));
+    out
+}
