@@ -4,7 +4,7 @@
 
 use std::fmt::Write as _;
 
-use identify::IdentifiabilityReport;
+use identify::{IdentifiabilityReport, Observability, Redundancy};
 use nalgebra::Vector3;
 
 use crate::fmt::{fixed, plus, ratio, sci, setting, setting_sci};
@@ -56,14 +56,9 @@ pub fn console(
         let _ = writeln!(out, "condition number (identifiable part): {}", ratio(c));
         let _ = writeln!(
             out,
-            "observability (on σ_1..σ_r of the scaled Jacobian, m = {}): O1 {}  O2 {}  O3 {}  \
-             O4 {}  O5 {}",
+            "observability (on σ_1..σ_r of the scaled Jacobian, m = {}): {}",
             r.n_poses,
-            sci(o.o1, 4),
-            sci(o.o2, 4),
-            sci(o.o3, 4),
-            sci(o.o4, 4),
-            sci(o.o5, 4)
+            indices(o, "  ")
         );
     }
     if !r.zero_columns.is_empty() {
@@ -75,16 +70,7 @@ pub fn console(
     }
     let _ = writeln!(out, "redundant ({}):", r.redundant.len());
     for red in &r.redundancies {
-        let with: Vec<String> = red
-            .confounded_with
-            .iter()
-            .map(|t| format!("{} ({})", t.name, plus(t.weight, 3)))
-            .collect();
-        let with = if with.is_empty() {
-            "nothing (zero column)".to_string()
-        } else {
-            with.join(", ")
-        };
+        let with = confounded_with(red, "nothing (zero column)");
         let _ = writeln!(out, "  {:<10} confounded with {with}", red.name);
     }
     if !r.confounded_groups.is_empty() {
@@ -104,4 +90,27 @@ pub fn console(
     let all: Vec<String> = sv.iter().map(|s| sci(*s, 3)).collect();
     let _ = writeln!(out, "all singular values: {}", all.join(" "));
     out
+}
+
+/// O1 … O5 of `o`, separated by `sep` (`O1 1.8591e-2, O2 …`).
+pub(crate) fn indices(o: &Observability, sep: &str) -> String {
+    [o.o1, o.o2, o.o3, o.o4, o.o5]
+        .iter()
+        .enumerate()
+        .map(|(i, v)| format!("O{} {}", i + 1, sci(*v, 4)))
+        .collect::<Vec<_>>()
+        .join(sep)
+}
+
+/// What a redundant parameter is confounded with, with the weights (`d2 (-1.000), a2
+/// (+0.001)`), or `none` when it does not move the point.
+pub(crate) fn confounded_with(red: &Redundancy, none: &str) -> String {
+    if red.confounded_with.is_empty() {
+        return none.to_string();
+    }
+    red.confounded_with
+        .iter()
+        .map(|t| format!("{} ({})", t.name, plus(t.weight, 3)))
+        .collect::<Vec<_>>()
+        .join(", ")
 }

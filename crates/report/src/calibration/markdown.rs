@@ -8,7 +8,8 @@ use identify::RegistrationPolicy;
 use measurements::Measurement;
 
 use super::start_label;
-use crate::fmt::{deg_coarse, mm, mm_col, number, param, plus, ratio, sci, setting, signed};
+use crate::fmt::{deg_coarse, mm, mm_col, number, param, plus, ratio, setting, signed};
+use crate::identifiability::{confounded_with, indices};
 
 fn stats_row(out: &mut String, name: &str, before: f64, after: f64) {
     // An improvement of -0.04 % prints `-0.0`.
@@ -234,14 +235,9 @@ pub fn markdown(o: &Calibration) -> String {
     if let Some(ob) = &an.observability {
         let _ = writeln!(
             s,
-            "\nObservability (singular values of the column-scaled Jacobian, m = {}): \
-             O1 {}, O2 {}, O3 {}, O4 {}, O5 {}.",
+            "\nObservability (singular values of the column-scaled Jacobian, m = {}): {}.",
             an.n_poses,
-            sci(ob.o1, 4),
-            sci(ob.o2, 4),
-            sci(ob.o3, 4),
-            sci(ob.o4, 4),
-            sci(ob.o5, 4)
+            indices(ob, ", ")
         );
     }
     if an.redundancies.is_empty() {
@@ -253,16 +249,7 @@ pub fn markdown(o: &Calibration) -> String {
             an.redundant.len()
         );
         for r in &an.redundancies {
-            let with: Vec<String> = r
-                .confounded_with
-                .iter()
-                .map(|t| format!("{} ({})", t.name, plus(t.weight, 3)))
-                .collect();
-            let with = if with.is_empty() {
-                "nothing: it does not move the point".to_string()
-            } else {
-                with.join(", ")
-            };
+            let with = confounded_with(r, "nothing: it does not move the point");
             let _ = writeln!(s, "- `{}` confounded with {with}", r.name);
         }
     }
