@@ -402,11 +402,18 @@ impl Scenario {
     /// Parses a scenario from JSON text.
     pub fn from_json_str(text: &str, source: &str) -> Result<Scenario, ScenarioError> {
         let de = &mut serde_json::Deserializer::from_str(text);
-        serde_path_to_error::deserialize(de).map_err(|e| ScenarioError::Parse {
+        let scenario = serde_path_to_error::deserialize(&mut *de).map_err(|e| ScenarioError::Parse {
             file: source.to_string(),
             field: e.path().to_string(),
             message: e.into_inner().to_string(),
-        })
+        })?;
+        // Nothing but white space after the document.
+        de.end().map_err(|e| ScenarioError::Parse {
+            file: source.to_string(),
+            field: ".".to_string(),
+            message: e.to_string(),
+        })?;
+        Ok(scenario)
     }
 
     /// Loads the robot (relative to `base_dir`) and validates every section.

@@ -227,11 +227,18 @@ impl ShardFile {
     /// and column.
     pub fn from_json_str(text: &str, source: &str) -> Result<ShardFile, CampaignError> {
         let de = &mut serde_json::Deserializer::from_str(text);
-        serde_path_to_error::deserialize(de).map_err(|e| CampaignError::Parse {
+        let file = serde_path_to_error::deserialize(&mut *de).map_err(|e| CampaignError::Parse {
             file: source.to_string(),
             field: e.path().to_string(),
             message: format!("not a shard file: {}", e.into_inner()),
-        })
+        })?;
+        // Nothing but white space after the document.
+        de.end().map_err(|e| CampaignError::Parse {
+            file: source.to_string(),
+            field: ".".to_string(),
+            message: format!("not a shard file: {e}"),
+        })?;
+        Ok(file)
     }
 
     /// Reads a shard file written by [`ShardFile::write`].

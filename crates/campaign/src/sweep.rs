@@ -211,11 +211,17 @@ impl SweepSpec {
         })?;
         let de = &mut serde_json::Deserializer::from_str(&text);
         let spec: SweepSpec =
-            serde_path_to_error::deserialize(de).map_err(|e| CampaignError::Parse {
+            serde_path_to_error::deserialize(&mut *de).map_err(|e| CampaignError::Parse {
                 file: path.display().to_string(),
                 field: e.path().to_string(),
                 message: e.into_inner().to_string(),
             })?;
+        // Nothing but white space after the document.
+        de.end().map_err(|e| CampaignError::Parse {
+            file: path.display().to_string(),
+            field: ".".to_string(),
+            message: e.to_string(),
+        })?;
         if spec.axes.is_empty() || spec.axes.iter().any(|a| a.values.is_empty()) {
             return Err(CampaignError::SweepWithoutAxes {
                 file: path.to_path_buf(),
