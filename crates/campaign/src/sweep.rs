@@ -235,6 +235,68 @@ impl SweepSpec {
         Ok(spec)
     }
 
+    /// Checks every setting before any point runs: each plot (`x` an axis with numeric
+    /// values, `y` a metric of [`crate::run::METRICS`]) and each point's scenario (the base
+    /// scenario with the overrides and the point's axis values, loaded and set up as a run
+    /// would). `sweep_dir`: the sweep file's directory (the base scenario is relative to it).
+    pub fn validate(&self, sweep_dir: &Path) -> Result<(), CampaignError> {
+        for (k, plot) in self.plots.iter().enumerate() {
+            let err = |source| CampaignError::SweepPlot {
+                plot: k + 1,
+                source,
+            };
+            let axis = match &plot.x {
+                Some(x) => self
+                    .axes
+                    .iter()
+                    .find(|a| &a.path == x)
+                    .ok_or_else(|| err(SweepPlotError::NotAnAxis { x: x.clone() }))?,
+                None => &self.axes[0],
+            };
+            if axis.values.iter().any(|v| !v.is_number()) {
+                return Err(err(SweepPlotError::NotNumeric {
+                    axis: axis.path.clone(),
+                }));
+            }
+            if !crate::run::METRICS.contains(&plot.y.as_str()) {
+                return Err(err(SweepPlotError::UnknownMetric {
+                    y: plot.y.clone(),
+                    known: crate::run::METRICS.join(", "),
+                }));
+            }
+        }
+        let scenario_path = sweep_dir.join(&self.scenario);
+        let base = scenario_json_with(&scenario_path, &self.overrides, self.trials, "sweep")?;
+        let scenario_dir = scenario_path.parent().unwrap_or(Path::new("."));
+        for (i, combo) in self.combinations().iter().enumerate() {
+            let mut v = base.clone();
+            for (axis, value) in self.axes.iter().zip(combo) {
+                set_path(&mut v, &axis.path, value.clone()).map_err(|source| {
+                    CampaignError::SweepAxis {
+                        axis: axis.path.clone(),
+                        source,
+                    }
+                })?;
+            }
+            let label = format!("{} point {}", self.name, i);
+            let loaded = Scenario::from_value(v, &label)?.load(scenario_dir, &label)?;
+            Context::new(loaded)?;
+        }
+        Ok(())
+    }
+
+    /// The part of the sweep that decides the computed work (the base scenario, trials,
+    /// overrides, axis paths and values): what a checkpoint must match to be resumed. Name,
+    /// description, axis labels and plots only change how the results are shown.
+    fn work(&self) -> serde_json::Value {
+        serde_json::json!({
+            "scenario": self.scenario,
+            "trials": self.trials,
+            "overrides": self.overrides,
+            "axes": self.axes.iter().map(|a| (&a.path, &a.values)).collect::<Vec<_>>(),
+        })
+    }
+
     /// Every combination of axis values, last axis fastest.
     pub fn combinations(&self) -> Vec<Vec<serde_json::Value>> {
         let mut out: Vec<Vec<serde_json::Value>> = vec![vec![]];
@@ -341,7 +403,7 @@ pub fn run_sweep_checkpointed(
                     saved.code, state.code
                 ));
             }
-            if saved.spec != state.spec {
+            if saved.spec.work() != state.spec.work() {
                 diff.push("the sweep file (axes, trials, overrides or scenario)".into());
             }
             if saved.points.len() > combos.len() {
@@ -358,7 +420,11 @@ pub fn run_sweep_checkpointed(
                     differences: diff,
                 });
             }
-            state = saved;
+            // Plots, labels, name and description may have changed: this run's count.
+            state = SweepCheckpoint {
+                spec: spec.clone(),
+                ..saved
+            };
         }
     }
     for (i, combo) in combos.iter().enumerate().skip(state.points.len()) {
@@ -411,6 +477,7 @@ pub fn run_sweep_checkpointed(
                         manifest: manifest.clone(),
                         next_trial: n,
                         aggregate: a.clone(),
+                        wall_seconds: 0.0,
                     });
                     write_sweep_checkpoint(&cfg.path, &state)
                 };

@@ -133,6 +133,7 @@ fn mutated_shard_and_checkpoint_files_are_read_or_refused_clearly() {
         manifest: CheckpointManifest::new("campaign", &ctx, 0..2, "fuzz"),
         next_trial: 1,
         aggregate: s0.aggregate.clone(),
+        wall_seconds: 1.5,
     };
     let seed = serde_json::to_vec(&checkpoint).unwrap();
     fuzz("checkpoint", &seed, 400, &|bytes, file| {
