@@ -159,6 +159,14 @@ pub enum CampaignError {
         #[source]
         source: serde_json::Error,
     },
+    /// A shard file's content does not match its digest, or is inconsistent.
+    #[error("{file}: not a shard file as written: {problem}")]
+    ShardContent {
+        /// The file.
+        file: String,
+        /// What is wrong.
+        problem: String,
+    },
     /// A file is not valid UTF-8.
     #[error("{path}:{line}: not valid UTF-8")]
     NotUtf8 {

@@ -106,6 +106,7 @@ fn shards() -> (Context, [ShardFile; 2]) {
             },
             aggregate: run_range(&ctx, range, &|_| {}),
             residual_budget: None,
+            digest: None,
         }
     };
     let files = [shard(0), shard(1)];
@@ -115,7 +116,7 @@ fn shards() -> (Context, [ShardFile; 2]) {
 #[test]
 fn mutated_shard_and_checkpoint_files_are_read_or_refused_clearly() {
     let (ctx, [s0, s1]) = shards();
-    let seed = serde_json::to_vec(&s0).unwrap();
+    let seed = s0.to_json_string().unwrap().into_bytes();
     fuzz("shard", &seed, 400, &|bytes, file| {
         let label = file.display().to_string();
         let shard = match text_or_file(bytes, file) {

@@ -170,7 +170,9 @@ impl Observer for Progress {
     fn phase_finished(&self, _phase: Phase) {
         if let Some(plain) = &self.plain {
             let p = plain.lock().unwrap_or_else(|e| e.into_inner());
-            eprintln!("{}", p.line(self.done.load(Ordering::Relaxed)));
+            if p.total > 0 {
+                eprintln!("{}", p.line(self.done.load(Ordering::Relaxed)));
+            }
             return;
         }
         if let Some(pb) = self.bar().take() {

@@ -82,6 +82,13 @@ pub fn run(args: &DesignArgs) -> Result<()> {
     let pool = match (&args.candidates, &args.scenario, args.random) {
         (Some(path), _, _) => Candidates::from_file(&robot, path)?,
         (None, Some(path), Some(n)) => {
+            measurements::check_size(
+                "candidates",
+                n as u64,
+                campaign::scenario::MAX_POSES,
+                campaign::scenario::BYTES_PER_POSE,
+            )
+            .with_context(|| format!("--random {n}"))?;
             let loaded = campaign::Scenario::from_file(path)
                 .with_context(|| format!("loading {}", path.display()))?;
             // The virtual robot samples on the geometric model (its physics beyond geometry
