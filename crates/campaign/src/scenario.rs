@@ -402,11 +402,12 @@ impl Scenario {
     /// Parses a scenario from JSON text.
     pub fn from_json_str(text: &str, source: &str) -> Result<Scenario, ScenarioError> {
         let de = &mut serde_json::Deserializer::from_str(text);
-        let scenario = serde_path_to_error::deserialize(&mut *de).map_err(|e| ScenarioError::Parse {
-            file: source.to_string(),
-            field: e.path().to_string(),
-            message: e.into_inner().to_string(),
-        })?;
+        let scenario =
+            serde_path_to_error::deserialize(&mut *de).map_err(|e| ScenarioError::Parse {
+                file: source.to_string(),
+                field: e.path().to_string(),
+                message: e.into_inner().to_string(),
+            })?;
         // Nothing but white space after the document.
         de.end().map_err(|e| ScenarioError::Parse {
             file: source.to_string(),
@@ -443,12 +444,13 @@ impl Scenario {
             ("poses.validation", self.poses.validation.len()),
             ("pose_selection.candidates", self.pose_selection.candidates),
         ] {
-            measurements::check_size("poses", n as u64, MAX_POSES, BYTES_PER_POSE)
-                .map_err(|e| ScenarioError::Invalid {
+            measurements::check_size("poses", n as u64, MAX_POSES, BYTES_PER_POSE).map_err(
+                |e| ScenarioError::Invalid {
                     file: source.to_string(),
                     field: field.to_string(),
                     message: e.to_string(),
-                })?;
+                },
+            )?;
         }
         if self.trials == 0 {
             return Err(invalid("trials", "must be at least 1".into()));

@@ -263,11 +263,12 @@ impl ShardFile {
     /// is not the shard's range.
     pub fn from_json_str(text: &str, source: &str) -> Result<ShardFile, CampaignError> {
         let de = &mut serde_json::Deserializer::from_str(text);
-        let file: ShardFile = serde_path_to_error::deserialize(&mut *de).map_err(|e| CampaignError::Parse {
-            file: source.to_string(),
-            field: e.path().to_string(),
-            message: format!("not a shard file: {}", e.into_inner()),
-        })?;
+        let file: ShardFile =
+            serde_path_to_error::deserialize(&mut *de).map_err(|e| CampaignError::Parse {
+                file: source.to_string(),
+                field: e.path().to_string(),
+                message: format!("not a shard file: {}", e.into_inner()),
+            })?;
         // Nothing but white space after the document.
         de.end().map_err(|e| CampaignError::Parse {
             file: source.to_string(),

@@ -238,12 +238,15 @@ impl SweepSpec {
     /// Checks every setting before any point runs: each plot (`x` an axis with numeric
     /// values, `y` a metric of [`crate::run::METRICS`]) and each point's scenario (the base
     /// scenario with the overrides and the point's axis values, loaded and set up as a run
-    /// would). `sweep_dir`: the sweep file's directory (the base scenario is relative to it).
-    pub fn validate(&self, sweep_dir: &Path) -> Result<(), CampaignError> {
+    /// would). `sweep_file`: the sweep file (named in errors; the base scenario is relative
+    /// to its directory).
+    pub fn validate(&self, sweep_file: &Path) -> Result<(), CampaignError> {
+        let sweep_dir = sweep_file.parent().unwrap_or(Path::new("."));
         for (k, plot) in self.plots.iter().enumerate() {
-            let err = |source| CampaignError::SweepPlot {
-                plot: k + 1,
-                source,
+            let err = |source: SweepPlotError| CampaignError::Parse {
+                file: sweep_file.display().to_string(),
+                field: format!("plots[{k}]"),
+                message: source.to_string(),
             };
             let axis = match &plot.x {
                 Some(x) => self
@@ -288,7 +291,7 @@ impl SweepSpec {
     /// The part of the sweep that decides the computed work (the base scenario, trials,
     /// overrides, axis paths and values): what a checkpoint must match to be resumed. Name,
     /// description, axis labels and plots only change how the results are shown.
-    fn work(&self) -> serde_json::Value {
+    pub fn work(&self) -> serde_json::Value {
         serde_json::json!({
             "scenario": self.scenario,
             "trials": self.trials,

@@ -77,7 +77,7 @@ impl SweepRun {
         }
         let dir = self.sweep.parent().unwrap_or(Path::new("."));
         // Every point's scenario and the plots' settings, before any point runs.
-        spec.validate(dir)?;
+        spec.validate(&self.sweep)?;
         let (pool, _) = thread_pool(self.threads)?;
         let started = Instant::now();
         let out = match &self.out {

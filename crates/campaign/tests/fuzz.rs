@@ -86,7 +86,7 @@ fn mutated_sweep_files_are_read_or_refused_clearly() {
 }
 
 /// Two shards of a two-trial campaign (ISO off: smaller files), and the context.
-fn shards() -> (Context, [ShardFile; 2]) {
+pub(crate) fn shards() -> (Context, [ShardFile; 2]) {
     let mut loaded = Scenario::from_file(&scenarios().join("paper-kr1000.json")).unwrap();
     loaded.scenario.iso.enabled = false;
     loaded.scenario.residual_budget.enabled = false;
