@@ -160,10 +160,12 @@ pub enum CampaignError {
         source: serde_json::Error,
     },
     /// A shard file's content does not match its digest, or is inconsistent.
-    #[error("{file}: not a shard file as written: {problem}")]
+    #[error("{file}: field `{field}`: not the shard file as written: {problem}")]
     ShardContent {
         /// The file.
         file: String,
+        /// The field at fault (`digest`, `aggregate.trials`).
+        field: &'static str,
         /// What is wrong.
         problem: String,
     },

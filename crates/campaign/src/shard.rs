@@ -275,32 +275,40 @@ impl ShardFile {
             field: ".".to_string(),
             message: format!("not a shard file: {e}"),
         })?;
-        let inconsistent = |problem: String| CampaignError::ShardContent {
+        let inconsistent = |field: &'static str, problem: String| CampaignError::ShardContent {
             file: source.to_string(),
+            field,
             problem,
         };
         let Some(found) = &file.digest else {
             return Err(inconsistent(
-                "it has no `digest` (written by an older kincal, or edited): rerun the shard"
+                "digest",
+                "it has no digest (written by an older kincal, or edited): rerun the shard"
                     .to_string(),
             ));
         };
         let expected = file
             .content_digest()
-            .map_err(|e| inconsistent(format!("cannot compute its digest: {e}")))?;
+            .map_err(|e| inconsistent("digest", format!("cannot compute its digest: {e}")))?;
         if *found != expected {
-            return Err(inconsistent(format!(
-                "its content does not match its digest ({found} recorded, {expected} \
+            return Err(inconsistent(
+                "digest",
+                format!(
+                    "its content does not match its digest ({found} recorded, {expected} \
                  computed): the file was edited or damaged after it was written; rerun the \
                  shard"
-            )));
+                ),
+            ));
         }
         let m = &file.manifest;
         if m.end_trial.checked_sub(m.first_trial) != Some(file.aggregate.trials) {
-            return Err(inconsistent(format!(
-                "its aggregate holds {} trials but its range is {}..{}",
-                file.aggregate.trials, m.first_trial, m.end_trial
-            )));
+            return Err(inconsistent(
+                "aggregate.trials",
+                format!(
+                    "its aggregate holds {} trials but its range is {}..{}",
+                    file.aggregate.trials, m.first_trial, m.end_trial
+                ),
+            ));
         }
         Ok(file)
     }
