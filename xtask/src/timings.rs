@@ -86,7 +86,10 @@ pub fn run(args: &TimingsArgs) -> Result<()> {
     let mut no_budget = Vec::new();
     for i in 0..repeat {
         let o = out(&format!("first-{i}"));
-        first.push(time(&kincal, &["campaign", scenario, "--quiet", "--out", &o])?);
+        first.push(time(
+            &kincal,
+            &["campaign", scenario, "--quiet", "--out", &o],
+        )?);
         let o = out(&format!("no-budget-{i}"));
         no_budget.push(time(
             &kincal,

@@ -144,3 +144,47 @@ fn plots_and_labels_do_not_change_a_sweeps_work() {
     d.axes[0].values.pop();
     assert_ne!(a.work(), d.work());
 }
+
+/// `timing.json` after a resume reports the whole run: a checkpoint that says the run has
+/// taken 1000 s so far (2 of 4 trials), resumed, gives at least 1000 s and a trial rate
+/// over the whole run.
+#[test]
+fn timing_after_a_resume_counts_every_segment() {
+    use campaign::{CampaignRun, Checkpoint, CheckpointManifest, Checkpointing, Context};
+    let file = scenarios().join("paper-kr1000.json");
+    let mut loaded = Scenario::from_file(&file).unwrap();
+    loaded.scenario.iso.enabled = false;
+    loaded.scenario.residual_budget.enabled = false;
+    loaded.scenario.trials = 4;
+    let ctx = Context::new(loaded).unwrap();
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("out");
+    std::fs::create_dir(&out).unwrap();
+    Checkpoint {
+        manifest: CheckpointManifest::new("campaign", &ctx, 0..4, &campaign::code_version()),
+        next_trial: 2,
+        aggregate: campaign::run_range(&ctx, 0..2, &|_| {}),
+        wall_seconds: 1000.0,
+    }
+    .write(&out.join("checkpoint.json"))
+    .unwrap();
+    let mut run = CampaignRun::new(&file);
+    run.trials = Some(4);
+    run.iso_off = true;
+    run.budget_off = true;
+    run.out = Some(out.clone());
+    run.checkpoint = Some(Checkpointing {
+        resume: true,
+        every_trials: None,
+    });
+    run.run(&campaign::Silent).unwrap();
+    let t: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("timing.json")).unwrap()).unwrap();
+    let wall = t["wall_seconds"].as_f64().unwrap();
+    assert!((1000.0..1100.0).contains(&wall), "{t}");
+    assert!(
+        t["trials_per_second"].as_f64().unwrap() < 4.0 / 1000.0 + 1e-12,
+        "{t}"
+    );
+    assert!(!out.join("checkpoint.json").exists());
+}

@@ -179,7 +179,7 @@ fn corpus_of_found_cases_is_refused_clearly() {
     let (_, [s0, s1]) = shards();
     let mut huge = s0.clone();
     huge.manifest.shards = u64::MAX;
-    let text = serde_json::to_string(&huge).unwrap();
+    let text = huge.to_json_string().unwrap();
     let parsed = ShardFile::from_json_str(&text, &label).unwrap();
     let err = merge_shards(&[parsed, s1.clone()]).unwrap_err().to_string();
     assert!(err.contains("2 shard file(s)"), "{err}");
