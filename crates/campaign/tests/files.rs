@@ -188,3 +188,19 @@ fn timing_after_a_resume_counts_every_segment() {
     );
     assert!(!out.join("checkpoint.json").exists());
 }
+
+/// A scenario copied elsewhere without its `robots/` names the robot path as relative to the
+/// scenario file's directory.
+#[test]
+fn a_missing_robot_file_is_named_as_relative_to_the_scenario() {
+    let text = std::fs::read_to_string(scenarios().join("paper-kr1000.json")).unwrap();
+    let tmp = tempfile::tempdir().unwrap();
+    let copy = tmp.path().join("copy.json");
+    std::fs::write(&copy, &text).unwrap();
+    let e = Scenario::from_file(&copy).unwrap_err().to_string();
+    assert!(
+        e.contains("relative to the scenario file's directory"),
+        "{e}"
+    );
+    assert!(e.contains("robots/kr1000-titan.json"), "{e}");
+}
