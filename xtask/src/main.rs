@@ -8,6 +8,7 @@ mod check_cmd;
 mod regenerate;
 mod slurm_cmd;
 mod tidy;
+mod timings;
 
 use anyhow::{Context, Result};
 use clap::{Parser, Subcommand};
@@ -43,6 +44,9 @@ enum Cmd {
     /// current tree and write results/bench.json with the machine's CPU, SIMD features and
     /// cores.
     Bench(bench::BenchArgs),
+    /// Measure the times README.md states (the first command, the trial rate, 10⁶ trials
+    /// extrapolated) on the committed scenario and write docs/timings.md with the machine.
+    Timings(timings::TimingsArgs),
     /// A real Slurm run: a one-node cluster in a temporary directory, the campaign as a job
     /// array of shards plus a dependent merge, one shard requeued and resumed; the merged
     /// summary.json must equal a single run's (installs slurm-wlm and munge if missing).
@@ -61,6 +65,7 @@ fn run(cli: Cli) -> Result<()> {
         Cmd::Regenerate(args) => regenerate::regenerate(args),
         Cmd::Check(args) => check_cmd::run(&args),
         Cmd::Bench(args) => bench::run(args),
+        Cmd::Timings(args) => timings::run(&args),
         Cmd::SlurmSmoke(args) => slurm_cmd::run(&args),
         Cmd::User(cmd) => kincal::run(cmd),
     }

@@ -15,7 +15,7 @@ use crate::checkpoint::{
 };
 use crate::error::CampaignError;
 use crate::observer::{Observer, Phase};
-use crate::outputs::{write_outputs, write_timing};
+use crate::outputs::{render_outputs, timing_json};
 use crate::run::run_range;
 use crate::scenario::Scenario;
 use crate::shard::{Shard, ShardFile, merge_shards, shard_budget};
@@ -118,24 +118,58 @@ pub fn default_out(name: &str) -> PathBuf {
     Path::new("results").join(name)
 }
 
-/// Creates the output directory (and its parents); a file of that name is refused as
-/// such, not as a bare "File exists".
-pub(crate) fn create_out_dir(out: &Path) -> Result<(), CampaignError> {
-    if out.exists() && !out.is_dir() {
-        return Err(CampaignError::OutputIsAFile {
-            path: out.to_path_buf(),
-        });
-    }
-    std::fs::create_dir_all(out).map_err(|source| CampaignError::CreateDir {
-        path: out.to_path_buf(),
-        source,
-    })
+/// The default output directory of a run whose settings differ from its committed file
+/// (`overrides`, e.g. `["trials-20", "no-iso"]`, not empty): `runs/<name>-<overrides>`,
+/// never `results/<name>`, whose files are the committed scenario's. Naming an output
+/// directory explicitly (`out`) writes wherever it says.
+pub fn scratch_out(name: &str, overrides: &[String]) -> PathBuf {
+    Path::new("runs").join(format!("{name}-{}", overrides.join("-")))
 }
 
-/// A thread pool of `threads` workers (`None`: all cores), and that count.
+/// Takes the output directory `out` for this run ([`measurements::OutputDir::lock`]: a
+/// path that is not a directory is refused, another run writing it is refused naming the
+/// holder, an interrupted run's leftovers are removed) and creates it, so that checkpoints
+/// can be written into it while the run goes on.
+pub(crate) fn lock_out_dir(out: &Path) -> Result<measurements::OutputDir, CampaignError> {
+    let held = measurements::OutputDir::lock(out)?;
+    std::fs::create_dir_all(held.path()).map_err(|source| CampaignError::CreateDir {
+        path: out.to_path_buf(),
+        source,
+    })?;
+    Ok(held)
+}
+
+/// Refuses a run where every trial failed (its outputs, written by then, list the causes).
+pub(crate) fn check_some_succeeded(
+    agg: &crate::run::Aggregate,
+    out: &Path,
+) -> Result<(), CampaignError> {
+    let failed: u64 = agg.failures.0.values().sum();
+    if agg.trials > 0 && failed >= agg.trials {
+        let cause = agg
+            .failures
+            .0
+            .iter()
+            .max_by_key(|(_, n)| **n)
+            .map(|(c, _)| c.clone())
+            .unwrap_or_default();
+        return Err(CampaignError::NoSuccessfulTrial {
+            trials: agg.trials,
+            cause,
+            out: out.to_path_buf(),
+        });
+    }
+    Ok(())
+}
+
+/// A thread pool of `threads` workers (`None`: all cores), and that count. A count of 0 is
+/// refused ([`CampaignError::ZeroThreads`]).
 pub(crate) fn thread_pool(
     threads: Option<usize>,
 ) -> Result<(rayon::ThreadPool, usize), CampaignError> {
+    if threads == Some(0) {
+        return Err(CampaignError::ZeroThreads);
+    }
     let threads =
         threads.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
     let pool = rayon::ThreadPoolBuilder::new()
@@ -183,8 +217,12 @@ impl CampaignRun {
         if self.trials == Some(0) {
             return Err(CampaignError::ZeroTrials);
         }
+        if self.threads == Some(0) {
+            return Err(CampaignError::ZeroThreads);
+        }
         self.checkpoint.map(Checkpointing::check).transpose()?;
         let mut loaded = Scenario::from_file(&self.scenario)?;
+        let committed_trials = loaded.scenario.trials;
         let s = &mut loaded.scenario;
         s.iso.enabled &= !self.iso_off;
         s.residual_budget.enabled &= !self.budget_off;
@@ -192,23 +230,41 @@ impl CampaignRun {
             s.trials = t;
         }
         let scenario = loaded.scenario.clone();
-        let out = self
-            .out
-            .clone()
-            .unwrap_or_else(|| default_out(&scenario.name));
+        let out = match &self.out {
+            Some(out) => out.clone(),
+            None => {
+                let overrides = self.overrides(committed_trials);
+                if overrides.is_empty() {
+                    default_out(&scenario.name)
+                } else {
+                    let out = scratch_out(&scenario.name, &overrides);
+                    observer.note(&format!(
+                        "the settings differ from {} ({}): writing to {}, not {} (which holds \
+                         the committed scenario's results; name an output directory to choose)",
+                        self.scenario.display(),
+                        overrides.join(", "),
+                        out.display(),
+                        default_out(&scenario.name).display()
+                    ));
+                    out
+                }
+            }
+        };
         let (pool, threads) = thread_pool(self.threads)?;
         let range = match self.shard {
             Some(shard) => shard.range(scenario.trials),
             None => 0..scenario.trials,
         };
+        // The output directory is taken (checked, locked) before the work.
+        let held = lock_out_dir(&out)?;
         let started = Instant::now();
         let ctx = Context::new(loaded)?;
-        create_out_dir(&out)?;
         let checkpoint = match (self.checkpoint, self.shard) {
             (None, _) => None,
             (Some(c), Some(shard)) => Some(c.config(out.join(shard.checkpoint_name()))),
             (Some(c), None) => Some(c.config(out.join("checkpoint.json"))),
         };
+        let mut prior_seconds = 0.0;
         if let Some(cfg) = checkpoint.as_ref().filter(|c| c.resume)
             && let Ok(Some(c)) = Checkpoint::read(&cfg.path)
         {
@@ -218,6 +274,7 @@ impl CampaignRun {
                 m.first_trial..c.next_trial,
                 m.first_trial..m.end_trial,
             );
+            prior_seconds = crate::checkpoint::prior_wall_seconds(cfg);
         }
         let what = match self.shard {
             Some(shard) => format!("shard {shard}"),
@@ -239,15 +296,17 @@ impl CampaignRun {
         } else {
             None
         };
-        let seconds = started.elapsed().as_secs_f64();
+        // The whole run's wall clock: this segment and those before a resume.
+        let seconds = prior_seconds + started.elapsed().as_secs_f64();
         let finish_checkpoint = |outputs: &[String]| match &checkpoint {
             Some(cfg) => finish(&cfg.path, outputs),
             None => Ok(()),
         };
         if let Some(shard) = self.shard {
             let file = out.join(shard.file_name());
-            ShardFile::new(scenario, shard, agg, budget).write(&file)?;
+            ShardFile::new(scenario, shard, agg.clone(), budget).write(&file)?;
             finish_checkpoint(&[shard.file_name()])?;
+            check_some_succeeded(&agg, &file)?;
             return Ok(CampaignOutcome::Shard {
                 shard,
                 trials: range,
@@ -256,15 +315,49 @@ impl CampaignRun {
             });
         }
         let summary = CampaignSummary::new(&scenario, &agg).with_budget(budget);
-        write_outputs(&out, &summary, &agg)?;
-        write_timing(&out, scenario.trials, threads, seconds)?;
+        let mut files = render_outputs(&summary, &agg)?;
+        files.push((
+            "timing.json".to_string(),
+            timing_json(scenario.trials, threads, seconds).into_bytes(),
+        ));
+        // The new set replaces the old one as a whole, and the checkpoint goes with the
+        // old one.
+        let dropped: Vec<&str> = checkpoint
+            .as_ref()
+            .and_then(|c| c.path.file_name())
+            .and_then(|n| n.to_str())
+            .into_iter()
+            .collect();
+        held.write_set_dropping(&files, &dropped)?;
         finish_checkpoint(&visible_files(&out))?;
+        drop(held);
+        check_some_succeeded(&agg, &out)?;
         Ok(CampaignOutcome::Campaign {
             summary: Box::new(summary),
             out,
             threads,
             seconds,
         })
+    }
+
+    /// What this run changes of its scenario file, as short names for a directory
+    /// (`trials-20`, `no-iso`, `no-budget`, `shards`): empty when it runs the file as
+    /// committed. `committed_trials`: the file's trial count.
+    pub fn overrides(&self, committed_trials: u64) -> Vec<String> {
+        let mut v = Vec::new();
+        if let Some(t) = self.trials.filter(|t| *t != committed_trials) {
+            v.push(format!("trials-{t}"));
+        }
+        if self.iso_off {
+            v.push("no-iso".to_string());
+        }
+        if self.budget_off {
+            v.push("no-budget".to_string());
+        }
+        if self.shard.is_some() {
+            v.push("shards".to_string());
+        }
+        v
     }
 }
 
@@ -308,8 +401,11 @@ impl MergeRun {
             .out
             .clone()
             .unwrap_or_else(|| default_out(&scenario.name));
+        let held = lock_out_dir(&out)?;
         let summary = CampaignSummary::new(&scenario, &agg).with_budget(shard_budget(&files));
-        write_outputs(&out, &summary, &agg)?;
+        held.write_set(&render_outputs(&summary, &agg)?)?;
+        drop(held);
+        check_some_succeeded(&agg, &out)?;
         Ok(MergeOutcome { summary, out })
     }
 }
@@ -340,6 +436,7 @@ impl SimulateRun {
     /// truth and pose-sampling statistics).
     pub fn run(&self) -> Result<virtual_robot::Simulation, CampaignError> {
         let loaded = Scenario::from_file(&self.scenario)?;
+        let held = measurements::OutputDir::lock(&self.out)?;
         let sim = virtual_robot::simulate(
             &loaded.nominal,
             &loaded.virtual_robot(),
@@ -350,12 +447,21 @@ impl SimulateRun {
             trial: self.trial,
             source,
         })?;
-        create_out_dir(&self.out)?;
-        sim.write(&self.out)
-            .map_err(|source| CampaignError::WriteSimulation {
+        let csv = |r: Result<String, virtual_robot::SimError>| {
+            r.map_err(|source| CampaignError::WriteSimulation {
                 dir: self.out.clone(),
                 source,
-            })?;
+            })
+        };
+        let files = [
+            (
+                virtual_robot::IDENTIFICATION_FILE,
+                csv(sim.identification_csv())?,
+            ),
+            (virtual_robot::VALIDATION_FILE, csv(sim.validation_csv())?),
+            (virtual_robot::TRUTH_FILE, sim.truth_json()),
+        ];
+        held.write_set(&files)?;
         Ok(sim)
     }
 }

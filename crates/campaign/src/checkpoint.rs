@@ -179,6 +179,11 @@ pub struct Checkpoint {
     pub next_trial: u64,
     /// Their aggregate.
     pub aggregate: Aggregate,
+    /// Wall-clock seconds the run has taken up to this checkpoint, summed over its segments
+    /// (a resumed run adds its own to the checkpoint's): what `timing.json` reports for the
+    /// whole run. Not a result: the outputs never depend on it.
+    #[serde(default)]
+    pub wall_seconds: f64,
 }
 
 impl Checkpoint {
@@ -318,6 +323,8 @@ pub fn run_range_checkpointed(
     progress: &(dyn Fn(u64) + Sync),
 ) -> Result<Aggregate, CampaignError> {
     let manifest = CheckpointManifest::new(what, ctx, range.clone(), &cfg.code);
+    let started = Instant::now();
+    let prior = prior_wall_seconds(cfg);
     let (next, agg) = starting_point(cfg, &manifest)?;
     if next > range.start {
         progress(next - range.start);
@@ -327,9 +334,23 @@ pub fn run_range_checkpointed(
             manifest: manifest.clone(),
             next_trial: n,
             aggregate: a.clone(),
+            wall_seconds: prior + started.elapsed().as_secs_f64(),
         }
         .write(&cfg.path)
     })
+}
+
+/// The wall-clock seconds of the earlier segments of a resumed run (the checkpoint's
+/// [`Checkpoint::wall_seconds`]); 0 for a fresh start or an unreadable checkpoint (which the
+/// run then refuses anyway).
+pub fn prior_wall_seconds(cfg: &CheckpointConfig) -> f64 {
+    if !cfg.resume {
+        return 0.0;
+    }
+    match Checkpoint::read(&cfg.path) {
+        Ok(Some(c)) if c.wall_seconds.is_finite() && c.wall_seconds >= 0.0 => c.wall_seconds,
+        _ => 0.0,
+    }
 }
 
 /// After the outputs are written: removes the checkpoint and any temporary file that a

@@ -159,6 +159,16 @@ pub enum CampaignError {
         #[source]
         source: serde_json::Error,
     },
+    /// A shard file's content does not match its digest, or is inconsistent.
+    #[error("{file}: field `{field}`: not the shard file as written: {problem}")]
+    ShardContent {
+        /// The file.
+        file: String,
+        /// The field at fault (`digest`, `aggregate.trials`).
+        field: &'static str,
+        /// What is wrong.
+        problem: String,
+    },
     /// A file is not valid UTF-8.
     #[error("{path}:{line}: not valid UTF-8")]
     NotUtf8 {
@@ -176,6 +186,38 @@ pub enum CampaignError {
     /// A checkpoint interval of 0 trials.
     #[error("the checkpoint interval must be at least 1 trial")]
     ZeroCheckpointInterval,
+    /// A thread count of 0 (leaving the count out means all cores).
+    #[error("the thread count must be at least 1 (leave it out to use all cores)")]
+    ZeroThreads,
+    /// A trial count beyond what the run can count or hold.
+    #[error("{what} {count}: more than the limit of {limit} ({why})")]
+    TooLarge {
+        /// What was counted, e.g. "trials per sweep point".
+        what: &'static str,
+        /// The count asked for.
+        count: u64,
+        /// The limit.
+        limit: u64,
+        /// Why the limit, and what to do.
+        why: String,
+    },
+    /// The output directory cannot be used (not a directory, another run holds it, …) or its
+    /// set could not be written; the directory keeps its previous set.
+    #[error(transparent)]
+    Output(#[from] measurements::OutputError),
+    /// Every trial failed: the outputs (all `n/a`, with the causes) were written, but the
+    /// run produced no figure.
+    #[error(
+        "no trial succeeded ({trials} of {trials} failed; most often: {cause}); the outputs in {out} list the causes"
+    )]
+    NoSuccessfulTrial {
+        /// Trials run.
+        trials: u64,
+        /// The most frequent failure.
+        cause: String,
+        /// The output directory (or shard file).
+        out: PathBuf,
+    },
     /// A shard index outside the shard count (or a count of 0).
     #[error("shard {shard}/{shards}: need 0 <= k < K")]
     InvalidShard {
@@ -474,6 +516,14 @@ pub enum SweepPlotError {
     NotNumeric {
         /// The axis' path.
         axis: String,
+    },
+    /// `plot.y` names no metric of a campaign.
+    #[error("plot y `{y}` is not a metric; the metrics are: {known}")]
+    UnknownMetric {
+        /// The name given.
+        y: String,
+        /// Every metric name, comma-separated.
+        known: String,
     },
     /// The plotting layer refused the figure.
     #[error(transparent)]

@@ -36,6 +36,10 @@ pub trait Observer: Sync {
 
     /// Point `point` (0-based) of a sweep of `points` points starts.
     fn sweep_point(&self, _point: usize, _points: usize) {}
+
+    /// Something the user should know about the run that is not an error, e.g. where the
+    /// outputs go when that is not the default place.
+    fn note(&self, _message: &str) {}
 }
 
 /// An observer that shows nothing.

@@ -69,23 +69,18 @@ pub fn render_outputs(
     Ok(files)
 }
 
-/// Writes [`render_outputs`] into `dir` (created if needed). Everything is rendered before
-/// the first file is written, and the set is written all or nothing
-/// ([`measurements::write_all_atomically`]): on a full disk no output is replaced.
+/// Writes [`render_outputs`] into `dir` as its new set, as a whole
+/// ([`measurements::OutputDir`]: the directory is locked against other writers, and a
+/// reader sees the complete previous set or the complete new one, after a failure or a kill
+/// at any step). Everything is rendered before the first file is written.
 pub fn write_outputs(
     dir: &Path,
     summary: &CampaignSummary,
     agg: &Aggregate,
 ) -> Result<(), CampaignError> {
     let files = render_outputs(summary, agg)?;
-    std::fs::create_dir_all(dir).map_err(|source| CampaignError::CreateDir {
-        path: dir.to_path_buf(),
-        source,
-    })?;
-    measurements::write_all_atomically(dir, &files).map_err(|source| CampaignError::Write {
-        path: dir.to_path_buf(),
-        source,
-    })
+    measurements::OutputDir::lock(dir)?.write_set(&files)?;
+    Ok(())
 }
 
 /// Renders every output file of a sweep in memory: `sweep.json`, `sweep.csv`, `sweep.md`,
@@ -106,15 +101,11 @@ pub fn render_sweep_outputs(result: &SweepResult) -> Result<Vec<(String, Vec<u8>
     Ok(files)
 }
 
-/// Writes `timing.json` into `dir`: the wall clock of a run of `trials` trials on `threads`
-/// threads that took `seconds`, and the machine's CPU ([`cpu_model_name`]). Not a
-/// reproducible output (`summary.json` holds no wall-clock figure).
-pub fn write_timing(
-    dir: &Path,
-    trials: u64,
-    threads: usize,
-    seconds: f64,
-) -> Result<(), CampaignError> {
+/// `timing.json`: the wall clock of a run of `trials` trials on `threads` threads that took
+/// `seconds` (the whole run: a resumed run's segments summed), and the machine's CPU
+/// ([`cpu_model_name`]). Not a reproducible output (`summary.json` holds no wall-clock
+/// figure).
+pub fn timing_json(trials: u64, threads: usize, seconds: f64) -> String {
     let timing = serde_json::json!({
         "trials": trials,
         "threads": threads,
@@ -123,9 +114,7 @@ pub fn write_timing(
         "ms_per_trial_per_thread": seconds * 1e3 * threads as f64 / trials.max(1) as f64,
         "cpu": cpu_model_name().unwrap_or_default(),
     });
-    let path = dir.join("timing.json");
-    measurements::write_atomically(&path, format!("{timing:#}\n").as_bytes())
-        .map_err(|source| CampaignError::Write { path, source })
+    format!("{timing:#}\n")
 }
 
 /// The CPU's model name from `/proc/cpuinfo` (`None` where there is none): recorded beside

@@ -34,6 +34,47 @@ pub struct RecoveryStat {
     pub std_error: Stat,
 }
 
+/// The name of every scalar metric a campaign records (the keys of
+/// [`Aggregate::metrics`], of `summary.json`'s `metrics` and of a sweep point's): what a
+/// sweep plot's `y` may name. The ISO and observability ones exist only when the scenario
+/// computes them.
+pub const METRICS: &[&str] = &[
+    "before_mean_mm",
+    "after_mean_mm",
+    "before_max_mm",
+    "after_max_mm",
+    "before_rms_mm",
+    "after_rms_mm",
+    "before_p95_mm",
+    "after_p95_mm",
+    "before_mean_x_mm",
+    "after_mean_x_mm",
+    "before_mean_y_mm",
+    "after_mean_y_mm",
+    "before_mean_z_mm",
+    "after_mean_z_mm",
+    "improvement_pct",
+    "improvement_max_pct",
+    "predicted_error_mm",
+    "fit_rms_mm",
+    "lm_iterations",
+    "gradient_cosine",
+    "compensation_failures",
+    "unmeasurable_poses",
+    "pose_rejection_rate",
+    "observability_o1",
+    "observability_o2",
+    "observability_o3",
+    "observability_o4",
+    "observability_o5",
+    "iso_ap_before_mm",
+    "iso_ap_after_mm",
+    "iso_ap_improvement_pct",
+    "iso_rp_before_mm",
+    "iso_rp_after_mm",
+    "iso_compensation_failures",
+];
+
 /// Everything a campaign (or a shard of it) accumulates; merging is exact.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct Aggregate {

@@ -44,7 +44,7 @@ pub enum ScenarioError {
         message: String,
     },
     /// The robot model file named by `robot` is bad.
-    #[error("{file}: field `robot`: {source}")]
+    #[error("{file}: field `robot` (a path relative to the scenario file's directory): {source}")]
     Robot {
         /// The scenario file.
         file: String,
@@ -402,11 +402,19 @@ impl Scenario {
     /// Parses a scenario from JSON text.
     pub fn from_json_str(text: &str, source: &str) -> Result<Scenario, ScenarioError> {
         let de = &mut serde_json::Deserializer::from_str(text);
-        serde_path_to_error::deserialize(de).map_err(|e| ScenarioError::Parse {
+        let scenario =
+            serde_path_to_error::deserialize(&mut *de).map_err(|e| ScenarioError::Parse {
+                file: source.to_string(),
+                field: e.path().to_string(),
+                message: e.into_inner().to_string(),
+            })?;
+        // Nothing but white space after the document.
+        de.end().map_err(|e| ScenarioError::Parse {
             file: source.to_string(),
-            field: e.path().to_string(),
-            message: e.into_inner().to_string(),
-        })
+            field: ".".to_string(),
+            message: e.to_string(),
+        })?;
+        Ok(scenario)
     }
 
     /// Loads the robot (relative to `base_dir`) and validates every section.
@@ -429,6 +437,20 @@ impl Scenario {
                     self.name
                 ),
             ));
+        }
+        // Sizes before anything is allocated for them (docs/scale.md, "Sizes and memory").
+        for (field, n) in [
+            ("poses.identification", self.poses.identification.len()),
+            ("poses.validation", self.poses.validation.len()),
+            ("pose_selection.candidates", self.pose_selection.candidates),
+        ] {
+            measurements::check_size("poses", n as u64, MAX_POSES, BYTES_PER_POSE).map_err(
+                |e| ScenarioError::Invalid {
+                    file: source.to_string(),
+                    field: field.to_string(),
+                    message: e.to_string(),
+                },
+            )?;
         }
         if self.trials == 0 {
             return Err(invalid("trials", "must be at least 1".into()));
@@ -547,6 +569,18 @@ impl Scenario {
         Scenario::from_json_str(&text, &label)?.load(base, &label)
     }
 }
+
+/// The most poses a set of a scenario may have (`poses.identification`,
+/// `poses.validation`, `pose_selection.candidates`): 10⁶. A trial holds its poses'
+/// Jacobian rows and points, about [`BYTES_PER_POSE`] per pose and worker thread, and takes
+/// about 0.28 ms per identification pose per trial on one core, so 10⁶ poses are
+/// already about 5 minutes per trial and 3 GB per thread.
+pub const MAX_POSES: u64 = 1_000_000;
+
+/// Memory per pose of a trial, per worker thread, rounded up from a measurement
+/// (`docs/scale.md`: 2.75 kB per identification pose, the slope of the peak RSS of one
+/// trial with 20,000 and 200,000 poses on one thread).
+pub const BYTES_PER_POSE: u64 = 3_072;
 
 /// Trials per budget run when the scenario does not say \[200\].
 pub const DEFAULT_BUDGET_TRIALS: u64 = 200;

@@ -104,6 +104,13 @@ pub struct ShardFile {
     /// whatever the split), so that the merge gives a single run's summary.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub residual_budget: Option<ResidualBudget>,
+    /// The digest of the rest of the file ([`ShardFile::content_digest`]), written by
+    /// [`ShardFile::write`] and checked by the reader: a shard file edited (a sum changed, a
+    /// trial count changed), truncated or put together from two files is refused, naming
+    /// it. `None` in memory until written. An integrity check against accidents, not a
+    /// signature: whoever can write the file can recompute it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub digest: Option<String>,
 }
 
 /// The trial range of shard `k` of `shards` over `trials` trials (contiguous, sizes differ by
@@ -206,15 +213,42 @@ impl ShardFile {
             },
             aggregate,
             residual_budget,
+            digest: None,
         }
     }
 
-    /// Writes the shard file (compact JSON) atomically to `path`.
+    /// The digest of the file's content: `fnv1a64:` and the 16 hex digits of FNV-1a (64
+    /// bits) over the compact JSON of the manifest (the scenario, its trial count and seed
+    /// included), the aggregate and the residual budget, the `digest` field left out.
+    pub fn content_digest(&self) -> Result<String, serde_json::Error> {
+        let body = ShardFile {
+            digest: None,
+            ..self.clone()
+        };
+        let text = serde_json::to_string(&body)?;
+        Ok(format!(
+            "fnv1a64:{:016x}",
+            crate::checkpoint::fnv1a(text.as_bytes())
+        ))
+    }
+
+    /// The shard file's text as written: compact JSON with its digest.
+    pub fn to_json_string(&self) -> Result<String, serde_json::Error> {
+        let file = ShardFile {
+            digest: Some(self.content_digest()?),
+            ..self.clone()
+        };
+        serde_json::to_string(&file)
+    }
+
+    /// Writes the shard file (compact JSON, with its digest) atomically to `path`.
     pub fn write(&self, path: &Path) -> Result<(), CampaignError> {
-        let text = serde_json::to_string(self).map_err(|source| CampaignError::Serialise {
-            path: path.display().to_string(),
-            source,
-        })?;
+        let text = self
+            .to_json_string()
+            .map_err(|source| CampaignError::Serialise {
+                path: path.display().to_string(),
+                source,
+            })?;
         measurements::write_atomically(path, text.as_bytes()).map_err(|source| {
             CampaignError::Write {
                 path: path.to_path_buf(),
@@ -223,15 +257,60 @@ impl ShardFile {
         })
     }
 
-    /// Parses a shard file's text; `source` names it in errors, with the field and the line
-    /// and column.
+    /// Parses a shard file's text and checks it; `source` names it in errors, with the
+    /// field and the line and column. Refused: trailing content after the document, a
+    /// missing or wrong digest (an edited or truncated file), an aggregate whose trial count
+    /// is not the shard's range.
     pub fn from_json_str(text: &str, source: &str) -> Result<ShardFile, CampaignError> {
         let de = &mut serde_json::Deserializer::from_str(text);
-        serde_path_to_error::deserialize(de).map_err(|e| CampaignError::Parse {
+        let file: ShardFile =
+            serde_path_to_error::deserialize(&mut *de).map_err(|e| CampaignError::Parse {
+                file: source.to_string(),
+                field: e.path().to_string(),
+                message: format!("not a shard file: {}", e.into_inner()),
+            })?;
+        // Nothing but white space after the document.
+        de.end().map_err(|e| CampaignError::Parse {
             file: source.to_string(),
-            field: e.path().to_string(),
-            message: format!("not a shard file: {}", e.into_inner()),
-        })
+            field: ".".to_string(),
+            message: format!("not a shard file: {e}"),
+        })?;
+        let inconsistent = |field: &'static str, problem: String| CampaignError::ShardContent {
+            file: source.to_string(),
+            field,
+            problem,
+        };
+        let Some(found) = &file.digest else {
+            return Err(inconsistent(
+                "digest",
+                "it has no digest (written by an older kincal, or edited): rerun the shard"
+                    .to_string(),
+            ));
+        };
+        let expected = file
+            .content_digest()
+            .map_err(|e| inconsistent("digest", format!("cannot compute its digest: {e}")))?;
+        if *found != expected {
+            return Err(inconsistent(
+                "digest",
+                format!(
+                    "its content does not match its digest ({found} recorded, {expected} \
+                 computed): the file was edited or damaged after it was written; rerun the \
+                 shard"
+                ),
+            ));
+        }
+        let m = &file.manifest;
+        if m.end_trial.checked_sub(m.first_trial) != Some(file.aggregate.trials) {
+            return Err(inconsistent(
+                "aggregate.trials",
+                format!(
+                    "its aggregate holds {} trials but its range is {}..{}",
+                    file.aggregate.trials, m.first_trial, m.end_trial
+                ),
+            ));
+        }
+        Ok(file)
     }
 
     /// Reads a shard file written by [`ShardFile::write`].

@@ -211,11 +211,17 @@ impl SweepSpec {
         })?;
         let de = &mut serde_json::Deserializer::from_str(&text);
         let spec: SweepSpec =
-            serde_path_to_error::deserialize(de).map_err(|e| CampaignError::Parse {
+            serde_path_to_error::deserialize(&mut *de).map_err(|e| CampaignError::Parse {
                 file: path.display().to_string(),
                 field: e.path().to_string(),
                 message: e.into_inner().to_string(),
             })?;
+        // Nothing but white space after the document.
+        de.end().map_err(|e| CampaignError::Parse {
+            file: path.display().to_string(),
+            field: ".".to_string(),
+            message: e.to_string(),
+        })?;
         if spec.axes.is_empty() || spec.axes.iter().any(|a| a.values.is_empty()) {
             return Err(CampaignError::SweepWithoutAxes {
                 file: path.to_path_buf(),
@@ -227,6 +233,71 @@ impl SweepSpec {
             });
         }
         Ok(spec)
+    }
+
+    /// Checks every setting before any point runs: each plot (`x` an axis with numeric
+    /// values, `y` a metric of [`crate::run::METRICS`]) and each point's scenario (the base
+    /// scenario with the overrides and the point's axis values, loaded and set up as a run
+    /// would). `sweep_file`: the sweep file (named in errors; the base scenario is relative
+    /// to its directory).
+    pub fn validate(&self, sweep_file: &Path) -> Result<(), CampaignError> {
+        let sweep_dir = sweep_file.parent().unwrap_or(Path::new("."));
+        for (k, plot) in self.plots.iter().enumerate() {
+            let err = |source: SweepPlotError| CampaignError::Parse {
+                file: sweep_file.display().to_string(),
+                field: format!("plots[{k}]"),
+                message: source.to_string(),
+            };
+            let axis = match &plot.x {
+                Some(x) => self
+                    .axes
+                    .iter()
+                    .find(|a| &a.path == x)
+                    .ok_or_else(|| err(SweepPlotError::NotAnAxis { x: x.clone() }))?,
+                None => &self.axes[0],
+            };
+            if axis.values.iter().any(|v| !v.is_number()) {
+                return Err(err(SweepPlotError::NotNumeric {
+                    axis: axis.path.clone(),
+                }));
+            }
+            if !crate::run::METRICS.contains(&plot.y.as_str()) {
+                return Err(err(SweepPlotError::UnknownMetric {
+                    y: plot.y.clone(),
+                    known: crate::run::METRICS.join(", "),
+                }));
+            }
+        }
+        let scenario_path = sweep_dir.join(&self.scenario);
+        let base = scenario_json_with(&scenario_path, &self.overrides, self.trials, "sweep")?;
+        let scenario_dir = scenario_path.parent().unwrap_or(Path::new("."));
+        for (i, combo) in self.combinations().iter().enumerate() {
+            let mut v = base.clone();
+            for (axis, value) in self.axes.iter().zip(combo) {
+                set_path(&mut v, &axis.path, value.clone()).map_err(|source| {
+                    CampaignError::SweepAxis {
+                        axis: axis.path.clone(),
+                        source,
+                    }
+                })?;
+            }
+            let label = format!("{} point {}", self.name, i);
+            let loaded = Scenario::from_value(v, &label)?.load(scenario_dir, &label)?;
+            Context::new(loaded)?;
+        }
+        Ok(())
+    }
+
+    /// The part of the sweep that decides the computed work (the base scenario, trials,
+    /// overrides, axis paths and values): what a checkpoint must match to be resumed. Name,
+    /// description, axis labels and plots only change how the results are shown.
+    pub fn work(&self) -> serde_json::Value {
+        serde_json::json!({
+            "scenario": self.scenario,
+            "trials": self.trials,
+            "overrides": self.overrides,
+            "axes": self.axes.iter().map(|a| (&a.path, &a.values)).collect::<Vec<_>>(),
+        })
     }
 
     /// Every combination of axis values, last axis fastest.
@@ -335,7 +406,7 @@ pub fn run_sweep_checkpointed(
                     saved.code, state.code
                 ));
             }
-            if saved.spec != state.spec {
+            if saved.spec.work() != state.spec.work() {
                 diff.push("the sweep file (axes, trials, overrides or scenario)".into());
             }
             if saved.points.len() > combos.len() {
@@ -352,7 +423,11 @@ pub fn run_sweep_checkpointed(
                     differences: diff,
                 });
             }
-            state = saved;
+            // Plots, labels, name and description may have changed: this run's count.
+            state = SweepCheckpoint {
+                spec: spec.clone(),
+                ..saved
+            };
         }
     }
     for (i, combo) in combos.iter().enumerate().skip(state.points.len()) {
@@ -405,6 +480,7 @@ pub fn run_sweep_checkpointed(
                         manifest: manifest.clone(),
                         next_trial: n,
                         aggregate: a.clone(),
+                        wall_seconds: 0.0,
                     });
                     write_sweep_checkpoint(&cfg.path, &state)
                 };

@@ -6,7 +6,9 @@
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use crate::campaign_run::{Checkpointing, create_out_dir, default_out, thread_pool, visible_files};
+use crate::campaign_run::{
+    Checkpointing, default_out, lock_out_dir, scratch_out, thread_pool, visible_files,
+};
 use crate::checkpoint::finish;
 use crate::error::CampaignError;
 use crate::observer::Observer;
@@ -64,16 +66,39 @@ impl SweepRun {
         if self.trials == Some(0) {
             return Err(CampaignError::ZeroTrials);
         }
+        if self.threads == Some(0) {
+            return Err(CampaignError::ZeroThreads);
+        }
         self.checkpoint.map(Checkpointing::check).transpose()?;
         let mut spec = SweepSpec::from_file(&self.sweep)?;
+        let committed_trials = spec.trials;
         if let Some(t) = self.trials {
             spec.trials = t;
         }
-        let (pool, _) = thread_pool(self.threads)?;
         let dir = self.sweep.parent().unwrap_or(Path::new("."));
+        // Every point's scenario and the plots' settings, before any point runs.
+        spec.validate(&self.sweep)?;
+        let (pool, _) = thread_pool(self.threads)?;
         let started = Instant::now();
-        let out = self.out.clone().unwrap_or_else(|| default_out(&spec.name));
-        create_out_dir(&out)?;
+        let out = match &self.out {
+            Some(out) => out.clone(),
+            None => match self.trials.filter(|t| *t != committed_trials) {
+                None => default_out(&spec.name),
+                Some(t) => {
+                    let out = scratch_out(&spec.name, &[format!("trials-{t}")]);
+                    observer.note(&format!(
+                        "the settings differ from {} (trials-{t}): writing to {}, not {} \
+                         (which holds the committed sweep's results; name an output directory \
+                         to choose)",
+                        self.sweep.display(),
+                        out.display(),
+                        default_out(&spec.name).display()
+                    ));
+                    out
+                }
+            },
+        };
+        let held = lock_out_dir(&out)?;
         let checkpoint_path = out.join(SWEEP_CHECKPOINT);
         let result = pool.install(|| {
             // The chunk size is taken on the sweep's pool.
@@ -83,15 +108,17 @@ impl SweepRun {
             })
         })?;
         let files = render_sweep_outputs(&result)?;
-        measurements::write_all_atomically(&out, &files).map_err(|source| {
-            CampaignError::Write {
-                path: out.clone(),
-                source,
-            }
-        })?;
+        // The new set replaces the old one as a whole; the checkpoint goes with the old one.
+        let dropped: &[&str] = if self.checkpoint.is_some() {
+            &[SWEEP_CHECKPOINT]
+        } else {
+            &[]
+        };
+        held.write_set_dropping(&files, dropped)?;
         if self.checkpoint.is_some() {
             finish(&checkpoint_path, &visible_files(&out))?;
         }
+        drop(held);
         Ok(SweepOutcome {
             result,
             out,

@@ -188,6 +188,7 @@ fn shards_carry_the_budget_in_shard_zero_only() {
             },
             aggregate: run_range(&ctx, range, &|_| {}),
             residual_budget: if with_budget { budget.clone() } else { None },
+            digest: None,
         }
     };
     let good = [shard(1, false), shard(0, true)];

@@ -62,6 +62,7 @@ fn summary_is_byte_identical_for_1_2_3_threads_and_4_merged_shards() {
                 )
                 .unwrap(),
                 residual_budget: None,
+                digest: None,
             }
         })
         .collect();

@@ -86,7 +86,7 @@ fn mutated_sweep_files_are_read_or_refused_clearly() {
 }
 
 /// Two shards of a two-trial campaign (ISO off: smaller files), and the context.
-fn shards() -> (Context, [ShardFile; 2]) {
+pub(crate) fn shards() -> (Context, [ShardFile; 2]) {
     let mut loaded = Scenario::from_file(&scenarios().join("paper-kr1000.json")).unwrap();
     loaded.scenario.iso.enabled = false;
     loaded.scenario.residual_budget.enabled = false;
@@ -106,6 +106,7 @@ fn shards() -> (Context, [ShardFile; 2]) {
             },
             aggregate: run_range(&ctx, range, &|_| {}),
             residual_budget: None,
+            digest: None,
         }
     };
     let files = [shard(0), shard(1)];
@@ -115,7 +116,7 @@ fn shards() -> (Context, [ShardFile; 2]) {
 #[test]
 fn mutated_shard_and_checkpoint_files_are_read_or_refused_clearly() {
     let (ctx, [s0, s1]) = shards();
-    let seed = serde_json::to_vec(&s0).unwrap();
+    let seed = s0.to_json_string().unwrap().into_bytes();
     fuzz("shard", &seed, 400, &|bytes, file| {
         let label = file.display().to_string();
         let shard = match text_or_file(bytes, file) {
@@ -133,6 +134,7 @@ fn mutated_shard_and_checkpoint_files_are_read_or_refused_clearly() {
         manifest: CheckpointManifest::new("campaign", &ctx, 0..2, "fuzz"),
         next_trial: 1,
         aggregate: s0.aggregate.clone(),
+        wall_seconds: 1.5,
     };
     let seed = serde_json::to_vec(&checkpoint).unwrap();
     fuzz("checkpoint", &seed, 400, &|bytes, file| {
@@ -177,7 +179,7 @@ fn corpus_of_found_cases_is_refused_clearly() {
     let (_, [s0, s1]) = shards();
     let mut huge = s0.clone();
     huge.manifest.shards = u64::MAX;
-    let text = serde_json::to_string(&huge).unwrap();
+    let text = huge.to_json_string().unwrap();
     let parsed = ShardFile::from_json_str(&text, &label).unwrap();
     let err = merge_shards(&[parsed, s1.clone()]).unwrap_err().to_string();
     assert!(err.contains("2 shard file(s)"), "{err}");

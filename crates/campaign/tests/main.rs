@@ -5,6 +5,7 @@ mod budget;
 mod campaign;
 mod common;
 mod extended;
+mod files;
 mod fuzz;
 #[path = "../../measurements/tests/mutate/mod.rs"]
 mod mutate;

@@ -52,7 +52,8 @@ pub struct DesignArgs {
     /// (docs/extended-model.md), e.g. `minimal+compliance+gears`.
     #[arg(long, default_value = "minimal")]
     params: ParamSpec,
-    /// Output plan (joints-only measurement file, candidate ids kept) [plan.csv].
+    /// Output plan (joints-only measurement file, candidate ids kept) [plan.csv]; `-`
+    /// writes it to stdout (the report then goes to stderr).
     #[arg(long, default_value = "plan.csv")]
     out: PathBuf,
     /// Seed of restarts and of the random sets the report compares with.
@@ -65,6 +66,7 @@ pub struct DesignArgs {
 
 /// Runs `design`.
 pub fn run(args: &DesignArgs) -> Result<()> {
+    crate::check_file_out("--out", &args.out)?;
     let geometric = Robot::from_file(&args.robot)
         .with_context(|| format!("loading {}", args.robot.display()))?;
     let params_flag = || format!("--params {}", args.params);
@@ -80,6 +82,13 @@ pub fn run(args: &DesignArgs) -> Result<()> {
     let pool = match (&args.candidates, &args.scenario, args.random) {
         (Some(path), _, _) => Candidates::from_file(&robot, path)?,
         (None, Some(path), Some(n)) => {
+            measurements::check_size(
+                "candidates",
+                n as u64,
+                campaign::scenario::MAX_POSES,
+                campaign::scenario::BYTES_PER_POSE,
+            )
+            .with_context(|| format!("--random {n}"))?;
             let loaded = campaign::Scenario::from_file(path)
                 .with_context(|| format!("loading {}", path.display()))?;
             // The virtual robot samples on the geometric model (its physics beyond geometry
@@ -112,9 +121,16 @@ pub fn run(args: &DesignArgs) -> Result<()> {
         &opts,
         100,
     )?;
-    measurements::write_file(&args.out, &plan, Some("kincal design plan"))
-        .with_context(|| format!("writing {}", args.out.display()))?;
-    print!("{}", report.to_text());
-    println!("plan: {} poses → {}", plan.rows.len(), args.out.display());
+    let csv = measurements::to_csv_string(&plan, Some("kincal design plan"))
+        .with_context(|| format!("writing {}", crate::out_name(&args.out)))?;
+    crate::write_file_out(&args.out, csv.as_bytes())?;
+    if crate::is_stdout(&args.out) {
+        // The plan is on stdout: the report goes to stderr.
+        eprint!("{}", report.to_text());
+        eprintln!("plan: {} poses → standard output", plan.rows.len());
+    } else {
+        print!("{}", report.to_text());
+        println!("plan: {} poses → {}", plan.rows.len(), args.out.display());
+    }
     Ok(())
 }

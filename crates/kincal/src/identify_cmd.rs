@@ -162,23 +162,38 @@ impl IdentifyArgs {
     }
 }
 
-/// Creates `dir` and writes `files` into it, all or nothing (no output of an earlier run is
-/// replaced unless every file could be written).
+/// Takes the output directory `dir` for this run ([`measurements::OutputDir::lock`]): refuses
+/// a path that is not a directory (a FIFO, a device, a file…) and a directory another run is
+/// writing, naming the holder. Called before any work.
+pub fn lock_out(dir: &Path) -> Result<measurements::OutputDir> {
+    measurements::OutputDir::lock(dir).with_context(|| format!("--out {}", dir.display()))
+}
+
+/// Writes `files` as the new set of the held output directory, as a whole: a reader (and a
+/// kill at any moment) sees the complete previous set or the complete new one; the user's
+/// own files in the directory stay.
+pub fn write_outputs_into(out: &measurements::OutputDir, files: &[(String, String)]) -> Result<()> {
+    out.write_set(files)
+        .with_context(|| format!("writing the outputs into {}", out.path().display()))
+}
+
+/// Takes `dir` ([`lock_out`]) and writes `files` into it as a whole ([`write_outputs_into`]);
+/// no output of an earlier run is replaced unless every file could be written.
 pub fn write_outputs(dir: &Path, files: &[(String, String)]) -> Result<()> {
-    std::fs::create_dir_all(dir)
-        .and_then(|()| measurements::write_all_atomically(dir, files))
-        .with_context(|| format!("writing the outputs into {}", dir.display()))
+    write_outputs_into(&lock_out(dir)?, files)
 }
 
 /// `kincal identify`.
 pub fn run(args: &IdentifyArgs) -> Result<()> {
+    let out = lock_out(&args.out)?;
     let cal = calibrate::run(&args.request()).map_err(|e| args.flagged(e))?;
     for notice in &cal.notices {
         eprintln!("note: {notice}");
     }
     let files = report::calibration::render(&cal)
         .with_context(|| format!("drawing the plots of {REPORT_HTML_FILE}"))?;
-    write_outputs(&args.out, &files)?;
+    write_outputs_into(&out, &files)?;
+    drop(out);
     print!("{}", report::calibration::summary(&cal));
     println!(
         "→ {}: {ROBOT_FILE} (the calibrated robot), {REGISTERED_FILE} (the nominal robot in \

@@ -3,24 +3,25 @@
 
 use std::path::{Path, PathBuf};
 
-use anyhow::{Context, Result};
+use anyhow::Result;
 use calibrate::{CalibrateError, LoadedRobot, Refusal};
 use clap::Args;
 
-/// Writes `text` to `out` atomically, or prints it to stdout.
+/// Writes `text` to `out` atomically (checked again just before the rename), or to stdout
+/// when `out` is `None` or `-`.
 fn emit(out: Option<&Path>, text: &str) -> Result<()> {
-    match out {
-        Some(path) => measurements::write_atomically(path, text.as_bytes())
-            .with_context(|| format!("writing {}", path.display())),
-        None => {
-            print!("{text}");
-            Ok(())
-        }
-    }
+    crate::write_file_out(out.unwrap_or(Path::new("-")), text.as_bytes())
+}
+
+/// Checks `--out` before any work: a FIFO, a device, a socket, a directory or a dangling
+/// link is refused; `-` is stdout.
+fn check_out(out: Option<&Path>) -> Result<()> {
+    out.map_or(Ok(()), |p| crate::check_file_out("--out", p))
 }
 
 fn out_label(out: Option<&Path>) -> String {
-    out.map_or_else(|| "stdout".to_string(), |p| p.display().to_string())
+    out.filter(|p| !crate::is_stdout(p))
+        .map_or_else(|| "stdout".to_string(), |p| p.display().to_string())
 }
 
 /// Arguments of `predict`.
@@ -38,7 +39,7 @@ pub struct PredictArgs {
     /// stderr).
     #[arg(long)]
     joints: PathBuf,
-    /// Output file [stdout]: `id` (if the input has ids), `q1…qN` as read, and the
+    /// Output file [stdout; `-` is stdout too]: `id` (if the input has ids), `q1…qN` as read, and the
     /// predicted `x, y, z` in mm in the robot's measurement frame.
     #[arg(long)]
     out: Option<PathBuf>,
@@ -46,6 +47,7 @@ pub struct PredictArgs {
 
 /// `kincal predict`.
 pub fn predict(args: &PredictArgs) -> Result<()> {
+    check_out(args.out.as_deref())?;
     let robot = LoadedRobot::load(&args.robot, "robot")?;
     let p = calibrate::predict(&robot, &args.joints, &out_label(args.out.as_deref()))?;
     for notice in &p.notices {
@@ -61,7 +63,7 @@ pub fn predict(args: &PredictArgs) -> Result<()> {
         ),
         None => eprintln!("{} rows", p.rows),
     }
-    if let Some(out) = &args.out {
+    if let Some(out) = args.out.as_deref().filter(|p| !crate::is_stdout(p)) {
         eprintln!("→ {}", out.display());
     }
     Ok(())
@@ -85,7 +87,7 @@ pub struct CompensateArgs {
     /// Commanded joints (docs/model.md §5 joints-only CSV; other columns ignored).
     #[arg(long)]
     targets: PathBuf,
-    /// Output file [stdout]: `id, q1…qN, x, y, z`: the joints to command (degrees) and the
+    /// Output file [stdout; `-` is stdout too]: `id, q1…qN, x, y, z`: the joints to command (degrees) and the
     /// target point they reach on the calibrated model (mm; compare a re-measurement with
     /// it, e.g. `predict --joints` on this file). Rows without an id get `L<line>` (their
     /// line in the targets file).
@@ -98,6 +100,7 @@ pub struct CompensateArgs {
 
 /// `kincal compensate`.
 pub fn compensate(args: &CompensateArgs) -> Result<()> {
+    check_out(args.out.as_deref())?;
     let calibrated = LoadedRobot::load(&args.robot, "calibrated robot")?;
     let nominal = LoadedRobot::load(&args.nominal, "nominal robot")?;
     let c = calibrate::compensate_targets(
@@ -128,7 +131,8 @@ pub fn compensate(args: &CompensateArgs) -> Result<()> {
         c.max_joint_change_deg,
         c.max_ik_error_mm,
         args.out
-            .as_ref()
+            .as_deref()
+            .filter(|p| !crate::is_stdout(p))
             .map_or(String::new(), |p| format!(" → {}", p.display()))
     );
     Ok(())

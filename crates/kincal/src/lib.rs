@@ -15,7 +15,10 @@ pub mod joints_cmd;
 pub mod solver_args;
 pub mod urdf_cmd;
 
-use anyhow::Result;
+use std::io::Write as _;
+use std::path::Path;
+
+use anyhow::{Context as _, Result};
 use clap::Subcommand;
 
 /// The user commands of `kincal` (also reachable as `cargo xtask <command>` in the
@@ -85,5 +88,45 @@ pub fn exit_on_error(result: Result<()>) {
             shown = cause;
         }
         std::process::exit(1);
+    }
+}
+
+/// `--out -`: a single-file output written to standard output.
+pub fn is_stdout(path: &Path) -> bool {
+    path.as_os_str() == "-"
+}
+
+/// Checks a single-file output before any work ([`measurements::check_output`]): `-` is
+/// standard output; a FIFO, a device, a socket, a directory or a dangling link is refused
+/// naming the path; a link to a regular file is followed (its target is replaced, the link
+/// stays). `flag` names the option in the error, e.g. `--out`.
+pub fn check_file_out(flag: &str, path: &Path) -> Result<()> {
+    if !is_stdout(path) {
+        measurements::check_output(path, measurements::OutputKind::File)
+            .with_context(|| format!("{flag} {}", path.display()))?;
+    }
+    Ok(())
+}
+
+/// Writes a single-file output: to standard output for `-`, else atomically
+/// ([`measurements::write_atomically`], which checks the target again just before its
+/// rename).
+pub fn write_file_out(path: &Path, bytes: &[u8]) -> Result<()> {
+    if is_stdout(path) {
+        let mut out = std::io::stdout().lock();
+        return out
+            .write_all(bytes)
+            .and_then(|()| out.flush())
+            .context("writing to standard output");
+    }
+    measurements::write_atomically(path, bytes).map_err(anyhow::Error::new)
+}
+
+/// How a single-file output is named in messages: `standard output` for `-`.
+pub fn out_name(path: &Path) -> String {
+    if is_stdout(path) {
+        "standard output".to_string()
+    } else {
+        path.display().to_string()
     }
 }

@@ -20,6 +20,21 @@ struct Cli {
     cmd: kincal::Command,
 }
 
+/// Restores the default action of SIGPIPE, which the Rust runtime ignores: a write to a
+/// closed standard output (`kincal predict … | head -1`) then ends the process quietly, as
+/// it ends `cat` or `grep` (status 141 in a shell: 128 + SIGPIPE), instead of a panic
+/// "failed printing to stdout: Broken pipe" in whatever `print!` met it first. Outputs
+/// written to files are unaffected: they are written whole before anything is printed.
+#[allow(unsafe_code)]
+fn default_sigpipe() {
+    // SAFETY: called first thing in `main`, before any other thread exists; `signal` with
+    // `SIG_DFL` installs no handler, so no Rust code runs in signal context.
+    unsafe {
+        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
+    }
+}
+
 fn main() {
+    default_sigpipe();
     kincal::exit_on_error(kincal::run(Cli::parse().cmd));
 }

@@ -45,7 +45,7 @@ pub enum UrdfCmd {
         /// The robot file's name [default: the URDF's robot name].
         #[arg(long)]
         name: Option<String>,
-        /// Output robot file (JSON).
+        /// Output robot file (JSON); `-` writes it to stdout.
         #[arg(long)]
         out: PathBuf,
     },
@@ -54,10 +54,11 @@ pub enum UrdfCmd {
     Export {
         /// The robot file (JSON).
         robot: PathBuf,
-        /// Output URDF file.
+        /// Output URDF file; `-` writes it to stdout.
         #[arg(long)]
         out: PathBuf,
-        /// Also write the joint-angle offsets θ to this JSON file.
+        /// Also write the joint-angle offsets θ to this JSON file (`-`: stdout, after the
+        /// URDF).
         #[arg(long)]
         offsets: Option<PathBuf>,
         /// Nominal robot file: the offsets file then also has θ − θ nominal.
@@ -80,6 +81,7 @@ pub fn run(args: &UrdfArgs) -> Result<()> {
             name,
             out,
         } => {
+            crate::check_file_out("--out", out)?;
             let [x, y, z] = tool_mm[..] else {
                 bail!(
                     "--tool-mm takes three values x,y,z (mm), got {}",
@@ -91,9 +93,16 @@ pub fn run(args: &UrdfArgs) -> Result<()> {
                 name: name.clone(),
             };
             let imported = urdf::import_file(path, base, tip, &opts)?;
-            measurements::write_atomically(out, imported.spec.to_json_string().as_bytes())
-                .with_context(|| format!("writing {}", out.display()))?;
-            println!(
+            crate::write_file_out(out, imported.spec.to_json_string().as_bytes())?;
+            // With `--out -` the robot file is on stdout: the notes go to stderr.
+            let note = |line: String| {
+                if crate::is_stdout(out) {
+                    eprintln!("{line}");
+                } else {
+                    println!("{line}");
+                }
+            };
+            note(format!(
                 "{}: {} → {}: {} revolute joints ({}), {} fixed joints folded in",
                 path.display(),
                 base,
@@ -101,8 +110,8 @@ pub fn run(args: &UrdfArgs) -> Result<()> {
                 imported.joint_names.len(),
                 imported.joint_names.join(", "),
                 imported.fixed_joints.len()
-            );
-            println!("→ {}", out.display());
+            ));
+            note(format!("→ {}", crate::out_name(out)));
         }
         UrdfCmd::Export {
             robot,
@@ -111,6 +120,10 @@ pub fn run(args: &UrdfArgs) -> Result<()> {
             nominal,
             joint_names,
         } => {
+            crate::check_file_out("--out", out)?;
+            if let Some(path) = offsets {
+                crate::check_file_out("--offsets", path)?;
+            }
             let spec = RobotSpec::from_file(robot)?;
             let opts = urdf::ExportOptions {
                 joint_names: joint_names.clone(),
@@ -128,18 +141,34 @@ pub fn run(args: &UrdfArgs) -> Result<()> {
                 }
                 None => None,
             };
-            measurements::write_atomically(out, text.as_bytes())
-                .with_context(|| format!("writing {}", out.display()))?;
-            println!(
+            if let (Some(path), Some(t)) = (offsets, &offsets_text)
+                && !crate::is_stdout(path)
+            {
+                measurements::write_atomically(path, t.as_bytes())
+                    .with_context(|| format!("writing {}", path.display()))?;
+            }
+            crate::write_file_out(out, text.as_bytes())?;
+            if let (Some(path), Some(t)) = (offsets, &offsets_text)
+                && crate::is_stdout(path)
+            {
+                crate::write_file_out(path, t.as_bytes())?;
+            }
+            // With `--out -` the URDF is on stdout: the notes go to stderr.
+            let note = |line: String| {
+                if crate::is_stdout(out) {
+                    eprintln!("{line}");
+                } else {
+                    println!("{line}");
+                }
+            };
+            note(format!(
                 "{}: {} joints → {} (root link \"measurement\", measured point at link \"tool\")",
                 robot.display(),
                 spec.joints.len(),
-                out.display()
-            );
-            if let (Some(path), Some(t)) = (offsets, offsets_text) {
-                measurements::write_atomically(path, t.as_bytes())
-                    .with_context(|| format!("writing {}", path.display()))?;
-                println!("joint offsets → {}", path.display());
+                crate::out_name(out)
+            ));
+            if let Some(path) = offsets {
+                note(format!("joint offsets → {}", crate::out_name(path)));
             }
         }
     }

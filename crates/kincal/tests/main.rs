@@ -5,4 +5,5 @@ mod calibrate_cli;
 mod campaign_cli;
 mod common;
 mod docs_examples;
+mod files_cli;
 mod urdf_cli;

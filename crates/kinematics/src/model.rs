@@ -267,13 +267,18 @@ impl RobotSpec {
     /// Parses and validates a model from JSON text; `source_name` labels errors.
     pub fn from_json_str(text: &str, source_name: &str) -> Result<Self, ModelError> {
         let de = &mut serde_json::Deserializer::from_str(text);
-        let spec: RobotSpec = serde_path_to_error::deserialize(de).map_err(|e| {
+        let spec: RobotSpec = serde_path_to_error::deserialize(&mut *de).map_err(|e| {
             let field = e.path().to_string();
             ModelError::Parse {
                 source_name: source_name.to_string(),
                 field,
                 message: e.into_inner().to_string(),
             }
+        })?;
+        de.end().map_err(|e| ModelError::Parse {
+            source_name: source_name.to_string(),
+            field: ".".to_string(),
+            message: e.to_string(),
         })?;
         spec.validate(source_name)?;
         Ok(spec)

@@ -169,6 +169,7 @@
 #![warn(missing_docs)]
 
 mod error;
+mod limits;
 #[cfg(unix)]
 mod output;
 mod read;
@@ -176,6 +177,7 @@ mod rotation;
 mod write;
 
 pub use error::{EulerConventionError, MeasurementError};
+pub use limits::{SizeError, available_memory, bytes_in_words, check_size};
 #[cfg(unix)]
 pub use output::{
     FAULT_ENV, NO_EXCHANGE_ENV, OutputDir, OutputError, OutputKind, TargetProblem, check_output,

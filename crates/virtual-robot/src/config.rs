@@ -70,9 +70,15 @@ impl VirtualRobotConfig {
     /// [`VirtualRobotConfig::validate`]). Errors name the offending field's path.
     pub fn from_json_str(text: &str) -> Result<Self, ConfigError> {
         let de = &mut serde_json::Deserializer::from_str(text);
-        serde_path_to_error::deserialize(de).map_err(|e| ConfigError::Parse {
-            field: e.path().to_string(),
-            message: e.into_inner().to_string(),
-        })
+        let config =
+            serde_path_to_error::deserialize(&mut *de).map_err(|e| ConfigError::Parse {
+                field: e.path().to_string(),
+                message: e.into_inner().to_string(),
+            })?;
+        de.end().map_err(|e| ConfigError::Parse {
+            field: ".".to_string(),
+            message: e.to_string(),
+        })?;
+        Ok(config)
     }
 }
