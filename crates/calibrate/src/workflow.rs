@@ -669,7 +669,11 @@ pub fn calibrate(request: &IdentifyRequest, inputs: Inputs) -> Result<Calibratio
             .params
             .resolve(&start, &p, None, &id_opts)
             .map_err(spec_err)?;
-        if registration.as_ref().is_some_and(|r| r.applied) {
+        // `minimal` already holds every base parameter identifiable at the registered start;
+        // the others are redundant there (base_rz with theta1 for most arms).
+        if registration.as_ref().is_some_and(|r| r.applied)
+            && args.params.base != identify::ParamSet::Minimal
+        {
             for k in identify::base_parameter_indices(&start) {
                 if !free.contains(&k) {
                     free.push(k);

@@ -304,6 +304,9 @@ pub fn markdown(o: &Calibration) -> String {
             "fixed"
         } else if o.fit.held.contains(&info.name) {
             "held (exactly redundant at the start: not fitted, no standard error)"
+        } else if se.is_none() && an.identifiable.contains(&info.name) {
+            "yes at the solution, no standard error: outside the fit's covariance (redundant \
+             at the start)"
         } else if se.is_some() || an.identifiable.contains(&info.name) {
             "yes"
         } else {
