@@ -211,6 +211,24 @@ pub enum Refusal {
         /// Free parameters.
         free: usize,
     },
+    /// A plausibility check failed (`crate::checks`): the data or the result look wrong.
+    #[error("{evidence}; nothing written — {remedy}, or override the check (allow {})", check.name())]
+    Implausible {
+        /// The check, which a request may override ([`crate::IdentifyRequest::allow`]).
+        check: crate::Check,
+        /// What it saw, with the figures.
+        evidence: String,
+        /// What to do.
+        remedy: String,
+    },
+    /// A data file with a header and no data rows.
+    #[error("{file}: the {what} file has no data rows")]
+    NoDataRows {
+        /// Which file (`validation`, `identification data`).
+        what: &'static str,
+        /// The file.
+        file: String,
+    },
     /// Compensation between two robots of different kinds (joints, parameters).
     #[error(
         "{} ({calibrated_joints} joints, {calibrated_params} parameters) and {} \

@@ -54,8 +54,33 @@ impl LoadedRobot {
         (min_rows, why): (usize, Option<&str>),
         what: &str,
     ) -> Result<MeasurementSet> {
+        self.read_set_in(path, require_points, (min_rows, why), what, (1.0, 1.0))
+    }
+
+    /// [`LoadedRobot::read_set`] of a file whose joints are in units of `deg_per_unit` degrees
+    /// and points in units of `mm_per_unit` millimetres: the joint limits are checked in the
+    /// file's units, and the rows are returned in degrees and millimetres.
+    pub fn read_set_in(
+        &self,
+        path: &Path,
+        require_points: bool,
+        (min_rows, why): (usize, Option<&str>),
+        what: &str,
+        (deg_per_unit, mm_per_unit): (f64, f64),
+    ) -> Result<MeasurementSet> {
+        let limits: Vec<[f64; 2]> = self
+            .limits_deg()
+            .iter()
+            .map(|l| {
+                if deg_per_unit == 1.0 {
+                    *l
+                } else {
+                    [l[0] / deg_per_unit, l[1] / deg_per_unit]
+                }
+            })
+            .collect();
         let mut opts = ReadOptions::new(self.robot.n_joints())
-            .with_limits_deg(self.limits_deg())
+            .with_limits_deg(limits)
             .with_min_rows(min_rows);
         if !require_points {
             opts = opts.joints_only();
@@ -76,32 +101,47 @@ impl LoadedRobot {
                 _ => err,
             }
         })?;
-        if let Some(note) = radians_notice(&set, &self.limits_deg()) {
+        if deg_per_unit != 1.0 || mm_per_unit != 1.0 {
+            for r in &mut set.rows {
+                r.q_deg.iter_mut().for_each(|q| *q *= deg_per_unit);
+                if let Some(p) = &mut r.point_mm {
+                    p.iter_mut().for_each(|v| *v *= mm_per_unit);
+                }
+            }
+        } else if let Some(note) = radians_notice(&set, &self.limits_deg()) {
             set.notices.push(note);
         }
         Ok(set)
     }
 }
 
-/// A notice when the joint values of a file read as degrees look like radians: at least 3
-/// rows, every |q| ≤ 2π (joints such as a UR's turn beyond ±π), and a robot whose limits
-/// reach beyond ±90° on some joint (degrees data of such a robot that never leave ±6.3° on
-/// any joint would be a strange calibration set). `None` otherwise.
+/// A notice when the joint values of a file read as degrees look like radians
+/// ([`radians_evidence`]). `None` otherwise.
 pub fn radians_notice(set: &MeasurementSet, limits_deg: &[[f64; 2]]) -> Option<String> {
-    let largest = set
-        .rows
+    radians_evidence(&set.source, &set.rows, limits_deg)
+}
+
+/// The evidence that joint values read as degrees are radians: at least 3 rows, every |q| ≤
+/// 2π (joints such as a UR's turn beyond ±π), and a robot whose limits reach beyond ±90° on
+/// some joint (degrees data of such a robot that never leave ±6.3° on any joint would be a
+/// strange calibration set). `None` otherwise.
+pub fn radians_evidence(
+    source: &str,
+    rows: &[Measurement],
+    limits_deg: &[[f64; 2]],
+) -> Option<String> {
+    let largest = rows
         .iter()
         .flat_map(|r| r.q_deg.iter())
         .fold(0.0_f64, |m, q| m.max(q.abs()));
     let widest = limits_deg
         .iter()
         .fold(0.0_f64, |m, l| m.max(l[0].abs()).max(l[1].abs()));
-    (set.rows.len() >= 3 && largest <= std::f64::consts::TAU && widest > 90.0).then(|| {
+    (rows.len() >= 3 && largest <= std::f64::consts::TAU && widest > 90.0).then(|| {
         format!(
-            "{}: every joint value is within ±2π (largest |q| = {largest:.4}) although the \
+            "{source}: every joint value is within ±2π (largest |q| = {largest:.4}) although the \
              robot's limits reach ±{widest:.0}°: are these radians? Joint columns are read in \
-             degrees (convert with q·180/π)",
-            set.source
+             degrees (convert with q·180/π)"
         )
     })
 }

@@ -14,6 +14,7 @@
 //! and the front ends write the files. Errors are [`CalibrateError`]s naming the file, line,
 //! column or request field at fault. The formats are those of `docs/model.md`.
 
+pub mod checks;
 mod error;
 mod files;
 mod joints;
@@ -21,7 +22,12 @@ mod request;
 mod workflow;
 
 pub use error::{CalibrateError, Refusal, Result};
-pub use files::{LoadedRobot, file_name, points_mm, poses_rad, radians_notice, row_label};
+pub use files::{
+    LoadedRobot, file_name, points_mm, poses_rad, radians_evidence, radians_notice, row_label,
+};
 pub use joints::{Compensation, Prediction, SAME_FRAME_MM, compensate_targets, predict};
-pub use request::{IdentifyRequest, Split};
-pub use workflow::{Calibration, Inputs, Validation, calibrate, mean_max, norms, residuals, run};
+pub use request::{Check, IdentifyRequest, JointUnits, LengthUnits, Split};
+pub use workflow::{
+    Calibration, Inputs, MAX_REJECTION_PASSES, STILL_JOINT_DEG, Validation, calibrate, mean_max,
+    norms, residuals, run,
+};

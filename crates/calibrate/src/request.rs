@@ -70,6 +70,129 @@ pub struct IdentifyRequest {
     pub outlier_k: f64,
     /// Worst points listed in the report, per data set \[10\].
     pub worst: usize,
+    /// Units of the joint columns of the data files \[degrees: `docs/model.md` §5\].
+    pub joint_units: JointUnits,
+    /// Units of the x, y, z columns of the data files \[millimetres: `docs/model.md` §5\].
+    pub length_units: LengthUnits,
+    /// Plausibility checks to pass over (`crate::checks`) \[none: a wrong robot must not
+    /// leave the calibration unremarked\].
+    pub allow: Vec<Check>,
+}
+
+/// Units of joint columns; values are converted to degrees on loading.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum JointUnits {
+    /// Degrees (the format's).
+    #[default]
+    Deg,
+    /// Radians.
+    Rad,
+}
+
+impl JointUnits {
+    /// Degrees per unit.
+    pub fn deg_per_unit(self) -> f64 {
+        match self {
+            JointUnits::Deg => 1.0,
+            JointUnits::Rad => 180.0 / std::f64::consts::PI,
+        }
+    }
+
+    /// `deg` or `rad`.
+    pub fn name(self) -> &'static str {
+        match self {
+            JointUnits::Deg => "deg",
+            JointUnits::Rad => "rad",
+        }
+    }
+}
+
+/// Units of point columns; values are converted to millimetres on loading.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum LengthUnits {
+    /// Millimetres (the format's).
+    #[default]
+    Mm,
+    /// Metres.
+    M,
+    /// Inches (25.4 mm).
+    In,
+}
+
+impl LengthUnits {
+    /// Millimetres per unit.
+    pub fn mm_per_unit(self) -> f64 {
+        match self {
+            LengthUnits::Mm => 1.0,
+            LengthUnits::M => 1000.0,
+            LengthUnits::In => 25.4,
+        }
+    }
+
+    /// `mm`, `m` or `in`.
+    pub fn name(self) -> &'static str {
+        match self {
+            LengthUnits::Mm => "mm",
+            LengthUnits::M => "m",
+            LengthUnits::In => "in",
+        }
+    }
+}
+
+/// A plausibility check of the calibration (`crate::checks`), named to override it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Check {
+    /// Joint values that look like radians although read as degrees.
+    JointUnits,
+    /// A measured extent that does not match the robot's (metres, centimetres, inches).
+    LengthUnits,
+    /// A measurement frame that a reflection fits far better than any rotation.
+    Mirror,
+    /// Identified parameters far from the nominal ones.
+    Parameters,
+    /// Validation worse after calibration than before.
+    Validation,
+    /// An outlier threshold that rejects too much, or a k below the minimum.
+    Outliers,
+}
+
+impl Check {
+    /// Every check, in the order they run.
+    pub const ALL: [Check; 6] = [
+        Check::JointUnits,
+        Check::LengthUnits,
+        Check::Mirror,
+        Check::Outliers,
+        Check::Parameters,
+        Check::Validation,
+    ];
+
+    /// The check's name (`joint-units`, `length-units`, `mirror`, `outliers`, `parameters`,
+    /// `validation`).
+    pub fn name(self) -> &'static str {
+        match self {
+            Check::JointUnits => "joint-units",
+            Check::LengthUnits => "length-units",
+            Check::Mirror => "mirror",
+            Check::Parameters => "parameters",
+            Check::Validation => "validation",
+            Check::Outliers => "outliers",
+        }
+    }
+}
+
+impl std::str::FromStr for Check {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        Check::ALL
+            .into_iter()
+            .find(|c| c.name() == s)
+            .ok_or_else(|| {
+                let names: Vec<&str> = Check::ALL.iter().map(|c| c.name()).collect();
+                format!("unknown check `{s}` (one of {})", names.join(", "))
+            })
+    }
 }
 
 impl IdentifyRequest {
@@ -87,7 +210,15 @@ impl IdentifyRequest {
             reject_outliers: false,
             outlier_k: 3.0,
             worst: 10,
+            joint_units: JointUnits::Deg,
+            length_units: LengthUnits::Mm,
+            allow: Vec::new(),
         }
+    }
+
+    /// Whether the plausibility check `check` is overridden.
+    pub fn allows(&self, check: Check) -> bool {
+        self.allow.contains(&check)
     }
 
     /// The solver options of the request: its damping and its treatment of redundant

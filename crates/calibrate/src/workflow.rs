@@ -12,15 +12,16 @@ use evaluate::Table4;
 use identify::{
     Fit, IdentifiabilityOptions, IdentifiabilityReport, IdentifyError, IdentifyOptions,
     OutlierScreen, ParamSpec, Problem, RegistrationPolicy, RegistrationReport, analyze,
-    generic_poses, identify, mean_point_error, outliers, register_base,
+    generic_poses, identify, mean_point_error, outliers, register_base, register_base_robust,
 };
 use kinematics::Robot;
 use measurements::{Measurement, MeasurementError, MeasurementSet};
 use nalgebra::Vector3;
 
+use crate::checks;
 use crate::error::{CalibrateError, Refusal, Result, id_err};
 use crate::files::{LoadedRobot, file_name, points_mm, poses_rad};
-use crate::request::{IdentifyRequest, Split};
+use crate::request::{Check, IdentifyRequest, Split};
 
 /// Validation of the nominal and identified models on one measurement set.
 #[derive(Clone, Debug)]
@@ -79,6 +80,99 @@ pub struct Calibration {
     pub notices: Vec<String>,
     /// Wall-clock time of registration, identification and validation (ms).
     pub elapsed_ms: f64,
+    /// What was decided about registration, and the evidence.
+    pub registration_decision: String,
+    /// Warnings about the data (joints that do not move and the parameters that costs,
+    /// validation rows that are identification rows), to show prominently.
+    pub warnings: Vec<String>,
+}
+
+/// Passes of outlier rejection at most [10: each pass drops what the fit on the others
+/// flags; a clean recording needs one or two].
+pub const MAX_REJECTION_PASSES: usize = 10;
+
+/// Joint range of motion below which a joint is said not to move, degrees [1: a joint that
+/// moves less than a degree leaves its axis's parameters unseen].
+pub const STILL_JOINT_DEG: f64 = 1.0;
+
+/// One registration and fit.
+struct Pass {
+    start: Robot,
+    registration: Option<RegistrationReport>,
+    decision: String,
+    free: Vec<usize>,
+    fit: Fit,
+}
+
+/// Rows of `val` equal to a row of `id` (joints and point bit for bit).
+fn overlapping(id: &[Measurement], val: &[Measurement]) -> usize {
+    let key = |r: &Measurement| {
+        let mut k: Vec<u64> = r.q_deg.iter().map(|v| v.to_bits()).collect();
+        if let Some(p) = r.point_mm {
+            k.extend(p.iter().map(|v| v.to_bits()));
+        }
+        k
+    };
+    let ids: std::collections::BTreeSet<Vec<u64>> = id.iter().map(key).collect();
+    val.iter().filter(|r| ids.contains(&key(r))).count()
+}
+
+/// Weak data: joints whose range of motion in `rows` is below [`STILL_JOINT_DEG`], and the
+/// free parameters the data leave unidentifiable that generic poses identify.
+fn weak_data(
+    start: &Robot,
+    rows: &[Measurement],
+    free: &[usize],
+    analysis: &IdentifiabilityReport,
+    opts: &IdentifiabilityOptions,
+) -> Vec<String> {
+    let n = start.n_joints();
+    let still: Vec<String> = (0..n)
+        .filter(|&j| {
+            let (lo, hi) = rows
+                .iter()
+                .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), r| {
+                    (lo.min(r.q_deg[j]), hi.max(r.q_deg[j]))
+                });
+            hi - lo < STILL_JOINT_DEG
+        })
+        .map(|j| format!("q{}", j + 1))
+        .collect();
+    let generic = generic_poses(start)
+        .ok()
+        .and_then(|p| analyze(start, &p, None, free, opts).ok());
+    let lost: Vec<String> = generic.map_or_else(Vec::new, |g| {
+        g.identifiable
+            .iter()
+            .filter(|p| !analysis.identifiable.contains(p))
+            .cloned()
+            .collect()
+    });
+    if still.is_empty() && lost.is_empty() {
+        return Vec::new();
+    }
+    let mut w = String::from("weak data: ");
+    if !still.is_empty() {
+        w.push_str(&format!(
+            "joint{} {} never move{} (range < {STILL_JOINT_DEG}°); ",
+            if still.len() > 1 { "s" } else { "" },
+            still.join(", "),
+            if still.len() > 1 { "" } else { "s" },
+        ));
+    }
+    if lost.is_empty() {
+        w.push_str("every parameter that generic poses identify is identified");
+    } else {
+        w.push_str(&format!(
+            "{} parameters that generic poses identify are not identifiable from these data \
+             (rank {} where generic poses give {}): {}",
+            lost.len(),
+            analysis.rank,
+            analysis.rank + lost.len(),
+            lost.join(", ")
+        ));
+    }
+    vec![w]
 }
 
 /// The number of free parameters of `spec` on `robot` (extended by it), for the rows it needs
@@ -127,47 +221,93 @@ pub fn residuals(robot: &Robot, rows: &[Measurement]) -> Vec<[f64; 3]> {
         .collect()
 }
 
+/// The registration decision with its evidence: the start model, the report (`None` when
+/// never considered) and a sentence saying what was decided and why.
 fn register(
     nominal: &Robot,
     poses: &[f64],
     points: &[Vector3<f64>],
     policy: RegistrationPolicy,
-) -> Result<(Robot, Option<RegistrationReport>)> {
+) -> Result<(Robot, Option<RegistrationReport>, String)> {
     let before = mean_point_error(nominal, poses, points);
-    let apply = match policy {
-        RegistrationPolicy::Never => return Ok((nominal.clone(), None)),
-        RegistrationPolicy::Always => true,
-        RegistrationPolicy::Auto { threshold_mm } => before > threshold_mm,
+    let threshold = match policy {
+        RegistrationPolicy::Never => {
+            return Ok((
+                nominal.clone(),
+                None,
+                format!(
+                    "not registered (registration never): nominal mean error {before:.3} mm \
+                     in the robot's base frame"
+                ),
+            ));
+        }
+        RegistrationPolicy::Always => None,
+        RegistrationPolicy::Auto { threshold_mm } => Some(threshold_mm),
     };
-    if apply {
-        let (r, rep) =
-            register_base(nominal, poses, points).map_err(id_err("registering the base"))?;
-        return Ok((r, Some(rep)));
+    if let Some(t) = threshold
+        && before.partial_cmp(&t) != Some(std::cmp::Ordering::Greater)
+    {
+        return Ok((
+            nominal.clone(),
+            Some(not_registered(nominal, before)),
+            format!(
+                "not registered: nominal mean error {before:.3} mm ≤ {t} mm, the data are taken \
+                 to be in the robot's base frame (the fit refines the base)"
+            ),
+        ));
     }
+    let robust =
+        register_base_robust(nominal, poses, points).map_err(id_err("registering the base"))?;
+    let n = points.len();
+    let evidence = format!(
+        "rigid fit on {} of {n} points (the others beyond {} × the median residual), median \
+         error {:.3} mm → {:.3} mm, mean {before:.3} mm → {:.3} mm",
+        robust.inliers.len(),
+        identify::ROBUST_INLIER_FACTOR,
+        robust.median_before_mm,
+        robust.median_after_mm,
+        robust.report.mean_error_after_mm
+    );
+    let better = robust.median_after_mm < robust.median_before_mm;
+    match threshold {
+        Some(t) if !better => Ok((
+            nominal.clone(),
+            Some(not_registered(nominal, before)),
+            format!(
+                "not registered: nominal mean error {before:.3} mm > {t} mm, but the \
+                 registration would make it worse ({evidence})"
+            ),
+        )),
+        Some(t) => Ok((
+            robust.robot,
+            Some(robust.report),
+            format!(
+                "registered (nominal mean error {before:.3} mm > {t} mm: the data are in \
+                 another frame): {evidence}; the base is refitted with the other parameters"
+            ),
+        )),
+        None => Ok((
+            robust.robot,
+            Some(robust.report),
+            format!("registered (registration always): {evidence}"),
+        )),
+    }
+}
+
+/// A report for "not registered" at a start error of `before` mm.
+fn not_registered(nominal: &Robot, before: f64) -> RegistrationReport {
     let layout = nominal.layout();
     let x = nominal.params();
-    let base: Vec<f64> = [
-        "base_rx", "base_ry", "base_rz", "base_dx", "base_dy", "base_dz",
-    ]
-    .iter()
-    .map(|n| {
-        let k = layout.index_of(n).expect("every layout has a base");
-        layout.get(k).to_display(x[k])
-    })
-    .collect();
-    let b: [f64; 6] = base.try_into().expect("six base parameters");
-    Ok((
-        nominal.clone(),
-        Some(RegistrationReport {
-            applied: false,
-            mean_error_before_mm: before,
-            mean_error_after_mm: before,
-            rotation_deg: 0.0,
-            translation_mm: [0.0; 3],
-            base_before: b,
-            base_after: b,
-        }),
-    ))
+    let b = identify::base_parameter_indices(nominal).map(|k| layout.get(k).to_display(x[k]));
+    RegistrationReport {
+        applied: false,
+        mean_error_before_mm: before,
+        mean_error_after_mm: before,
+        rotation_deg: 0.0,
+        translation_mm: [0.0; 3],
+        base_before: b,
+        base_after: b,
+    }
 }
 
 /// Refuses a request that cannot run, before anything is read.
@@ -176,6 +316,7 @@ fn check(request: &IdentifyRequest) -> Result<()> {
     if !(k.is_finite() && k > 0.0) {
         return Err(Refusal::OutlierK(k).into());
     }
+    checks::outlier_k(request)?;
     if let RegistrationPolicy::Auto { threshold_mm } = request.registration
         && !(threshold_mm.is_finite() && threshold_mm >= 0.0)
     {
@@ -367,12 +508,30 @@ impl Inputs {
         check(request)?;
         let nominal = LoadedRobot::load(&request.robot, "robot")?;
         let (_, n_free, min_rows) = extended(request, &nominal)?;
+        let units = (
+            request.joint_units.deg_per_unit(),
+            request.length_units.mm_per_unit(),
+        );
         let data = nominal
-            .read_set(&request.data, true, (min_rows, None), "identification data")
+            .read_set_in(
+                &request.data,
+                true,
+                (min_rows, None),
+                "identification data",
+                units,
+            )
             .map_err(|e| too_few_rows(request, n_free, min_rows, e))?;
         let validate = match (&request.validate, &request.split) {
             (Some(path), Split::All) => {
-                Some(nominal.read_set(path, true, (1, None), "validation data")?)
+                let set = nominal.read_set_in(path, true, (0, None), "validation data", units)?;
+                if set.rows.is_empty() {
+                    return Err(Refusal::NoDataRows {
+                        what: "validation",
+                        file: set.source,
+                    }
+                    .into());
+                }
+                Some(set)
             }
             _ => None,
         };
@@ -479,22 +638,49 @@ pub fn calibrate(request: &IdentifyRequest, inputs: Inputs) -> Result<Calibratio
     let (id_rows, val_rows, selection) =
         split_rows(args, &nominal, &data, validation_set, (n_free, min_rows))?;
 
+    // Plausibility of the data, before any fit: units and handedness.
+    let source = data.source.clone();
+    if !args.allows(Check::JointUnits) {
+        checks::joint_units(&source, &id_rows, &nominal.limits_deg())?;
+    }
+    if !args.allows(Check::LengthUnits) {
+        checks::length_units(&source, nom, &id_rows)?;
+    }
+    if !args.allows(Check::Mirror) {
+        checks::mirror(&source, nom, &id_rows)?;
+    }
+    let overlap = val_rows
+        .as_ref()
+        .map_or(0, |(_, rows)| overlapping(&id_rows, rows));
+
     let started = Instant::now();
-    let poses = poses_rad(&id_rows);
-    let points = points_mm(&id_rows);
-    let (start, registration) = register(nom, &poses, &points, args.registration)
-        .map_err(|e| e.context(format!("identification data {}", data.source)))?;
-    let free = args
-        .params
-        .resolve(&start, &poses, None, &id_opts)
-        .map_err(spec_err)?;
     let options = IdentifyOptions {
         lm: args.lm_options(),
         registration: RegistrationPolicy::Never,
         ..IdentifyOptions::default()
     };
-    let fit_rows = |rows: &[Measurement]| -> Result<Fit> {
+    // One pass: register on `rows`, resolve the free set at the registered start (the base
+    // free where registered), fit.
+    let pass = |rows: &[Measurement]| -> Result<Pass> {
         let (p, x) = (poses_rad(rows), points_mm(rows));
+        let (start, registration, decision) = register(nom, &p, &x, args.registration)
+            .map_err(|e| e.context(format!("identification data {}", data.source)))?;
+        let mut free = args
+            .params
+            .resolve(&start, &p, None, &id_opts)
+            .map_err(spec_err)?;
+        // `minimal` already holds every base parameter identifiable at the registered start;
+        // the others are redundant there (base_rz with theta1 for most arms).
+        if registration.as_ref().is_some_and(|r| r.applied)
+            && args.params.base != identify::ParamSet::Minimal
+        {
+            for k in identify::base_parameter_indices(&start) {
+                if !free.contains(&k) {
+                    free.push(k);
+                }
+            }
+            free.sort_unstable();
+        }
         let problem = Problem::new(&start, &p, &x, free.clone()).map_err(id_err(format!(
             "setting up the identification on {}",
             data.source
@@ -516,45 +702,94 @@ pub fn calibrate(request: &IdentifyRequest, inputs: Inputs) -> Result<Calibratio
                     source,
                 })?;
         }
-        Ok(fit)
+        Ok(Pass {
+            start,
+            registration,
+            decision,
+            free,
+            fit,
+        })
     };
-    let first = fit_rows(&id_rows)?;
-    let screen = match first.sigma_hat {
-        Some(s) => Some(
-            outliers::screen(&first.robot, &poses, &points, s, args.outlier_k)
-                .map_err(id_err("screening outliers"))?,
-        ),
-        None => None,
+    let poses = poses_rad(&id_rows);
+    let points = points_mm(&id_rows);
+    let screen_of = |fit: &Fit| -> Result<Option<OutlierScreen>> {
+        fit.sigma_hat
+            .map(|s| {
+                outliers::screen(&fit.robot, &poses, &points, s, args.outlier_k)
+                    .map_err(id_err("screening outliers"))
+            })
+            .transpose()
     };
-    let flagged = screen.as_ref().map_or_else(Vec::new, |s| s.indices());
-    let rejected = args.reject_outliers && !flagged.is_empty();
-    let (fit, used) = if rejected {
-        let kept: Vec<Measurement> = id_rows
-            .iter()
-            .enumerate()
-            .filter(|(i, _)| flagged.binary_search(i).is_err())
-            .map(|(_, r)| r.clone())
+    let mut current = pass(&id_rows)?;
+    let first = current.fit.clone();
+    let mut screen = screen_of(&first)?;
+    let mut kept: Vec<usize> = (0..id_rows.len()).collect();
+    let mut rejected = false;
+    let mut rejection_passes = 0;
+    // Rejection to a fixed point: every identification row is screened against the fit on
+    // the rows kept, until the kept rows are those the screen passes (so that the result
+    // with a rejected row is the result without it); registration is redone each time.
+    while args.reject_outliers {
+        let flagged = screen.as_ref().map_or_else(Vec::new, |s| s.indices());
+        let next: Vec<usize> = (0..id_rows.len())
+            .filter(|i| flagged.binary_search(i).is_err())
             .collect();
-        if 3 * kept.len() < free.len() {
+        if next == kept || rejection_passes >= MAX_REJECTION_PASSES {
+            break;
+        }
+        if !args.allows(Check::Outliers) {
+            checks::rejected_fraction(&source, flagged.len(), id_rows.len(), args.outlier_k)?;
+        }
+        if 3 * next.len() < current.free.len() {
             return Err(Refusal::TooManyOutliers {
                 file: data.source.clone(),
                 outliers: flagged.len(),
                 rows: id_rows.len(),
-                kept: kept.len(),
-                free: free.len(),
+                kept: next.len(),
+                free: current.free.len(),
             }
             .into());
         }
-        let refit = fit_rows(&kept).map_err(|e| e.context("refitting without the outliers"))?;
-        (refit, kept)
-    } else {
-        (first.clone(), id_rows.clone())
-    };
+        kept = next;
+        rejected = true;
+        rejection_passes += 1;
+        let rows: Vec<Measurement> = kept.iter().map(|&i| id_rows[i].clone()).collect();
+        current = pass(&rows).map_err(|e| e.context("refitting without the outliers"))?;
+        screen = screen_of(&current.fit)?;
+    }
+    let used: Vec<Measurement> = kept.iter().map(|&i| id_rows[i].clone()).collect();
+    let Pass {
+        start,
+        registration,
+        decision,
+        free,
+        fit,
+    } = current;
     let analysis = analyze(&fit.robot, &poses_rad(&used), None, &free, &id_opts)
         .map_err(id_err("identifiability at the solution"))?;
+    let weak = weak_data(&start, &used, &free, &analysis, &id_opts);
+    if !args.allows(Check::Parameters) {
+        checks::parameters(&start, &fit, &analysis)?;
+    }
     let validation = val_rows
         .map(|(source, rows)| validate(nom, &start, &fit.robot, source, rows))
         .transpose()?;
+    if let Some(v) = &validation
+        && !args.allows(Check::Validation)
+    {
+        checks::validation(
+            &v.source,
+            v.table.before.norm.mean_mm,
+            v.table.after.norm.mean_mm,
+        )?;
+    }
+    let mut warnings = weak;
+    if overlap > 0 {
+        warnings.push(format!(
+            "{overlap} validation rows are also identification rows (same joints and point): \
+             validation on them is not independent"
+        ));
+    }
     let elapsed_ms = started.elapsed().as_secs_f64() * 1e3;
     Ok(Calibration {
         request: request.clone(),
@@ -574,6 +809,8 @@ pub fn calibrate(request: &IdentifyRequest, inputs: Inputs) -> Result<Calibratio
         validation,
         notices,
         elapsed_ms,
+        registration_decision: decision,
+        warnings,
     })
 }
 

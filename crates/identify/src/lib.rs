@@ -80,6 +80,8 @@ pub use outliers::{Outlier, OutlierScreen};
 pub use params::ParamSpec;
 pub use problem::{Problem, SAME_POSE_TOL_RAD};
 pub use registration::{
-    RegistrationPolicy, RegistrationReport, RigidTransform, kabsch, mean_point_error, register_base,
+    ROBUST_INLIER_FACTOR, RegistrationPolicy, RegistrationReport, RigidTransform,
+    RobustRegistration, base_parameter_indices, kabsch, kabsch_robust, mean_point_error,
+    proper_and_improper_rms, register_base, register_base_robust,
 };
 pub use simd::{SimdLevel, set_simd_level, simd_level};

@@ -5,7 +5,7 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result};
-use calibrate::{CalibrateError, IdentifyRequest, Refusal, Split};
+use calibrate::{CalibrateError, IdentifyRequest, JointUnits, LengthUnits, Refusal, Split};
 use clap::Args;
 use identify::ParamSpec;
 use report::calibration::{
@@ -81,6 +81,18 @@ pub struct IdentifyArgs {
     /// Worst points listed in the report, per data set.
     #[arg(long, default_value_t = 10, value_name = "N")]
     worst: usize,
+    /// Units of the joint columns of --data and --validate: deg (the format's) or rad
+    /// (converted to degrees on reading).
+    #[arg(long, value_enum, default_value_t = JointUnitsArg::Deg, value_name = "UNITS")]
+    joint_units: JointUnitsArg,
+    /// Units of the x, y, z columns: mm (the format's), m or in (converted to millimetres on
+    /// reading).
+    #[arg(long, value_enum, default_value_t = LengthUnitsArg::Mm, value_name = "UNITS")]
+    length_units: LengthUnitsArg,
+    /// Pass over a plausibility check (docs/calibrating-real-data.md, "Checks"), repeatable:
+    /// joint-units, length-units, mirror, outliers, parameters, validation.
+    #[arg(long, value_name = "CHECK")]
+    allow: Vec<calibrate::Check>,
     /// Output directory, created if missing (only once everything succeeded).
     #[arg(long, default_value = "identified")]
     out: PathBuf,
@@ -108,6 +120,16 @@ impl IdentifyArgs {
             reject_outliers: self.reject_outliers,
             outlier_k: self.outlier_k,
             worst: self.worst,
+            joint_units: match self.joint_units {
+                JointUnitsArg::Deg => JointUnits::Deg,
+                JointUnitsArg::Rad => JointUnits::Rad,
+            },
+            length_units: match self.length_units {
+                LengthUnitsArg::Mm => LengthUnits::Mm,
+                LengthUnitsArg::M => LengthUnits::M,
+                LengthUnitsArg::In => LengthUnits::In,
+            },
+            allow: self.allow.clone(),
             ..IdentifyRequest::new(&self.robot, &self.data)
         }
     }
@@ -127,6 +149,15 @@ impl IdentifyArgs {
                     Some(format!("--select {poses}"))
                 }
                 Refusal::TooManyOutliers { .. } => Some("--reject-outliers".to_string()),
+                Refusal::Implausible { check, .. } => Some(format!(
+                    "refused by the {} check (override: --allow {})",
+                    check.name(),
+                    check.name()
+                )),
+                Refusal::NoDataRows { .. } => self
+                    .validate
+                    .as_ref()
+                    .map(|v| format!("--validate {}", v.display())),
                 _ => None,
             },
             CalibrateError::TooFewRows { source, .. } => match source.as_ref() {
@@ -160,6 +191,26 @@ impl IdentifyArgs {
             None => e,
         }
     }
+}
+
+/// `--joint-units`.
+#[derive(Clone, Copy, Debug, clap::ValueEnum)]
+enum JointUnitsArg {
+    /// Degrees.
+    Deg,
+    /// Radians.
+    Rad,
+}
+
+/// `--length-units`.
+#[derive(Clone, Copy, Debug, clap::ValueEnum)]
+enum LengthUnitsArg {
+    /// Millimetres.
+    Mm,
+    /// Metres.
+    M,
+    /// Inches.
+    In,
 }
 
 /// Takes the output directory `dir` for this run ([`measurements::OutputDir::lock`]): refuses

@@ -1115,3 +1115,151 @@ fn refused_options_are_named_by_their_flags() {
         );
     }
 }
+
+/// Issue 29: joints in radians, points in metres and swapped axes make `identify` exit
+/// non-zero, write nothing and name the flag that overrides the check; `--joint-units rad
+/// --length-units m` read the same file and give the figures of the file in degrees and mm.
+#[test]
+fn implausible_units_and_frames_are_refused_and_unit_flags_convert() {
+    let tmp = tempfile::tempdir().unwrap();
+    let text =
+        std::fs::read_to_string(root().join("data/ur10-ipa/series-b-joint-configurations.csv"))
+            .unwrap();
+    let rows: Vec<Vec<f64>> = text
+        .lines()
+        .skip(1)
+        .take(300)
+        .map(|l| l.split(',').map(|x| x.parse().unwrap()).collect())
+        .collect();
+    let write = |name: &str, f: &dyn Fn(&[f64]) -> Vec<f64>| {
+        let mut out = String::from("q1,q2,q3,q4,q5,q6,x,y,z\n");
+        for r in &rows {
+            let v: Vec<String> = f(r).iter().map(|x| format!("{x}")).collect();
+            out += &(v.join(",") + "\n");
+        }
+        let path = tmp.path().join(name);
+        std::fs::write(&path, out).unwrap();
+        path
+    };
+    let plain = write("plain.csv", &|r| r.to_vec());
+    let rad_m = write("rad-m.csv", &|r| {
+        let mut v: Vec<f64> = r[..6].iter().map(|q| q.to_radians()).collect();
+        v.extend(r[6..].iter().map(|p| p / 1000.0));
+        v
+    });
+    let metres = write("m.csv", &|r| {
+        let mut v = r[..6].to_vec();
+        v.extend(r[6..].iter().map(|p| p / 1000.0));
+        v
+    });
+    let swapped = write("zyx.csv", &|r| {
+        let mut v = r[..6].to_vec();
+        v.extend([r[8], r[7], r[6]]);
+        v
+    });
+    let ur10 = root().join("scenarios/robots/ur10.json");
+    let run = |data: &Path, extra: &[&str], out: &str| {
+        let dir = tmp.path().join(out);
+        let mut args = vec![
+            "identify",
+            "--robot",
+            s(&ur10),
+            "--data",
+            s(data),
+            "--every",
+            "3",
+            "--out",
+            s(&dir),
+        ];
+        args.extend_from_slice(extra);
+        (kincal(&args), dir)
+    };
+    for (data, allow) in [
+        (&rad_m, "joint-units"),
+        (&metres, "length-units"),
+        (&swapped, "mirror"),
+    ] {
+        let (out, dir) = run(data, &[], "refused");
+        assert!(!out.status.success());
+        assert!(!dir.exists(), "nothing written");
+        assert!(
+            stderr(&out).contains(&format!("--allow {allow}")),
+            "{}",
+            stderr(&out)
+        );
+    }
+    let converted = ok(&run(
+        &rad_m,
+        &["--joint-units", "rad", "--length-units", "m"],
+        "c",
+    )
+    .0);
+    let reference = ok(&run(&plain, &[], "p").0);
+    let mean = |t: &str| number_after(t, "calibrated mean ");
+    assert!(
+        (mean(&converted) - mean(&reference)).abs() < 0.002,
+        "{converted}\n{reference}"
+    );
+    assert!(
+        reference.contains("registration decision: registered"),
+        "{reference}"
+    );
+}
+
+/// Issue 29: one simulated row with q2 written as −0 (a gross error of metres) no longer drags
+/// a registration that makes the nominal error worse, and the run is refused instead of giving
+/// a robot that validates worse than the nominal; with `--reject-outliers` the row is dropped
+/// and the result is that of the clean data.
+#[test]
+fn a_row_with_a_wrong_joint_neither_drags_the_registration_nor_passes() {
+    let sim = sim();
+    let tmp = tempfile::tempdir().unwrap();
+    let text = std::fs::read_to_string(sim.join("identification.csv")).unwrap();
+    let bad: Vec<String> = text
+        .lines()
+        .map(|l| {
+            if let Some(rest) = l.strip_prefix("I027,") {
+                let mut f: Vec<&str> = rest.split(',').collect();
+                f[1] = "-0";
+                format!("I027,{}", f.join(","))
+            } else {
+                l.to_string()
+            }
+        })
+        .collect();
+    let data = tmp.path().join("q2.csv");
+    std::fs::write(&data, bad.join("\n")).unwrap();
+    let validation = sim.join("validation.csv");
+    let run = |extra: &[&str], out: &str| {
+        let dir = tmp.path().join(out);
+        let mut args = vec![
+            "identify",
+            "--robot",
+            s(kr1000()),
+            "--data",
+            s(&data),
+            "--validate",
+            s(&validation),
+            "--out",
+            s(&dir),
+        ];
+        args.extend_from_slice(extra);
+        (kincal(&args), dir)
+    };
+    let (out, dir) = run(&[], "plain");
+    assert!(
+        !out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stdout)
+    );
+    assert!(!dir.exists());
+    assert!(stderr(&out).contains("--allow"), "{}", stderr(&out));
+    let (out, _) = run(&["--reject-outliers"], "rejected");
+    let stdout = ok(&out);
+    let decision = line_with(&stdout, "registration decision:");
+    assert!(
+        decision.contains("not registered") || decision.contains("of 50 points"),
+        "{decision}"
+    );
+    assert!(number_after(&stdout, "calibrated mean ") < 0.05, "{stdout}");
+}

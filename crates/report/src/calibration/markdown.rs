@@ -170,6 +170,10 @@ pub fn markdown(o: &Calibration) -> String {
         }
         None => s.push_str("- registration: off (`--registration never`)\n"),
     }
+    let _ = writeln!(s, "- registration decision: {}", o.registration_decision);
+    for w in &o.warnings {
+        let _ = writeln!(s, "- **warning**: {w}");
+    }
     match o.fit.robot.extended() {
         None => s.push_str(
             "- model: geometry only (docs/model.md §2–§3). Compliance, gear errors and other \
@@ -254,6 +258,24 @@ pub fn markdown(o: &Calibration) -> String {
         }
     }
 
+    let held_not_redundant: Vec<&str> = o
+        .fit
+        .held
+        .iter()
+        .filter(|h| !an.redundant.contains(h))
+        .map(String::as_str)
+        .collect();
+    if !held_not_redundant.is_empty() {
+        let _ = writeln!(
+            s,
+            "\nHeld at their start values but not in the redundant set at the solution: {} — \
+             they were exactly redundant at the start model, so the solver held them; the \
+             analysis at the solution, where the other parameters moved, ranks them \
+             identifiable only numerically. They were not fitted and have no standard error.",
+            held_not_redundant.join(", ")
+        );
+    }
+
     s.push_str("\n## Parameters\n\n");
     s.push_str(
         "Nominal = robot file; identified = `identified.json`; Δ = identified − nominal (for \
@@ -268,6 +290,11 @@ pub fn markdown(o: &Calibration) -> String {
         let se = cov.and_then(|c| c.std_error(&info.name));
         let ident = if !o.free.contains(&k) {
             "fixed"
+        } else if o.fit.held.contains(&info.name) {
+            "held (exactly redundant at the start: not fitted, no standard error)"
+        } else if se.is_none() && an.identifiable.contains(&info.name) {
+            "yes at the solution, no standard error: outside the fit's covariance (redundant \
+             at the start)"
         } else if se.is_some() || an.identifiable.contains(&info.name) {
             "yes"
         } else {

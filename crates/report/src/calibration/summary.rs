@@ -37,6 +37,7 @@ pub fn summary(o: &Calibration) -> String {
             mm_coarse(Vector3::from(r.translation_mm).norm())
         );
     }
+    let _ = writeln!(out, "registration decision: {}", o.registration_decision);
     let (_, fit_max) = mean_max(&norms(&o.fit_residuals().1));
     let _ = writeln!(
         out,
@@ -52,6 +53,9 @@ pub fn summary(o: &Calibration) -> String {
         o.fit.iterations,
         ms(o.elapsed_ms)
     );
+    for w in &o.warnings {
+        let _ = writeln!(out, "warning: {w}");
+    }
     if !o.fit.held.is_empty() {
         let _ = writeln!(
             out,

@@ -1,0 +1,232 @@
+//! Plausibility checks of a calibration: well-formed data or results that a careful engineer
+//! would not accept. Each check looks at one piece of evidence, refuses with
+//! [`Refusal::Implausible`] naming it and the [`Check`] that overrides it, and runs before
+//! anything is written (`docs/calibrating-real-data.md`, "Checks").
+
+use identify::{Fit, IdentifiabilityReport, proper_and_improper_rms};
+use kinematics::{ParamKind, Robot};
+use measurements::Measurement;
+use nalgebra::Vector3;
+
+use crate::error::Refusal;
+use crate::files::{points_mm, poses_rad};
+use crate::request::{Check, IdentifyRequest};
+
+/// Smallest outlier factor k accepted [2: the cut k·σ̂₃ = 2·√3·σ already flags one clean
+/// Gaussian point in 135 (P(χ²₃ > 12) = 0.0074); below 2 the screen rejects good data, not
+/// gross errors (k = 0.5 flags 80 % of it)].
+pub const MIN_OUTLIER_K: f64 = 2.0;
+
+/// Largest share of the identification rows outliers may remove [0.1: gross errors (beam
+/// breaks, wrong targets) are a few rows of a recording; more means the threshold is too
+/// tight or the model is wrong, and dropping them would hide it].
+pub const MAX_REJECTED_FRACTION: f64 = 0.1;
+
+/// Measured spread over the nominal spread accepted, `[1/1.25, 1.25]` [geometric errors of a
+/// real robot are millimetres on a workspace of hundreds: a spread off by 25 % is a unit
+/// (metres ×0.001, centimetres ×0.1, inches ×0.039) or a different robot].
+pub const SPREAD_RATIO_MAX: f64 = 1.25;
+
+/// Nominal spread below which the length check says nothing, mm [50: poses that barely move
+/// the point carry no scale evidence].
+pub const MIN_SPREAD_MM: f64 = 50.0;
+
+/// The mirror check refuses when the best improper rigid fit's RMS is below the proper one's
+/// divided by this [3: a right-handed frame fits a reflection at hundreds of mm, a rotation
+/// at the robot's millimetres; a swapped or negated axis does the opposite].
+pub const MIRROR_RATIO: f64 = 3.0;
+
+/// Proper RMS below which the mirror check says nothing, mm [10: a rotation that fits to
+/// 10 mm is no mirrored frame].
+pub const MIRROR_MIN_RMS_MM: f64 = 10.0;
+
+/// Largest plausible change of a link length or offset (a, d), mm [20: manufacturing and
+/// assembly errors are tenths of a millimetre to a few millimetres].
+pub const MAX_LINK_CHANGE_MM: f64 = 20.0;
+
+/// Largest plausible change of a joint angle offset or twist (θ, α, β), degrees [5: zero
+/// offsets of tenths of a degree are common, several degrees are a wrong model or frame].
+pub const MAX_ANGLE_CHANGE_DEG: f64 = 5.0;
+
+/// Largest plausible change of the measured point in the flange frame, mm [250: the
+/// reflector's offset is often unknown and a fit from zero finding 30 mm is good; a quarter
+/// metre is another tool or a wrong frame].
+pub const MAX_TOOL_CHANGE_MM: f64 = 250.0;
+
+fn refuse(check: Check, evidence: String, remedy: &str) -> Refusal {
+    Refusal::Implausible {
+        check,
+        evidence,
+        remedy: remedy.to_string(),
+    }
+}
+
+/// Joint values read as degrees that look like radians: at least 3 rows, every |q| ≤ 2π,
+/// and a robot whose limits reach beyond ±90° on some joint.
+pub fn joint_units(
+    source: &str,
+    rows: &[Measurement],
+    limits_deg: &[[f64; 2]],
+) -> Result<(), Refusal> {
+    if let Some(note) = crate::files::radians_evidence(source, rows, limits_deg) {
+        return Err(refuse(
+            Check::JointUnits,
+            note,
+            "if the joints are in radians, declare it (joint_units = rad)",
+        ));
+    }
+    Ok(())
+}
+
+fn spread(points: &[Vector3<f64>]) -> f64 {
+    let n = points.len().max(1) as f64;
+    let c = points.iter().sum::<Vector3<f64>>() / n;
+    (points.iter().map(|p| (p - c).norm_squared()).sum::<f64>() / n).sqrt()
+}
+
+/// The measured points' spread (RMS distance from their centroid, independent of the frame)
+/// against the nominal robot's at the same joints.
+pub fn length_units(source: &str, nominal: &Robot, rows: &[Measurement]) -> Result<(), Refusal> {
+    let predicted = nominal.points(&poses_rad(rows));
+    let (sp, sm) = (spread(&predicted), spread(&points_mm(rows)));
+    if sp < MIN_SPREAD_MM || rows.len() < 3 {
+        return Ok(());
+    }
+    let ratio = sm / sp;
+    if (1.0 / SPREAD_RATIO_MAX..=SPREAD_RATIO_MAX).contains(&ratio) {
+        return Ok(());
+    }
+    let guess = [
+        (0.001, "metres: length_units = m"),
+        (0.01, "centimetres: multiply by 10"),
+        (1.0 / 25.4, "inches: length_units = in"),
+        (1000.0, "micrometres: divide by 1000"),
+    ]
+    .iter()
+    .find(|(f, _)| (ratio / f - 1.0).abs() < 0.25)
+    .map_or("a different robot or unit", |(_, g)| g);
+    Err(refuse(
+        Check::LengthUnits,
+        format!(
+            "{source}: the measured points spread {sm:.4} (RMS about their centroid) where the \
+             nominal robot's points at the same joints spread {sp:.1} mm: ratio {ratio:.4}, \
+             outside [{:.2}, {SPREAD_RATIO_MAX}] — the lengths look like {guess}",
+            1.0 / SPREAD_RATIO_MAX
+        ),
+        "convert the points to millimetres (length_units)",
+    ))
+}
+
+/// A reflection fitting the nominal points onto the measured ones far better than any
+/// rotation: a left-handed frame (two axes swapped, one negated).
+pub fn mirror(source: &str, nominal: &Robot, rows: &[Measurement]) -> Result<(), Refusal> {
+    let predicted = nominal.points(&poses_rad(rows));
+    let Ok((proper, improper)) = proper_and_improper_rms(&predicted, &points_mm(rows)) else {
+        return Ok(());
+    };
+    if proper > MIRROR_MIN_RMS_MM && improper * MIRROR_RATIO < proper {
+        return Err(refuse(
+            Check::Mirror,
+            format!(
+                "{source}: the best rotation fits the nominal robot's points to {proper:.1} mm \
+                 RMS, the best reflection to {improper:.1} mm: the measurement frame is \
+                 left-handed (axes swapped or one negated)"
+            ),
+            "write the x, y, z columns of a right-handed frame",
+        ));
+    }
+    Ok(())
+}
+
+/// Identified parameters far from their start values, by name (identifiable geometric ones;
+/// the base is the frame, anywhere).
+pub fn parameters(
+    start: &Robot,
+    fit: &Fit,
+    analysis: &IdentifiabilityReport,
+) -> Result<(), Refusal> {
+    let (x0, x1) = (start.params(), fit.robot.params());
+    let layout = start.layout();
+    let mut far = Vec::new();
+    for &k in &analysis.identifiable_indices {
+        let p = layout.get(k);
+        let d = p.to_display(x1[k]) - p.to_display(x0[k]);
+        let limit = match p.kind {
+            ParamKind::A(_) | ParamKind::D(_) => MAX_LINK_CHANGE_MM,
+            ParamKind::Theta(_) | ParamKind::Alpha(_) | ParamKind::Beta(_) => MAX_ANGLE_CHANGE_DEG,
+            ParamKind::ToolX | ParamKind::ToolY | ParamKind::ToolZ => MAX_TOOL_CHANGE_MM,
+            _ => continue,
+        };
+        let d = if p.unit == kinematics::Unit::Deg {
+            (d + 180.0).rem_euclid(360.0) - 180.0
+        } else {
+            d
+        };
+        if d.abs() > limit {
+            far.push(format!("{} {d:+.3} (limit ±{limit})", p.name));
+        }
+    }
+    if far.is_empty() {
+        return Ok(());
+    }
+    Err(refuse(
+        Check::Parameters,
+        format!(
+            "identified parameters changed far beyond manufacturing errors (mm / °): {}",
+            far.join(", ")
+        ),
+        "check the robot file, the data's units and frame",
+    ))
+}
+
+/// Validation: the calibrated model worse than the start model on the validation rows.
+pub fn validation(source: &str, before_mean_mm: f64, after_mean_mm: f64) -> Result<(), Refusal> {
+    if after_mean_mm > before_mean_mm {
+        return Err(refuse(
+            Check::Validation,
+            format!(
+                "{source}: the calibrated model predicts worse than the nominal one (mean \
+                 {before_mean_mm:.3} mm → {after_mean_mm:.3} mm)"
+            ),
+            "check the data (units, frame, outliers) and the parameter set",
+        ));
+    }
+    Ok(())
+}
+
+/// Outliers: a factor below [`MIN_OUTLIER_K`] (request check).
+pub fn outlier_k(request: &IdentifyRequest) -> Result<(), Refusal> {
+    let k = request.outlier_k;
+    if k < MIN_OUTLIER_K && !request.allows(Check::Outliers) {
+        return Err(refuse(
+            Check::Outliers,
+            format!(
+                "outlier_k = {k} is below {MIN_OUTLIER_K}: the screen would flag good points \
+                 as outliers"
+            ),
+            "use k ≥ 2 (3 is the default)",
+        ));
+    }
+    Ok(())
+}
+
+/// Outliers: rejection removing more than [`MAX_REJECTED_FRACTION`] of the rows.
+pub fn rejected_fraction(
+    source: &str,
+    rejected: usize,
+    rows: usize,
+    k: f64,
+) -> Result<(), Refusal> {
+    if rejected as f64 > MAX_REJECTED_FRACTION * rows as f64 {
+        return Err(refuse(
+            Check::Outliers,
+            format!(
+                "{source}: the outlier screen at k = {k} rejects {rejected} of {rows} rows, more \
+                 than {:.0} %",
+                100.0 * MAX_REJECTED_FRACTION
+            ),
+            "raise outlier_k or keep the outliers; many outliers mean a wrong model or data",
+        ));
+    }
+    Ok(())
+}
