@@ -17,11 +17,13 @@
 mod error;
 mod files;
 mod joints;
+mod memory;
 mod request;
 mod workflow;
 
 pub use error::{CalibrateError, Refusal, Result};
 pub use files::{LoadedRobot, file_name, points_mm, poses_rad, radians_notice, row_label};
 pub use joints::{Compensation, Prediction, SAME_FRAME_MM, compensate_targets, predict};
+pub use memory::compensate_set;
 pub use request::{IdentifyRequest, Split};
 pub use workflow::{Calibration, Inputs, Validation, calibrate, mean_max, norms, residuals, run};
