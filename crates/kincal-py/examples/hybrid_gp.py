@@ -18,10 +18,12 @@ likelihood on the training poses only).
 import argparse
 import csv
 import time
+import warnings
 from pathlib import Path
 
 import numpy as np
 from sklearn.gaussian_process import GaussianProcessRegressor
+from sklearn.exceptions import ConvergenceWarning
 from sklearn.gaussian_process.kernels import RBF, ConstantKernel, WhiteKernel
 
 import kincal
@@ -58,6 +60,9 @@ def stats(e):
 
 
 def main():
+    # A length scale at its upper bound means "this joint barely matters" (q6 does not move the
+    # measured point); scikit-learn warns about it at every fit.
+    warnings.filterwarnings("ignore", category=ConvergenceWarning)
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--folds", type=int, default=5)
     ap.add_argument("--train", type=int, nargs="+", default=[100, 400],
