@@ -350,6 +350,8 @@ struct PyCalibration {
     identified: calibrate::LoadedRobot,
     /// The nominal robot in the data's frame, as `registered-nominal.json`.
     registered: calibrate::LoadedRobot,
+    /// Wall time of the library call `calibrate::calibrate`, ms.
+    library_ms: f64,
 }
 
 #[pymethods]
@@ -517,6 +519,14 @@ impl PyCalibration {
         Ok(Some(d))
     }
 
+    /// Wall time (ms) of the library call `calibrate::calibrate` inside `identify`, timed in
+    /// Rust: what `identify` costs without the binding (array conversion, the rows' checks,
+    /// the result's construction). `docs/python.md` compares the two.
+    #[getter]
+    fn library_ms(&self) -> f64 {
+        self.library_ms
+    }
+
     /// The console summary `kincal identify` prints for this calibration.
     fn summary(&self) -> String {
         report::calibration::summary(&self.cal)
@@ -675,7 +685,9 @@ fn py_identify<'py>(
             data,
             validate,
         };
+        let started = std::time::Instant::now();
         let cal = calibrate::calibrate(&request, inputs).map_err(err)?;
+        let library_ms = started.elapsed().as_secs_f64() * 1e3;
         let written = |r: kinematics::Robot, label: &str| {
             calibrate::LoadedRobot::from_spec(r.to_spec(), label, "robot").map_err(err)
         };
@@ -685,6 +697,7 @@ fn py_identify<'py>(
             cal,
             identified,
             registered,
+            library_ms,
         })
     })
 }

@@ -222,6 +222,11 @@ class Calibration:
         """3-D errors on the validation rows (``validate=`` or held out by a split), before
         and after: mean, max, RMS, p95 (mm); ``None`` without validation rows."""
 
+    @property
+    def library_ms(self) -> float:
+        """Wall time (ms) of the library call inside :func:`identify`, timed in Rust: the
+        cost of the identification without the binding's conversions and checks."""
+
     def summary(self) -> str:
         """The console summary ``kincal identify`` prints."""
 
