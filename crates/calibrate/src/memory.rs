@@ -261,10 +261,10 @@ mod tests {
     #[test]
     fn compensating_a_robot_onto_itself_changes_nothing_much() {
         let r = ur10();
-        let q = vec![vec![10.0, -80.0, 70.0, -30.0, 60.0, 20.0]];
-        let targets = MeasurementSet::new("t", 6, vec![Measurement::new(q[0].clone(), None)]);
+        let q = vec![10.0, -80.0, 70.0, -30.0, 60.0, 20.0];
+        let targets = MeasurementSet::new("t", 6, vec![Measurement::new(q.clone(), None)]);
         let out = compensate_set(&r, &r, &targets).unwrap();
-        for (a, b) in out[0].iter().zip(&q[0]) {
+        for (a, b) in out[0].iter().zip(&q) {
             assert!((a - b).abs() < 1e-6, "{a} vs {b}");
         }
     }
