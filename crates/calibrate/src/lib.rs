@@ -18,6 +18,7 @@ pub mod checks;
 mod error;
 mod files;
 mod joints;
+mod memory;
 mod request;
 mod workflow;
 
@@ -26,6 +27,7 @@ pub use files::{
     LoadedRobot, file_name, points_mm, poses_rad, radians_evidence, radians_notice, row_label,
 };
 pub use joints::{Compensation, Prediction, SAME_FRAME_MM, compensate_targets, predict};
+pub use memory::compensate_set;
 pub use request::{Check, IdentifyRequest, JointUnits, LengthUnits, Split};
 pub use workflow::{
     Calibration, Inputs, MAX_REJECTION_PASSES, STILL_JOINT_DEG, Validation, calibrate, mean_max,

@@ -11,6 +11,7 @@ pub mod campaign_run;
 pub mod check;
 pub mod checkpoint;
 pub mod error;
+pub mod in_memory;
 pub mod observer;
 pub mod outputs;
 pub mod plots;
@@ -32,6 +33,7 @@ pub use checkpoint::{
     Checkpoint, CheckpointConfig, CheckpointManifest, code_version, run_range_checkpointed,
 };
 pub use error::{CampaignError, FieldPathError, SweepPlotError};
+pub use in_memory::{InMemoryOutcome, summarize};
 pub use observer::{Observer, Phase, Silent};
 pub use outputs::{cpu_model_name, render_outputs, write_outputs};
 pub use run::{Aggregate, run_range};

@@ -9,7 +9,10 @@
 use std::path::PathBuf;
 
 use numpy::ndarray::{Array1, Array2};
-use numpy::{AllowTypeChange, IntoPyArray, PyArrayDyn, PyArrayLikeDyn, PyUntypedArrayMethods};
+use numpy::{
+    AllowTypeChange, IntoPyArray, PyArray1, PyArray2, PyArrayDyn, PyArrayLikeDyn, PyArrayMethods,
+    PyUntypedArrayMethods,
+};
 use pyo3::create_exception;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -52,9 +55,24 @@ fn write_file(path: &std::path::Path, text: &str) -> PyResult<()> {
 
 /// A robot model: the nominal or calibrated kinematics of a serial robot (a kincal robot file,
 /// `docs/model.md` §4). Angles in degrees, lengths in millimetres.
+///
+/// It holds the robot file's values exactly (`spec`, whose degree limits check joint data as
+/// the CLI's readers do) and where it came from (`path`, a file or a label).
 #[pyclass(module = "kincal", name = "Robot", frozen)]
 struct PyRobot {
-    robot: kinematics::Robot,
+    loaded: calibrate::LoadedRobot,
+}
+
+impl PyRobot {
+    fn new(spec: kinematics::RobotSpec, path: PathBuf) -> PyResult<Self> {
+        let loaded =
+            calibrate::LoadedRobot::from_spec(spec, path, "robot").map_err(|e| kincal_error(&e))?;
+        Ok(PyRobot { loaded })
+    }
+
+    fn robot(&self) -> &kinematics::Robot {
+        &self.loaded.robot
+    }
 }
 
 #[pymethods]
@@ -64,10 +82,10 @@ impl PyRobot {
     /// Raises KincalError naming the file and the field when it cannot be read or is invalid.
     #[staticmethod]
     fn load(py: Python<'_>, path: PathBuf) -> PyResult<Self> {
-        let robot = py
-            .detach(|| kinematics::Robot::from_file(&path))
+        let spec = py
+            .detach(|| kinematics::RobotSpec::from_file(&path))
             .map_err(|e| kincal_error(&e))?;
-        Ok(PyRobot { robot })
+        PyRobot::new(spec, path)
     }
 
     /// Converts the serial chain from link `base` to link `tip` of a plain URDF (xacro
@@ -94,13 +112,12 @@ impl PyRobot {
             .detach(|| urdf::import_file(&path, base, tip, &opts))
             .map_err(|e| kincal_error(&e))?
             .spec;
-        let robot = kinematics::Robot::from_spec(&spec).map_err(|e| kincal_error(&e))?;
-        Ok(PyRobot { robot })
+        PyRobot::new(spec, path)
     }
 
     /// Writes the robot file (JSON), as `kincal urdf import` and `identify` write theirs.
     fn save(&self, py: Python<'_>, path: PathBuf) -> PyResult<()> {
-        py.detach(|| write_file(&path, &self.robot.to_spec().to_json_string()))
+        py.detach(|| write_file(&path, &self.robot().to_spec().to_json_string()))
     }
 
     /// Writes the robot as a URDF rooted at the measurement frame, with a fixed link `tool` at
@@ -117,7 +134,8 @@ impl PyRobot {
             robot_name: None,
         };
         py.detach(|| {
-            let text = urdf::export(&self.robot.to_spec(), &opts).map_err(|e| kincal_error(&e))?;
+            let text =
+                urdf::export(&self.robot().to_spec(), &opts).map_err(|e| kincal_error(&e))?;
             write_file(&path, &text)
         })
     }
@@ -125,19 +143,19 @@ impl PyRobot {
     /// The robot's name (from the robot file).
     #[getter]
     fn name(&self) -> &str {
-        self.robot.name()
+        self.robot().name()
     }
 
     /// Number of joints N.
     #[getter]
     fn n_joints(&self) -> usize {
-        self.robot.n_joints()
+        self.robot().n_joints()
     }
 
     /// Number of entries in the parameter vector.
     #[getter]
     fn n_params(&self) -> usize {
-        self.robot.n_params()
+        self.robot().n_params()
     }
 
     /// The parameter vector in the order of `docs/model.md` §3, as a list of records
@@ -145,8 +163,8 @@ impl PyRobot {
     /// (`pandas.DataFrame(robot.parameters)` makes a table).
     #[getter]
     fn parameters<'py>(&self, py: Python<'py>) -> PyResult<Vec<Bound<'py, PyDict>>> {
-        let values = self.robot.params();
-        self.robot
+        let values = self.robot().params();
+        self.robot()
             .layout()
             .params()
             .iter()
@@ -168,54 +186,15 @@ impl PyRobot {
         py: Python<'py>,
         q_deg: PyArrayLikeDyn<'py, f64, AllowTypeChange>,
     ) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
-        let n = self.robot.n_joints();
-        let shape = q_deg.shape().to_vec();
-        let single = match shape[..] {
-            [k] if k == n => true,
-            [_, k] if k == n => false,
-            _ => {
-                return Err(KincalError::new_err(format!(
-                    "q_deg: expected shape (n, {n}) or ({n},) (joint angles in degrees of this \
-                     {n}-joint robot), got {}",
-                    shape_text(&shape)
-                )));
-            }
-        };
-        let q_rad: Vec<f64> = q_deg.as_array().iter().map(|d| d.to_radians()).collect();
-        if let Some(k) = q_rad.iter().position(|v| !v.is_finite()) {
-            let at = if single {
-                format!("{k}")
-            } else {
-                format!("{}, {}", k / n, k % n)
-            };
-            return Err(KincalError::new_err(format!(
-                "q_deg[{at}] is {}: joint angles must be finite",
-                q_deg.as_array().iter().nth(k).copied().unwrap_or(f64::NAN)
-            )));
-        }
-        let flat: Vec<f64> = py.detach(|| {
-            self.robot
-                .points(&q_rad)
-                .iter()
-                .flat_map(|p| [p.x, p.y, p.z])
-                .collect()
-        });
-        let out = if single {
-            Array1::from(flat).into_dyn()
-        } else {
-            Array2::from_shape_vec((flat.len() / 3, 3), flat)
-                .expect("three coordinates per pose")
-                .into_dyn()
-        };
-        Ok(out.into_pyarray(py))
+        fk_array(py, self.robot(), q_deg)
     }
 
     fn __repr__(&self) -> String {
         format!(
             "Robot({:?}, n_joints={}, n_params={})",
-            self.robot.name(),
-            self.robot.n_joints(),
-            self.robot.n_params()
+            self.robot().name(),
+            self.robot().n_joints(),
+            self.robot().n_params()
         )
     }
 }
@@ -234,11 +213,790 @@ fn shape_text(shape: &[usize]) -> String {
     }
 }
 
+/// The joint angles of `q_deg` (degrees), checked to be `(n, N)` or `(N,)` for an N-joint
+/// robot: the flat values and whether it was one pose.
+fn joints_arg(
+    q_deg: &PyArrayLikeDyn<'_, f64, AllowTypeChange>,
+    n: usize,
+    name: &str,
+) -> PyResult<(Vec<f64>, bool)> {
+    let shape = q_deg.shape().to_vec();
+    let single = match shape[..] {
+        [k] if k == n => true,
+        [_, k] if k == n => false,
+        _ => {
+            return Err(KincalError::new_err(format!(
+                "{name}: expected shape (n, {n}) or ({n},) (joint angles in degrees of this \
+                 {n}-joint robot), got {}",
+                shape_text(&shape)
+            )));
+        }
+    };
+    Ok((q_deg.as_array().iter().copied().collect(), single))
+}
+
+/// `(n, N)` joints (`(N,)` is one row) as rows of N values.
+fn joint_rows(
+    q_deg: &PyArrayLikeDyn<'_, f64, AllowTypeChange>,
+    n: usize,
+    name: &str,
+) -> PyResult<Vec<Vec<f64>>> {
+    let (flat, _) = joints_arg(q_deg, n, name)?;
+    Ok(flat.chunks_exact(n).map(<[f64]>::to_vec).collect())
+}
+
+/// `(n, 3)` points as rows, `n` rows expected (`what` names the joints they go with).
+fn point_rows(
+    points: &PyArrayLikeDyn<'_, f64, AllowTypeChange>,
+    rows: usize,
+    name: &str,
+    what: &str,
+) -> PyResult<Vec<[f64; 3]>> {
+    let shape = points.shape().to_vec();
+    if shape[..] != [rows, 3] {
+        return Err(KincalError::new_err(format!(
+            "{name}: expected shape ({rows}, 3) (one point in mm per row of {what}), got {}",
+            shape_text(&shape)
+        )));
+    }
+    let flat: Vec<f64> = points.as_array().iter().copied().collect();
+    Ok(flat.chunks_exact(3).map(|p| [p[0], p[1], p[2]]).collect())
+}
+
+/// A measurement set of joint rows (and points) built in memory, named `source`.
+fn memory_set(
+    source: &str,
+    n: usize,
+    q: Vec<Vec<f64>>,
+    points: Option<Vec<[f64; 3]>>,
+) -> measurements::MeasurementSet {
+    let rows = match points {
+        Some(p) => q
+            .into_iter()
+            .zip(p)
+            .map(|(q, p)| measurements::Measurement::new(q, Some(p)))
+            .collect(),
+        None => q
+            .into_iter()
+            .map(|q| measurements::Measurement::new(q, None))
+            .collect(),
+    };
+    measurements::MeasurementSet::new(source, n, rows)
+}
+
+/// Forward kinematics of `robot` on `q_deg` as a numpy array (see `Robot.fk`).
+fn fk_array<'py>(
+    py: Python<'py>,
+    robot: &kinematics::Robot,
+    q_deg: PyArrayLikeDyn<'py, f64, AllowTypeChange>,
+) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
+    let n = robot.n_joints();
+    let (flat_deg, single) = joints_arg(&q_deg, n, "q_deg")?;
+    if let Some(k) = flat_deg.iter().position(|v| !v.is_finite()) {
+        let at = if single {
+            format!("{k}")
+        } else {
+            format!("{}, {}", k / n, k % n)
+        };
+        return Err(KincalError::new_err(format!(
+            "q_deg[{at}] is {}: joint angles must be finite",
+            flat_deg[k]
+        )));
+    }
+    let q_rad: Vec<f64> = flat_deg.iter().map(|d| d.to_radians()).collect();
+    let flat: Vec<f64> = py.detach(|| {
+        robot
+            .points(&q_rad)
+            .iter()
+            .flat_map(|p| [p.x, p.y, p.z])
+            .collect()
+    });
+    let out = if single {
+        Array1::from(flat).into_dyn()
+    } else {
+        Array2::from_shape_vec((flat.len() / 3, 3), flat)
+            .expect("three coordinates per pose")
+            .into_dyn()
+    };
+    Ok(out.into_pyarray(py))
+}
+
+/// `(n, k)` rows as a 2-D array.
+fn rows_array<'py, const K: usize>(
+    py: Python<'py>,
+    rows: &[[f64; K]],
+) -> Bound<'py, PyArray2<f64>> {
+    let flat: Vec<f64> = rows.iter().flatten().copied().collect();
+    Array2::from_shape_vec((rows.len(), K), flat)
+        .expect("K values per row")
+        .into_pyarray(py)
+}
+
+/// Variable-length rows of equal length `k` as a 2-D array.
+fn vec_rows_array<'py>(py: Python<'py>, rows: &[Vec<f64>], k: usize) -> Bound<'py, PyArray2<f64>> {
+    let flat: Vec<f64> = rows.iter().flatten().copied().collect();
+    Array2::from_shape_vec((rows.len(), k), flat)
+        .expect("k values per row")
+        .into_pyarray(py)
+}
+
+/// The result of `kincal.identify`: the calibration the CLI's `kincal identify` computes on
+/// the same data, with its calibrated robot, residuals, parameter table, covariance and
+/// validation; `save(dir)` writes the files of `kincal identify --out`.
+#[pyclass(module = "kincal", name = "Calibration", frozen)]
+struct PyCalibration {
+    cal: calibrate::Calibration,
+    /// The calibrated robot as written to (and read back from) `identified.json`.
+    identified: calibrate::LoadedRobot,
+    /// The nominal robot in the data's frame, as `registered-nominal.json`.
+    registered: calibrate::LoadedRobot,
+    /// Wall time of the library call `calibrate::calibrate`, ms.
+    library_ms: f64,
+}
+
+#[pymethods]
+impl PyCalibration {
+    /// The calibrated robot, as `identified.json` holds it (the same numbers as
+    /// `kincal.Robot.load("OUT/identified.json")`).
+    #[getter]
+    fn robot(&self) -> PyRobot {
+        PyRobot {
+            loaded: self.identified.clone(),
+        }
+    }
+
+    /// The nominal robot in the data's measurement frame (after registration), as
+    /// `registered-nominal.json` holds it: the targets of compensation.
+    #[getter]
+    fn registered_nominal(&self) -> PyRobot {
+        PyRobot {
+            loaded: self.registered.clone(),
+        }
+    }
+
+    /// Points `(n, 3)` (mm, the measurement frame) of the calibrated robot at `q_deg`
+    /// (`(n, N)`, or `(N,)` → `(3,)`): `calibration.robot.fk(q_deg)`.
+    fn predict<'py>(
+        &self,
+        py: Python<'py>,
+        q_deg: PyArrayLikeDyn<'py, f64, AllowTypeChange>,
+    ) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
+        fk_array(py, &self.identified.robot, q_deg)
+    }
+
+    /// Residuals `measured − calibrated` `(n, 3)` (mm) on the identification rows (all of
+    /// them, outliers included even when rejected; the rows of `identification_rows`).
+    #[getter]
+    fn residuals_mm<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
+        let (_, after) = self.cal.screened_residuals();
+        rows_array(py, &after)
+    }
+
+    /// Indices (0-based, into the `q_deg` given to `identify`) of the identification rows,
+    /// in order: all rows, or those an `every`/`select` split chose.
+    #[getter]
+    fn identification_rows<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<i64>> {
+        let idx: Vec<i64> = self
+            .cal
+            .screened_rows
+            .iter()
+            .map(|r| r.line as i64 - 1)
+            .collect();
+        Array1::from(idx).into_pyarray(py)
+    }
+
+    /// Every parameter of the robot (the order of docs/model.md §3) as a list of records
+    /// `{"name", "unit", "free", "nominal", "start", "identified", "std_error",
+    /// "identifiable"}` in display units: the rows of `parameters.json`
+    /// (`pandas.DataFrame(cal.parameters)` makes the table).
+    #[getter]
+    fn parameters<'py>(&self, py: Python<'py>) -> PyResult<Vec<Bound<'py, PyDict>>> {
+        let o = &self.cal;
+        let layout = o.start.layout();
+        let (xn, xs) = (o.nominal.robot.params(), o.start.params());
+        let cov = o.fit.covariance.as_ref();
+        layout
+            .params()
+            .iter()
+            .enumerate()
+            .map(|(k, info)| {
+                let d = PyDict::new(py);
+                d.set_item("name", &info.name)?;
+                d.set_item("unit", info.unit.as_str())?;
+                d.set_item("free", o.free.contains(&k))?;
+                d.set_item("nominal", info.to_display(xn[k]))?;
+                d.set_item("start", info.to_display(xs[k]))?;
+                d.set_item("identified", info.to_display(o.fit.params[k]))?;
+                d.set_item("std_error", cov.and_then(|c| c.std_error(&info.name)))?;
+                d.set_item(
+                    "identifiable",
+                    match cov {
+                        Some(c) => c.parameters.contains(&info.name),
+                        None => o.analysis.identifiable.contains(&info.name),
+                    },
+                )?;
+                Ok(d)
+            })
+            .collect()
+    }
+
+    /// Numerical rank of the identification Jacobian at the solution (the identifiable
+    /// parameters' count).
+    #[getter]
+    fn rank(&self) -> usize {
+        self.cal.analysis.rank
+    }
+
+    /// Covariance `(r, r)` of the identifiable free parameters (display units: deg², deg·mm,
+    /// mm²), in the order of `covariance_parameters`; `None` without degrees of freedom.
+    #[getter]
+    fn covariance<'py>(&self, py: Python<'py>) -> Option<Bound<'py, PyArray2<f64>>> {
+        self.cal.fit.covariance.as_ref().map(|c| {
+            let r = c.parameters.len();
+            vec_rows_array(py, &c.covariance, r)
+        })
+    }
+
+    /// The names of the rows and columns of `covariance` (empty without one).
+    #[getter]
+    fn covariance_parameters(&self) -> Vec<String> {
+        self.cal
+            .fit
+            .covariance
+            .as_ref()
+            .map_or_else(Vec::new, |c| c.parameters.clone())
+    }
+
+    /// RMS 3-D point error of the fit on the rows it used, mm.
+    #[getter]
+    fn rms_mm(&self) -> f64 {
+        self.cal.fit.rms_mm
+    }
+
+    /// σ̂, the fit's residual scale (mm per axis); `None` without degrees of freedom.
+    #[getter]
+    fn sigma_hat_mm(&self) -> Option<f64> {
+        self.cal.fit.sigma_hat
+    }
+
+    /// Indices (into `identification_rows`) of the outliers the screen flagged
+    /// (‖residual‖ > k·σ̂₃); excluded from the final fit with `reject_outliers=True`.
+    #[getter]
+    fn outliers(&self) -> Vec<usize> {
+        self.cal
+            .screen
+            .as_ref()
+            .map_or_else(Vec::new, |s| s.indices())
+    }
+
+    /// Whether the measurement frame was registered onto the robot base first.
+    #[getter]
+    fn registered(&self) -> bool {
+        self.cal.registered()
+    }
+
+    /// 3-D errors on the validation rows (`validate=` or the rows an `every`/`select` split
+    /// held out), mm: `{"n_poses", "before_mean_mm", "before_max_mm", "before_rms_mm",
+    /// "before_p95_mm", "after_mean_mm", …}` (before: the nominal after registration;
+    /// after: the calibrated robot), the figures `kincal identify` prints; `None` without
+    /// validation rows.
+    #[getter]
+    fn validation<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyDict>>> {
+        let Some(v) = &self.cal.validation else {
+            return Ok(None);
+        };
+        let d = PyDict::new(py);
+        d.set_item("n_poses", v.rows.len())?;
+        for (when, s) in [
+            ("before", &v.table.before.norm),
+            ("after", &v.table.after.norm),
+        ] {
+            d.set_item(format!("{when}_mean_mm"), s.mean_mm)?;
+            d.set_item(format!("{when}_max_mm"), s.max_mm)?;
+            d.set_item(format!("{when}_rms_mm"), s.rms_mm)?;
+            d.set_item(format!("{when}_p95_mm"), s.p95_mm)?;
+        }
+        Ok(Some(d))
+    }
+
+    /// Wall time (ms) of the library call `calibrate::calibrate` inside `identify`, timed in
+    /// Rust: what `identify` costs without the binding (array conversion, the rows' checks,
+    /// the result's construction). `docs/python.md` compares the two.
+    #[getter]
+    fn library_ms(&self) -> f64 {
+        self.library_ms
+    }
+
+    /// The console summary `kincal identify` prints for this calibration.
+    fn summary(&self) -> String {
+        report::calibration::summary(&self.cal)
+    }
+
+    /// Writes the files of `kincal identify --out` into `directory` (created if missing;
+    /// all or nothing): `identified.json`, `registered-nominal.json`, `parameters.json`,
+    /// `report.md`, `report.html` and its plots.
+    fn save(&self, py: Python<'_>, directory: PathBuf) -> PyResult<()> {
+        py.detach(|| {
+            let files = report::calibration::render(&self.cal).map_err(|e| kincal_error(&e))?;
+            std::fs::create_dir_all(&directory)
+                .and_then(|()| measurements::write_all_atomically(&directory, &files))
+                .map_err(|e| {
+                    KincalError::new_err(format!(
+                        "writing the outputs into {}: {e}",
+                        directory.display()
+                    ))
+                })
+        })
+    }
+
+    fn __repr__(&self) -> String {
+        format!(
+            "Calibration({:?}, rows={}, free={}, rank={}, rms_mm={:.4})",
+            self.cal.nominal.robot.name(),
+            self.cal.used.len(),
+            self.cal.free.len(),
+            self.cal.analysis.rank,
+            self.cal.fit.rms_mm
+        )
+    }
+}
+
+/// A spec given as a string or a sequence of names (joined by commas).
+fn params_arg(params: &Bound<'_, PyAny>) -> PyResult<identify::ParamSpec> {
+    let text = match params.extract::<String>() {
+        Ok(s) => s,
+        Err(_) => params
+            .extract::<Vec<String>>()
+            .map_err(|_| {
+                KincalError::new_err(
+                    "params: expected a spec string (\"paper\", \"minimal\", \
+                     \"paper+compliance\", \"theta2,d3\") or a list of parameter names",
+                )
+            })?
+            .join(","),
+    };
+    Ok(text.parse().expect("a parameter spec always parses"))
+}
+
+/// Identifies the robot's parameters from measured points `(n, 3)` (mm) at joints `(n, N)`
+/// (degrees), as `kincal identify` does on a file with the same rows.
+#[pyfunction(name = "identify")]
+#[pyo3(signature = (
+    robot, q_deg, points_mm, *, params = None, validate = None, reject_outliers = false,
+    every = None, offset = 0, select = None, criterion = "d", schedule = "levenberg",
+    redundant = "hold", registration = "auto", outlier_k = 3.0, worst = 10
+))]
+#[allow(clippy::too_many_arguments)]
+fn py_identify<'py>(
+    py: Python<'py>,
+    robot: &PyRobot,
+    q_deg: PyArrayLikeDyn<'py, f64, AllowTypeChange>,
+    points_mm: PyArrayLikeDyn<'py, f64, AllowTypeChange>,
+    params: Option<Bound<'py, PyAny>>,
+    validate: Option<(
+        PyArrayLikeDyn<'py, f64, AllowTypeChange>,
+        PyArrayLikeDyn<'py, f64, AllowTypeChange>,
+    )>,
+    reject_outliers: bool,
+    every: Option<usize>,
+    offset: usize,
+    select: Option<usize>,
+    criterion: &str,
+    schedule: &str,
+    redundant: &str,
+    registration: &str,
+    outlier_k: f64,
+    worst: usize,
+) -> PyResult<PyCalibration> {
+    let nominal = robot.loaded.clone();
+    let n = nominal.robot.n_joints();
+    let q = joint_rows(&q_deg, n, "q_deg")?;
+    let p = point_rows(&points_mm, q.len(), "points_mm", "q_deg")?;
+    let data = memory_set("identification arrays", n, q, Some(p));
+    let validate = validate
+        .map(|(vq, vp)| -> PyResult<_> {
+            let q = joint_rows(&vq, n, "validate[0] (q_deg)")?;
+            let p = point_rows(&vp, q.len(), "validate[1] (points_mm)", "validate[0]")?;
+            Ok(memory_set("validation arrays", n, q, Some(p)))
+        })
+        .transpose()?;
+    let refuse = |name: &str, value: &str, allowed: &str| {
+        KincalError::new_err(format!("{name}: unknown value {value:?} ({allowed})"))
+    };
+    let split = match (every, select, &validate) {
+        (Some(_), Some(_), _) => {
+            return Err(KincalError::new_err(
+                "every and select: give one split of the data, not both",
+            ));
+        }
+        (Some(every), None, _) => calibrate::Split::Every { every, offset },
+        (None, Some(poses), _) => calibrate::Split::Select {
+            poses,
+            criterion: criterion.parse().map_err(KincalError::new_err)?,
+        },
+        (None, None, _) => calibrate::Split::All,
+    };
+    if offset != 0 && every.is_none() {
+        return Err(KincalError::new_err("offset: only with every"));
+    }
+    let damping = match schedule {
+        "levenberg" => identify::Damping::levenberg(),
+        "marquardt" => identify::Damping::marquardt(),
+        "nielsen" => identify::Damping::nielsen(),
+        other => return Err(refuse("schedule", other, "levenberg, marquardt, nielsen")),
+    };
+    let redundant = match redundant {
+        "hold" => identify::Redundant::Hold,
+        "damp" => identify::Redundant::Damp,
+        other => return Err(refuse("redundant", other, "hold, damp")),
+    };
+    let registration = match registration {
+        "auto" => identify::RegistrationPolicy::default(),
+        "always" => identify::RegistrationPolicy::Always,
+        "never" => identify::RegistrationPolicy::Never,
+        other => return Err(refuse("registration", other, "auto, always, never")),
+    };
+    let params = match &params {
+        Some(p) => params_arg(p)?,
+        None => identify::ParamSpec::default(),
+    };
+    let request = calibrate::IdentifyRequest {
+        validate: validate.as_ref().map(|v| PathBuf::from(&v.source)),
+        split,
+        params,
+        damping,
+        redundant,
+        registration,
+        reject_outliers,
+        outlier_k,
+        worst,
+        ..calibrate::IdentifyRequest::new(&nominal.path, &data.source)
+    };
+    py.detach(|| {
+        let err = |e: calibrate::CalibrateError| kincal_error(&e);
+        let data = nominal
+            .check_set(data, true, "identification data")
+            .map_err(err)?;
+        let validate = validate
+            .map(|v| nominal.check_set(v, true, "validation data").map_err(err))
+            .transpose()?;
+        let inputs = calibrate::Inputs {
+            nominal,
+            data,
+            validate,
+        };
+        let started = std::time::Instant::now();
+        let cal = calibrate::calibrate(&request, inputs).map_err(err)?;
+        let library_ms = started.elapsed().as_secs_f64() * 1e3;
+        let written = |r: kinematics::Robot, label: &str| {
+            calibrate::LoadedRobot::from_spec(r.to_spec(), label, "robot").map_err(err)
+        };
+        let identified = written(cal.identified_robot(), "identified.json")?;
+        let registered = written(cal.registered_robot(), "registered-nominal.json")?;
+        Ok(PyCalibration {
+            cal,
+            identified,
+            registered,
+            library_ms,
+        })
+    })
+}
+
+/// The joints `(n, N)` (degrees) to command so that the calibrated robot reaches the points
+/// the nominal robot (in the data's frame) reaches at `q_deg`, as `kincal compensate` with
+/// the calibration's `identified.json` and `registered-nominal.json`.
+#[pyfunction(name = "compensate")]
+fn py_compensate<'py>(
+    py: Python<'py>,
+    calibration: &PyCalibration,
+    q_deg: PyArrayLikeDyn<'py, f64, AllowTypeChange>,
+) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
+    let nominal = &calibration.registered;
+    let n = nominal.robot.n_joints();
+    let (_, single) = joints_arg(&q_deg, n, "q_deg")?;
+    let set = memory_set("q_deg", n, joint_rows(&q_deg, n, "q_deg")?, None);
+    let rows = py.detach(|| {
+        let set = nominal
+            .check_set(set, false, "target joints")
+            .map_err(|e| kincal_error(&e))?;
+        calibrate::compensate_set(&calibration.identified, nominal, &set)
+            .map_err(|e| kincal_error(&e))
+    })?;
+    let out = vec_rows_array(py, &rows, n);
+    Ok(if single {
+        out.reshape(vec![n])?
+            .into_any()
+            .cast_into::<PyArrayDyn<f64>>()?
+    } else {
+        out.into_any().cast_into::<PyArrayDyn<f64>>()?
+    })
+}
+
+/// Indices (into the candidates) of the `n` poses the design criterion chooses, as
+/// `kincal design --candidates` does with the same rows.
+#[pyfunction(name = "design")]
+#[pyo3(signature = (
+    robot, candidates_q_deg, n, *, criterion = "d", workspace_q_deg = None,
+    params = None, seed = 1, restarts = 0
+))]
+#[allow(clippy::too_many_arguments)]
+fn py_design<'py>(
+    py: Python<'py>,
+    robot: &PyRobot,
+    candidates_q_deg: PyArrayLikeDyn<'py, f64, AllowTypeChange>,
+    n: usize,
+    criterion: &str,
+    workspace_q_deg: Option<PyArrayLikeDyn<'py, f64, AllowTypeChange>>,
+    params: Option<Bound<'py, PyAny>>,
+    seed: u64,
+    restarts: usize,
+) -> PyResult<Bound<'py, PyArray1<i64>>> {
+    let loaded = &robot.loaded;
+    let nj = loaded.robot.n_joints();
+    let criterion: design::Criterion = criterion.parse().map_err(KincalError::new_err)?;
+    let spec = match &params {
+        Some(p) => params_arg(p)?,
+        None => "minimal".parse().expect("a parameter spec always parses"),
+    };
+    let cand = memory_set(
+        "candidates",
+        nj,
+        joint_rows(&candidates_q_deg, nj, "candidates_q_deg")?,
+        None,
+    );
+    let work = workspace_q_deg
+        .map(|w| -> PyResult<_> {
+            Ok(memory_set(
+                "workspace",
+                nj,
+                joint_rows(&w, nj, "workspace_q_deg")?,
+                None,
+            ))
+        })
+        .transpose()?;
+    let chosen = py.detach(|| -> PyResult<Vec<usize>> {
+        let err = |e: &(dyn std::error::Error + 'static)| kincal_error(e);
+        let candidates = loaded
+            .check_set(cand, false, "candidates")
+            .map_err(|e| err(&e))?;
+        let workspace = work
+            .map(|w| loaded.check_set(w, false, "workspace").map_err(|e| err(&e)))
+            .transpose()?;
+        let spec_err = |e: identify::IdentifyError| {
+            KincalError::new_err(format!("params `{spec}`: {}", {
+                let mut m = e.to_string();
+                let mut s = std::error::Error::source(&e);
+                while let Some(x) = s {
+                    m.push_str(&format!(": {x}"));
+                    s = x.source();
+                }
+                m
+            }))
+        };
+        let model_robot = spec
+            .apply(&loaded.robot, &loaded.path.display().to_string())
+            .map_err(spec_err)?;
+        let names = spec.listed(&model_robot).map_err(spec_err)?;
+        let indices = names
+            .map(|p| model_robot.layout().select(&p))
+            .transpose()
+            .map_err(|e| err(&e))?;
+        let pool = design::Candidates::from_set(&candidates);
+        let ws = workspace.map(|w| design::Candidates::from_set(&w));
+        let model = design::InfoModel::new(
+            &model_robot,
+            &pool.q_rad,
+            ws.as_ref().map(|w| w.q_rad.as_slice()),
+            indices.as_deref(),
+            &design::Scale::default(),
+        )
+        .map_err(|e| err(&e))?;
+        let mut opts = design::DesignOptions::new(criterion, n);
+        opts.seed = seed;
+        opts.restarts = restarts;
+        Ok(design::select(&model, &opts).map_err(|e| err(&e))?.selected)
+    })?;
+    Ok(Array1::from(chosen.into_iter().map(|i| i as i64).collect::<Vec<_>>()).into_pyarray(py))
+}
+
+/// A scenario given as a path or a dict (JSON-serialisable, the file's fields; a relative
+/// `robot` path is taken from the current directory), loaded and checked by the campaign
+/// crate as `kincal campaign` loads a file.
+fn scenario_arg(py: Python<'_>, scenario: &Bound<'_, PyAny>) -> PyResult<campaign::LoadedScenario> {
+    if let Ok(path) = scenario.extract::<PathBuf>() {
+        return py
+            .detach(|| campaign::Scenario::from_file(&path))
+            .map_err(|e| kincal_error(&e));
+    }
+    let text: String = py
+        .import("json")?
+        .call_method1("dumps", (scenario,))
+        .map_err(|e| {
+            KincalError::new_err(format!(
+                "scenario: expected a path or a JSON-serialisable dict ({e})"
+            ))
+        })?
+        .extract()?;
+    let label = "scenario dict";
+    py.detach(|| {
+        campaign::Scenario::from_json_str(&text, label)
+            .and_then(|s| s.load(std::path::Path::new("."), label))
+    })
+    .map_err(|e| kincal_error(&e))
+}
+
+/// Counts the progress of a campaign from the worker threads (atomics only; the Python
+/// callback is called on the calling thread).
+#[derive(Default)]
+struct Progress {
+    done: std::sync::atomic::AtomicU64,
+    total: std::sync::atomic::AtomicU64,
+}
+
+impl campaign::Observer for Progress {
+    fn phase_started(&self, _phase: campaign::Phase, total: u64) {
+        self.total
+            .fetch_add(total, std::sync::atomic::Ordering::Relaxed);
+    }
+    fn trials_done(&self, k: u64) {
+        self.done.fetch_add(k, std::sync::atomic::Ordering::Relaxed);
+    }
+}
+
+/// Runs a Monte Carlo campaign of a scenario (a file or a dict) and returns its summary, the
+/// contents of the `summary.json` that `kincal campaign` writes for the same scenario and
+/// options, as a dict.
+#[pyfunction(name = "campaign")]
+#[pyo3(signature = (
+    scenario, *, trials = None, threads = None, seed = None, progress = None, iso = true,
+    budget = true
+))]
+#[allow(clippy::too_many_arguments)]
+fn py_campaign<'py>(
+    py: Python<'py>,
+    scenario: Bound<'py, PyAny>,
+    trials: Option<u64>,
+    threads: Option<usize>,
+    seed: Option<u64>,
+    progress: Option<Bound<'py, PyAny>>,
+    iso: bool,
+    budget: bool,
+) -> PyResult<Bound<'py, PyAny>> {
+    if trials == Some(0) {
+        return Err(KincalError::new_err("trials must be at least 1"));
+    }
+    if threads == Some(0) {
+        return Err(KincalError::new_err("threads must be at least 1"));
+    }
+    let mut loaded = scenario_arg(py, &scenario)?;
+    let s = &mut loaded.scenario;
+    s.iso.enabled &= iso;
+    s.residual_budget.enabled &= budget;
+    if let Some(t) = trials {
+        s.trials = t;
+    }
+    if let Some(seed) = seed {
+        s.seed = seed;
+    }
+    let counter = Progress::default();
+    let mut callback_error = None;
+    let outcome = std::thread::scope(|scope| {
+        let worker = scope.spawn(|| campaign::summarize(loaded, threads, &counter));
+        let mut reported = (u64::MAX, u64::MAX);
+        loop {
+            let finished = py.detach(|| {
+                let until = std::time::Instant::now() + std::time::Duration::from_millis(100);
+                while !worker.is_finished() && std::time::Instant::now() < until {
+                    std::thread::sleep(std::time::Duration::from_millis(2));
+                }
+                worker.is_finished()
+            });
+            if let (Some(cb), None) = (&progress, &callback_error) {
+                let now = (
+                    counter.done.load(std::sync::atomic::Ordering::Relaxed),
+                    counter.total.load(std::sync::atomic::Ordering::Relaxed),
+                );
+                if now != reported {
+                    reported = now;
+                    if let Err(e) = cb.call1(now) {
+                        callback_error = Some(e);
+                    }
+                }
+            }
+            if finished {
+                break;
+            }
+        }
+        worker.join().expect("the campaign thread does not panic")
+    });
+    if let Some(e) = callback_error {
+        return Err(e);
+    }
+    let outcome = outcome.map_err(|e| kincal_error(&e))?;
+    py.import("json")?
+        .call_method1("loads", (outcome.summary.to_json(),))
+}
+
+/// A simulated measurement set of trial `trial` of a scenario (a file or a dict): what
+/// `kincal simulate` writes as `identification.csv` and `validation.csv`, as arrays
+/// `{"identification_q_deg", "identification_points_mm", "validation_q_deg",
+/// "validation_points_mm"}`.
+#[pyfunction(name = "simulate")]
+#[pyo3(signature = (scenario, *, seed = None, trial = 0))]
+fn py_simulate<'py>(
+    py: Python<'py>,
+    scenario: Bound<'py, PyAny>,
+    seed: Option<u64>,
+    trial: u64,
+) -> PyResult<Bound<'py, PyDict>> {
+    let loaded = scenario_arg(py, &scenario)?;
+    let seed = seed.unwrap_or(loaded.scenario.seed);
+    let sim = py
+        .detach(|| virtual_robot::simulate(&loaded.nominal, &loaded.virtual_robot(), seed, trial))
+        .map_err(|e| {
+            KincalError::new_err(format!(
+                "simulating trial {trial} of {}: {}",
+                loaded.source,
+                {
+                    let mut m = e.to_string();
+                    let mut s = std::error::Error::source(&e);
+                    while let Some(x) = s {
+                        m.push_str(&format!(": {x}"));
+                        s = x.source();
+                    }
+                    m
+                }
+            ))
+        })?;
+    let n = loaded.nominal.n_joints();
+    let d = PyDict::new(py);
+    for (name, set) in [
+        ("identification", &sim.identification),
+        ("validation", &sim.validation),
+    ] {
+        let q: Vec<Vec<f64>> = set.rows.iter().map(|r| r.q_deg.clone()).collect();
+        let p: Vec<[f64; 3]> = set
+            .rows
+            .iter()
+            .map(|r| r.point_mm.unwrap_or([f64::NAN; 3]))
+            .collect();
+        d.set_item(format!("{name}_q_deg"), vec_rows_array(py, &q, n))?;
+        d.set_item(format!("{name}_points_mm"), rows_array(py, &p))?;
+    }
+    Ok(d)
+}
+
 /// kincal's compiled core; import `kincal`, which re-exports it.
 #[pymodule]
 fn _kincal(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     m.add("KincalError", m.py().get_type::<KincalError>())?;
     m.add_class::<PyRobot>()?;
+    m.add_class::<PyCalibration>()?;
+    m.add_function(wrap_pyfunction!(py_identify, m)?)?;
+    m.add_function(wrap_pyfunction!(py_compensate, m)?)?;
+    m.add_function(wrap_pyfunction!(py_design, m)?)?;
+    m.add_function(wrap_pyfunction!(py_campaign, m)?)?;
+    m.add_function(wrap_pyfunction!(py_simulate, m)?)?;
     Ok(())
 }

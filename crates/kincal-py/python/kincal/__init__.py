@@ -4,11 +4,31 @@ Angles are in degrees and lengths in millimetres, as everywhere in kincal; array
 float64. Errors of the library raise :class:`KincalError` (a ``ValueError``) with the
 library's message, which names the file, line and field.
 
-Bound now: :class:`Robot` (load, from_urdf, save, to_urdf, fk, parameters). Not yet bound
-(declared in the stub ``__init__.pyi`` as the planned API, absent at run time): identify,
-Calibration, compensate, design, campaign, simulate. See docs/python.md.
+:class:`Robot` (load, from_urdf, save, to_urdf, fk, parameters), :func:`identify` →
+:class:`Calibration`, :func:`compensate`, :func:`design`, :func:`campaign`,
+:func:`simulate`. See docs/python.md.
 """
 
-from ._kincal import KincalError, Robot, __version__
+from ._kincal import (
+    Calibration,
+    KincalError,
+    Robot,
+    __version__,
+    campaign,
+    compensate,
+    design,
+    identify,
+    simulate,
+)
 
-__all__ = ["KincalError", "Robot", "__version__"]
+__all__ = [
+    "Calibration",
+    "KincalError",
+    "Robot",
+    "__version__",
+    "campaign",
+    "compensate",
+    "design",
+    "identify",
+    "simulate",
+]

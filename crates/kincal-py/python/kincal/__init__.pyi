@@ -2,25 +2,31 @@
 
 Units everywhere: angles in degrees, lengths in millimetres; arrays are numpy float64.
 
-This stub is the contract of the package's API (issue 32). Two parts:
-
-* Bound now: ``__version__``, ``KincalError``, ``Robot``.
-* Planned, declared here so that scripts and editors can be written against the names, but
-  **not yet available**: ``identify``, ``Calibration``, ``compensate``, ``design``,
-  ``campaign``, ``simulate``. They do not exist at run time (``AttributeError``) until
-  they are bound; their docstrings say so. Signatures may still change before then.
+This stub is the contract of the package's API (issue 32): ``Robot``, ``identify`` →
+``Calibration``, ``compensate``, ``design``, ``campaign``, ``simulate``, ``KincalError``.
+mypy's stubtest checks it against the compiled module.
 """
 
 from collections.abc import Callable, Mapping, Sequence
 from os import PathLike
-from typing import Any, Literal, TypedDict, Union, final
+from typing import Any, TypedDict, Union, final
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 _Path = Union[str, PathLike[str]]
 
-__all__ = ["KincalError", "Robot", "__version__"]
+__all__ = [
+    "Calibration",
+    "KincalError",
+    "Robot",
+    "__version__",
+    "campaign",
+    "compensate",
+    "design",
+    "identify",
+    "simulate",
+]
 
 __version__: str
 """The package version, the kincal workspace's version (e.g. ``"0.1.0"``)."""
@@ -114,89 +120,173 @@ class Robot:
 
     def __repr__(self) -> str: ...
 
-# ---------------------------------------------------------------------------------------------
-# Planned API (issue 32): declared as the contract, NOT YET AVAILABLE at run time.
-# ---------------------------------------------------------------------------------------------
-
 class CalibrationParameter(TypedDict):
-    """One entry of :attr:`Calibration.parameters` (planned)."""
+    """One entry of :attr:`Calibration.parameters`: a row of ``parameters.json``."""
 
     name: str
     unit: str
+    free: bool
+    """Whether the parameter was identified (else held at its start value)."""
     nominal: float
+    """Value in the nominal robot."""
+    start: float
+    """Value the fit started from (the nominal after base registration)."""
     identified: float
+    """Value of the calibrated robot."""
     std_error: float | None
+    """Standard error, for identifiable parameters (``None`` otherwise)."""
+    identifiable: bool
+    """In the identifiable (minimal) subset at the solution."""
 
 class ValidationSummary(TypedDict):
-    """:attr:`Calibration.validation` (planned): 3-D errors on the validation poses, mm."""
+    """:attr:`Calibration.validation`: 3-D errors on the validation poses, mm; before = the
+    nominal after registration, after = the calibrated robot."""
 
     n_poses: int
     before_mean_mm: float
     before_max_mm: float
+    before_rms_mm: float
+    before_p95_mm: float
     after_mean_mm: float
     after_max_mm: float
+    after_rms_mm: float
+    after_p95_mm: float
 
+@final
 class Calibration:
-    """Not yet available (planned, issue 32): the result of :func:`identify`."""
+    """The result of :func:`identify`: the calibration ``kincal identify`` computes on the
+    same rows. Immutable."""
 
     @property
     def robot(self) -> Robot:
-        """Not yet available. The calibrated robot (``identified.json``)."""
+        """The calibrated robot as ``identified.json`` holds it (the same numbers as
+        ``Robot.load("OUT/identified.json")``)."""
+
+    @property
+    def registered_nominal(self) -> Robot:
+        """The nominal robot in the data's frame (``registered-nominal.json``): the targets
+        of compensation."""
 
     def predict(self, q_deg: ArrayLike) -> NDArray[np.float64]:
-        """Not yet available. Points ``(n, 3)`` of the calibrated robot in the measurement
-        frame."""
+        """Points ``(n, 3)`` (mm, the measurement frame) of the calibrated robot at joints
+        ``(n, N)`` in degrees (``(N,)`` → ``(3,)``): ``calibration.robot.fk(q_deg)``."""
 
     @property
     def residuals_mm(self) -> NDArray[np.float64]:
-        """Not yet available. Residuals ``(n, 3)`` on the identification poses."""
+        """Residuals measured − calibrated ``(n, 3)`` (mm) on the identification rows
+        (:attr:`identification_rows`, outliers included)."""
+
+    @property
+    def identification_rows(self) -> NDArray[np.int64]:
+        """0-based indices into the ``q_deg`` given to :func:`identify` of the rows that
+        identified (all, or those an ``every``/``select`` split chose)."""
 
     @property
     def parameters(self) -> list[CalibrationParameter]:
-        """Not yet available. Every parameter: name, unit, nominal, identified, std_error."""
+        """Every parameter (docs/model.md §3 order): name, unit, free, nominal, start,
+        identified, std_error, identifiable, display units — the rows of
+        ``parameters.json``; ``pandas.DataFrame(cal.parameters)`` makes the table."""
 
     @property
     def rank(self) -> int:
-        """Not yet available. Rank of the identification Jacobian."""
+        """Numerical rank of the identification Jacobian at the solution."""
 
     @property
-    def covariance(self) -> NDArray[np.float64]:
-        """Not yet available. Covariance of the identified parameters (display units)."""
+    def covariance(self) -> NDArray[np.float64] | None:
+        """Covariance ``(r, r)`` of the identifiable free parameters (display units), rows
+        and columns named by :attr:`covariance_parameters`; ``None`` without degrees of
+        freedom."""
+
+    @property
+    def covariance_parameters(self) -> list[str]:
+        """Names of the rows and columns of :attr:`covariance`."""
+
+    @property
+    def rms_mm(self) -> float:
+        """RMS 3-D point error of the final fit on the rows it used, mm."""
+
+    @property
+    def sigma_hat_mm(self) -> float | None:
+        """σ̂, the fit's residual scale (mm per axis)."""
+
+    @property
+    def outliers(self) -> list[int]:
+        """Indices into :attr:`identification_rows` of the rows the outlier screen flagged."""
+
+    @property
+    def registered(self) -> bool:
+        """Whether the measurement frame was registered onto the robot base first."""
 
     @property
     def validation(self) -> ValidationSummary | None:
-        """Not yet available. Before/after mean and max on ``validate=`` poses, if given."""
+        """3-D errors on the validation rows (``validate=`` or held out by a split), before
+        and after: mean, max, RMS, p95 (mm); ``None`` without validation rows."""
+
+    @property
+    def library_ms(self) -> float:
+        """Wall time (ms) of the library call inside :func:`identify`, timed in Rust: the
+        cost of the identification without the binding's conversions and checks."""
+
+    def summary(self) -> str:
+        """The console summary ``kincal identify`` prints."""
 
     def save(self, directory: _Path) -> None:
-        """Not yet available. Writes the files of ``kincal identify --out``."""
+        """Writes the files of ``kincal identify --out`` into ``directory`` (created if
+        missing; all or nothing)."""
+
+    def __repr__(self) -> str: ...
 
 def identify(
     robot: Robot,
     q_deg: ArrayLike,
     points_mm: ArrayLike,
     *,
-    params: str | Sequence[str] = "paper",
+    params: str | Sequence[str] | None = None,
     validate: tuple[ArrayLike, ArrayLike] | None = None,
     reject_outliers: bool = False,
-    **options: Any,
+    every: int | None = None,
+    offset: int = 0,
+    select: int | None = None,
+    criterion: str = "d",
+    schedule: str = "levenberg",
+    redundant: str = "hold",
+    registration: str = "auto",
+    outlier_k: float = 3.0,
+    worst: int = 10,
 ) -> Calibration:
-    """Not yet available (planned, issue 32). Identifies the robot's parameters from measured
-    points ``(n, 3)`` at joints ``(n, N)``, as ``kincal identify`` does."""
+    """Identifies the robot's parameters from measured points ``(n, 3)`` (mm) at joints
+    ``(n, N)`` (degrees), as ``kincal identify`` does on a file with the same rows; the
+    options are the CLI's flags: ``params`` (``None`` = ``"paper"``; ``"minimal"``, names,
+    ``"paper+compliance"``; or a list of names), ``validate=(q_deg, points_mm)``,
+    ``every``/``offset`` or ``select``/``criterion`` (hold-out splits), ``schedule``
+    (levenberg, marquardt, nielsen), ``redundant`` (hold, damp), ``registration`` (auto,
+    always, never), ``reject_outliers``, ``outlier_k``, ``worst``.
+
+    The rows get the checks of a file: joint count, joint limits of the robot file, finite
+    values (errors name ``identification arrays:ROW``, rows counted from 1). Raises
+    KincalError with the library's message. The GIL is released during the work.
+    """
 
 def compensate(calibration: Calibration, q_deg: ArrayLike) -> NDArray[np.float64]:
-    """Not yet available (planned, issue 32). The joints ``(n, N)`` that make the calibrated
-    robot reach the nominal robot's points at ``q_deg``, as ``kincal compensate`` does."""
+    """The joints ``(n, N)`` (degrees) that make the calibrated robot reach the points the
+    registered nominal robot reaches at ``q_deg``, as ``kincal compensate`` with the
+    calibration's ``identified.json`` and ``registered-nominal.json``; ``(N,)`` → ``(N,)``.
+    Raises KincalError listing the unreachable rows."""
 
 def design(
     robot: Robot,
     candidates_q_deg: ArrayLike,
     n: int,
     *,
-    criterion: Literal["d", "a", "e", "i", "o1", "o3", "o5"] = "d",
+    criterion: str = "d",
     workspace_q_deg: ArrayLike | None = None,
+    params: str | Sequence[str] | None = None,
+    seed: int = 1,
+    restarts: int = 0,
 ) -> NDArray[np.int64]:
-    """Not yet available (planned, issue 32). Indices of the ``n`` candidate poses a design
-    criterion chooses, as ``kincal design`` does."""
+    """Indices into ``candidates_q_deg`` of the ``n`` poses a design criterion chooses
+    (``"d"``, ``"a"``, ``"e"``, ``"i"``, ``"o1"``, ``"o3"``, ``"o5"``; ``params`` ``None``
+    = ``"minimal"``), as ``kincal design --candidates`` does (docs/design.md)."""
 
 def campaign(
     scenario: _Path | Mapping[str, Any],
@@ -204,10 +294,16 @@ def campaign(
     trials: int | None = None,
     threads: int | None = None,
     seed: int | None = None,
-    progress: Callable[[int, int], None] | None = None,
+    progress: Callable[[int, int], object] | None = None,
+    iso: bool = True,
+    budget: bool = True,
 ) -> dict[str, Any]:
-    """Not yet available (planned, issue 32). Runs a Monte Carlo campaign of a scenario (a
-    file or a dict) and returns its summary, as ``kincal campaign`` writes it."""
+    """Runs a Monte Carlo campaign of a scenario (a file, or a dict of its fields whose
+    relative ``robot`` path is taken from the current directory) and returns its summary:
+    the contents of ``summary.json`` of ``kincal campaign`` with the same options
+    (``iso=False`` is ``--no-iso``, ``budget=False`` ``--no-budget``). Nothing is written.
+    ``progress(done, total)`` is called on the calling thread about every 0.1 s. The same
+    seed gives the same summary on any thread count. The GIL is released during the work."""
 
 def simulate(
     scenario: _Path | Mapping[str, Any],
@@ -215,6 +311,6 @@ def simulate(
     seed: int | None = None,
     trial: int = 0,
 ) -> dict[str, NDArray[np.float64]]:
-    """Not yet available (planned, issue 32; signature provisional). A simulated measurement
-    set of a scenario's virtual robot, as arrays (joints, points), as ``kincal simulate``
-    writes it."""
+    """A simulated measurement set of trial ``trial`` of a scenario's virtual robot, as
+    ``kincal simulate`` writes it: ``{"identification_q_deg", "identification_points_mm",
+    "validation_q_deg", "validation_points_mm"}``."""

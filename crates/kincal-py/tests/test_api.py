@@ -1,0 +1,269 @@
+"""kincal.identify, compensate, design, campaign and simulate against the kincal CLI on the
+same data: identical numbers, errors as exceptions, determinism."""
+
+import json
+import re
+
+import numpy as np
+import pytest
+
+import kincal
+from conftest import REPO, ROBOTS, UR10_DATA, read_csv, run_cli
+
+SCENARIO = REPO / "scenarios" / "paper-kr1000.json"
+
+
+def ur10_data():
+    rows = read_csv(UR10_DATA)
+    q = np.array([[float(r[f"q{i + 1}"]) for i in range(6)] for r in rows])
+    p = np.array([[float(r[c]) for c in "xyz"] for r in rows])
+    return q, p
+
+
+@pytest.fixture(scope="module")
+def readme_example(tmp_path_factory):
+    """The README's UR10 example through the CLI and through the API."""
+    out = tmp_path_factory.mktemp("cli") / "ur10-cal"
+    stdout = run_cli(
+        "identify", "--robot", ROBOTS / "ur10.json", "--data", UR10_DATA,
+        "--every", 15, "--out", out,
+    )
+    robot = kincal.Robot.load(ROBOTS / "ur10.json")
+    q, p = ur10_data()
+    cal = kincal.identify(robot, q, p, every=15)
+    return stdout, out, cal
+
+
+def test_identify_gives_the_readmes_figures_and_the_clis(readme_example):
+    stdout, out, cal = readme_example
+    v = cal.validation
+    assert v["n_poses"] == 1395
+    # The README's figures, as the CLI prints them (3 decimals).
+    assert (f"{v['after_mean_mm']:.3f}", f"{v['after_max_mm']:.3f}") == ("0.452", "1.766")
+    assert (f"{v['before_mean_mm']:.3f}", f"{v['before_max_mm']:.3f}") == ("2.933", "5.011")
+    line = next(l for l in stdout.splitlines() if l.startswith("validation:"))
+    assert line.endswith(
+        f"nominal (registered) mean {v['before_mean_mm']:.3f} mm, max {v['before_max_mm']:.3f} mm"
+        f" → calibrated mean {v['after_mean_mm']:.3f} mm, max {v['after_max_mm']:.3f} mm"
+    )
+    # parameters.json holds shortest round-trip numbers: the API's are the same bits.
+    table = json.loads((out / "parameters.json").read_text())
+    assert table["rank"] == cal.rank == 27
+    assert table["rms_mm"] == cal.rms_mm and table["sigma_hat_mm"] == cal.sigma_hat_mm
+    assert table["rows"] == 100 and len(cal.identification_rows) == 100
+    assert list(cal.identification_rows[:3]) == [0, 15, 30]
+    keys = ["name", "unit", "free", "nominal", "start", "identified", "std_error", "identifiable"]
+    assert [{k: r[k] for k in keys} for r in table["parameters"]] == cal.parameters
+    # The calibrated robot is identified.json's, to the bit.
+    cli_robot = kincal.Robot.load(out / "identified.json")
+    assert cli_robot.parameters == cal.robot.parameters
+    assert np.array_equal(cli_robot.fk(ur10_data()[0]), cal.predict(ur10_data()[0]))
+    registered = kincal.Robot.load(out / "registered-nominal.json")
+    assert registered.parameters == cal.registered_nominal.parameters
+
+
+def test_calibration_arrays(readme_example):
+    _, _, cal = readme_example
+    q, p = ur10_data()
+    rows = cal.identification_rows
+    r = cal.residuals_mm
+    assert r.shape == (100, 3) and r.dtype == np.float64
+    # Residuals are measured − calibrated on the identification rows (fit.robot vs the
+    # robot read back from identified.json: equal to rounding).
+    assert np.allclose(r, p[rows] - cal.predict(q[rows]), atol=1e-9)
+    assert np.sqrt((r**2).sum(axis=1).mean()) == pytest.approx(cal.rms_mm, rel=1e-12)
+    cov = cal.covariance
+    names = cal.covariance_parameters
+    # The identifiable free parameters (the held redundant ones have no covariance).
+    assert cov.shape == (len(names), len(names)) and 0 < len(names) <= cal.rank
+    assert np.allclose(cov, cov.T)
+    se = {x["name"]: x["std_error"] for x in cal.parameters}
+    assert np.allclose(np.sqrt(np.diag(cov)), [se[n] for n in names], rtol=1e-12)
+    # The CLI's outlier, line 857 of the file: data row 855 = identification row 57.
+    assert cal.outliers == [57] and rows[57] == 855 and cal.registered
+    assert "rank 27 of 35" in cal.summary()
+
+
+def test_save_writes_the_clis_files(readme_example, tmp_path):
+    _, out, cal = readme_example
+    cal.save(tmp_path / "api")
+    names = lambda d: sorted(x.relative_to(d).as_posix() for x in d.rglob("*") if x.is_file())
+    assert names(tmp_path / "api") == names(out)
+    assert (tmp_path / "api" / "identified.json").read_text() != ""
+    a = json.loads((tmp_path / "api" / "parameters.json").read_text())
+    b = json.loads((out / "parameters.json").read_text())
+    assert a["parameters"] == b["parameters"]
+
+
+def test_identify_with_a_validation_set_equals_every(readme_example):
+    _, _, cal = readme_example
+    q, p = ur10_data()
+    keep = np.arange(len(q)) % 15 == 0
+    other = kincal.identify(
+        kincal.Robot.load(ROBOTS / "ur10.json"), q[keep], p[keep], validate=(q[~keep], p[~keep])
+    )
+    assert other.validation == cal.validation
+    assert other.parameters == cal.parameters
+
+
+def test_identify_options(readme_example):
+    q, p = ur10_data()
+    robot = kincal.Robot.load(ROBOTS / "ur10.json")
+    rej = kincal.identify(robot, q, p, every=15, reject_outliers=True)
+    assert rej.rms_mm < readme_example[2].rms_mm
+    cal = kincal.identify(robot, q[::15], p[::15], params="minimal", schedule="nielsen")
+    assert sum(r["free"] for r in cal.parameters) == cal.rank
+    cal = kincal.identify(robot, q[::15], p[::15], params=["theta2", "theta3", "base_dx",
+        "base_dy", "base_dz", "base_rx", "base_ry", "base_rz"])
+    assert sum(r["free"] for r in cal.parameters) == 8
+
+
+def test_compensate_equals_the_cli(readme_example, tmp_path):
+    _, out, cal = readme_example
+    q = ur10_data()[0][1:200:20]
+    targets = tmp_path / "targets.csv"
+    targets.write_text(
+        "q1,q2,q3,q4,q5,q6\n" + "".join(",".join(repr(float(v)) for v in r) + "\n" for r in q)
+    )
+    run_cli(
+        "compensate", "--robot", out / "identified.json", "--nominal",
+        out / "registered-nominal.json", "--targets", targets, "--out", tmp_path / "c.csv",
+    )
+    rows = read_csv(tmp_path / "c.csv")
+    q_cli = np.array([[float(r[f"q{i + 1}"]) for i in range(6)] for r in rows])
+    q_api = kincal.compensate(cal, q)
+    assert q_api.shape == (10, 6)
+    assert np.array_equal(q_api, q_cli)
+    assert np.array_equal(kincal.compensate(cal, q[3]), q_cli[3])
+    # The compensated joints bring the calibrated robot onto the nominal's points.
+    assert np.abs(cal.predict(q_api) - cal.registered_nominal.fk(q)).max() < 1e-6
+
+
+def test_design_equals_the_cli(tmp_path):
+    q = ur10_data()[0][:300]
+    cand = tmp_path / "cand.csv"
+    cand.write_text(
+        "q1,q2,q3,q4,q5,q6\n" + "".join(",".join(repr(float(v)) for v in r) + "\n" for r in q)
+    )
+    for criterion in ["d", "i"]:
+        run_cli(
+            "design", "--robot", ROBOTS / "ur10.json", "--candidates", cand, "--poses", 20,
+            "--criterion", criterion, "--out", tmp_path / "plan.csv",
+        )
+        plan = read_csv(tmp_path / "plan.csv")
+        q_plan = np.array([[float(r[f"q{i + 1}"]) for i in range(6)] for r in plan])
+        idx = kincal.design(kincal.Robot.load(ROBOTS / "ur10.json"), q, 20, criterion=criterion)
+        assert idx.dtype == np.int64 and len(idx) == 20
+        assert np.array_equal(np.sort(q[idx], axis=0), np.sort(q_plan, axis=0))
+
+
+@pytest.fixture(scope="module")
+def cli_campaign(tmp_path_factory):
+    out = tmp_path_factory.mktemp("campaign") / "c"
+    run_cli("campaign", SCENARIO, "--trials", 4, "--no-iso", "--no-budget", "--threads", 2,
+            "--quiet", "--out", out)
+    return json.loads((out / "summary.json").read_text())
+
+
+def test_campaign_summary_equals_the_clis(cli_campaign, monkeypatch):
+    seen = []
+    summary = kincal.campaign(SCENARIO, trials=4, iso=False, budget=False, threads=1,
+                              progress=lambda done, total: seen.append((done, total)))
+    assert summary == cli_campaign  # Table 4 and every other figure, on another thread count
+    assert seen and seen[-1] == (4, 4)
+    # The same scenario as a dict (a relative robot path is taken from the current directory).
+    monkeypatch.chdir(SCENARIO.parent)
+    as_dict = json.loads(SCENARIO.read_text())
+    assert kincal.campaign(as_dict, trials=4, iso=False, budget=False) == cli_campaign
+
+
+def test_campaign_seed_determinism(cli_campaign):
+    a = kincal.campaign(SCENARIO, trials=3, iso=False, budget=False, seed=11, threads=2)
+    b = kincal.campaign(SCENARIO, trials=3, iso=False, budget=False, seed=11, threads=1)
+    c = kincal.campaign(SCENARIO, trials=3, iso=False, budget=False, seed=12, threads=2)
+    assert a == b and a != c
+
+
+def test_simulate_equals_the_cli(tmp_path):
+    run_cli("simulate", SCENARIO, "--out", tmp_path, "--trial", 2)
+    sim = kincal.simulate(SCENARIO, trial=2)
+    for part in ["identification", "validation"]:
+        rows = read_csv(tmp_path / f"{part}.csv")
+        q = np.array([[float(r[f"q{i + 1}"]) for i in range(6)] for r in rows])
+        p = np.array([[float(r[c]) for c in "xyz"] for r in rows])
+        assert np.array_equal(sim[f"{part}_q_deg"], q)
+        assert np.array_equal(sim[f"{part}_points_mm"], p)
+    again = kincal.simulate(SCENARIO, trial=2)
+    assert all(np.array_equal(sim[k], again[k]) for k in sim)
+    other = kincal.simulate(SCENARIO, trial=2, seed=99)
+    assert not np.array_equal(other["identification_points_mm"], sim["identification_points_mm"])
+
+
+def message(excinfo):
+    return str(excinfo.value)
+
+
+def test_errors_are_kincal_errors_with_the_librarys_message():
+    robot = kincal.Robot.load(ROBOTS / "ur10.json")
+    q, p = ur10_data()
+    q, p = q[:60].copy(), p[:60]
+    with pytest.raises(kincal.KincalError) as e:
+        kincal.identify(robot, q[:, :5], p)
+    assert "q_deg: expected shape (n, 6)" in message(e)
+    with pytest.raises(kincal.KincalError) as e:
+        kincal.identify(robot, q, p[:59])
+    assert "points_mm: expected shape (60, 3)" in message(e)
+    bad = q.copy()
+    bad[2, 1] = 400.0
+    with pytest.raises(kincal.KincalError) as e:
+        kincal.identify(robot, bad, p)
+    assert re.search(r'identification arrays:3: column "q2": joint value 400 deg is outside', message(e))
+    bad = p.copy()
+    bad[4, 2] = np.nan
+    with pytest.raises(kincal.KincalError) as e:
+        kincal.identify(robot, q, bad)
+    assert 'identification arrays:5: column "z"' in message(e) and "not a finite" in message(e)
+    with pytest.raises(kincal.KincalError) as e:
+        kincal.identify(robot, q[:5], p[:5])
+    assert "35 free parameters" in message(e) and "at least 12 rows" in message(e)
+    with pytest.raises(kincal.KincalError) as e:
+        kincal.identify(robot, q, p, params="paper,nonsense")
+    assert "nonsense" in message(e)
+    with pytest.raises(kincal.KincalError) as e:
+        kincal.identify(robot, q, p, schedule="fast")
+    assert 'schedule: unknown value "fast"' in message(e)
+    with pytest.raises(kincal.KincalError) as e:
+        kincal.identify(robot, q, p, every=0)
+    with pytest.raises(kincal.KincalError) as e:
+        kincal.identify(robot, q, p, outlier_k=-1.0)
+    with pytest.raises(kincal.KincalError) as e:
+        kincal.design(robot, q, 3, criterion="z")
+    assert "unknown criterion" in message(e)
+    with pytest.raises(kincal.KincalError) as e:
+        kincal.campaign({"name": "x", "robot": "nope.json", "bogus": 1})
+    assert "scenario dict" in message(e) and "bogus" in message(e)
+    with pytest.raises(kincal.KincalError) as e:
+        kincal.campaign(SCENARIO, trials=0)
+    with pytest.raises(kincal.KincalError) as e:
+        kincal.campaign(REPO / "no-such.json")
+    assert "no-such.json" in message(e)
+    with pytest.raises(ValueError):  # KincalError is a ValueError
+        kincal.simulate(REPO / "no-such.json")
+
+
+def test_identify_releases_the_gil_and_is_deterministic_across_threads():
+    import threading
+
+    robot = kincal.Robot.load(ROBOTS / "ur10.json")
+    q, p = ur10_data()
+    results = [None] * 4
+
+    def work(k):
+        results[k] = kincal.identify(robot, q, p, every=15).parameters
+
+    threads = [threading.Thread(target=work, args=(k,)) for k in range(4)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    assert all(r == results[0] for r in results)
