@@ -729,12 +729,12 @@ pub fn calibrate(request: &IdentifyRequest, inputs: Inputs) -> Result<Calibratio
     // Rejection to a fixed point: every identification row is screened against the fit on
     // the rows kept, until the kept rows are those the screen passes (so that the result
     // with a rejected row is the result without it); registration is redone each time.
-    while args.reject_outliers {
+    while args.reject_outliers && rejection_passes <= MAX_REJECTION_PASSES {
         let flagged = screen.as_ref().map_or_else(Vec::new, |s| s.indices());
         let next: Vec<usize> = (0..id_rows.len())
             .filter(|i| flagged.binary_search(i).is_err())
             .collect();
-        if next == kept || rejection_passes >= MAX_REJECTION_PASSES {
+        if next == kept || rejection_passes == MAX_REJECTION_PASSES {
             break;
         }
         if !args.allows(Check::Outliers) {
