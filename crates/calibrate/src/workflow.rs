@@ -722,6 +722,7 @@ pub fn calibrate(request: &IdentifyRequest, inputs: Inputs) -> Result<Calibratio
     };
     let mut current = pass(&id_rows)?;
     let first = current.fit.clone();
+    let first_decision = current.decision.clone();
     let mut screen = screen_of(&first)?;
     let mut kept: Vec<usize> = (0..id_rows.len()).collect();
     let mut rejected = false;
@@ -729,12 +730,12 @@ pub fn calibrate(request: &IdentifyRequest, inputs: Inputs) -> Result<Calibratio
     // Rejection to a fixed point: every identification row is screened against the fit on
     // the rows kept, until the kept rows are those the screen passes (so that the result
     // with a rejected row is the result without it); registration is redone each time.
-    while args.reject_outliers {
+    while args.reject_outliers && rejection_passes <= MAX_REJECTION_PASSES {
         let flagged = screen.as_ref().map_or_else(Vec::new, |s| s.indices());
         let next: Vec<usize> = (0..id_rows.len())
             .filter(|i| flagged.binary_search(i).is_err())
             .collect();
-        if next == kept || rejection_passes >= MAX_REJECTION_PASSES {
+        if next == kept || rejection_passes == MAX_REJECTION_PASSES {
             break;
         }
         if !args.allows(Check::Outliers) {
@@ -761,10 +762,18 @@ pub fn calibrate(request: &IdentifyRequest, inputs: Inputs) -> Result<Calibratio
     let Pass {
         start,
         registration,
-        decision,
+        mut decision,
         free,
         fit,
     } = current;
+    if rejected {
+        decision = format!(
+            "{decision} — decided on the {} rows kept after rejecting the outliers (on all {} \
+             rows: {first_decision})",
+            used.len(),
+            id_rows.len()
+        );
+    }
     let analysis = analyze(&fit.robot, &poses_rad(&used), None, &free, &id_opts)
         .map_err(id_err("identifiability at the solution"))?;
     let weak = weak_data(&start, &used, &free, &analysis, &id_opts);
