@@ -367,7 +367,8 @@ impl CampaignRun {
 pub struct MergeRun {
     /// The shard files written by the shards' [`CampaignRun`]s.
     pub shards: Vec<PathBuf>,
-    /// Output directory (`None`: `results/<scenario name>`).
+    /// Output directory (`None`: `runs/<scenario name>-merged`: shards may have any trial
+    /// count, so a merge never writes into `results/` unless named).
     pub out: Option<PathBuf>,
 }
 
@@ -382,7 +383,7 @@ pub struct MergeOutcome {
 }
 
 impl MergeRun {
-    /// A merge of the shard files `shards` into `results/<scenario name>`.
+    /// A merge of the shard files `shards` into `runs/<scenario name>-merged`.
     pub fn new(shards: Vec<PathBuf>) -> MergeRun {
         MergeRun { shards, out: None }
     }
@@ -397,10 +398,11 @@ impl MergeRun {
             .map(|p| ShardFile::from_file(p))
             .collect::<Result<Vec<_>, _>>()?;
         let (scenario, agg) = merge_shards(&files)?;
+        // Shards may be of any trial count: never `results/` unless named.
         let out = self
             .out
             .clone()
-            .unwrap_or_else(|| default_out(&scenario.name));
+            .unwrap_or_else(|| scratch_out(&scenario.name, &["merged".to_string()]));
         let held = lock_out_dir(&out)?;
         let summary = CampaignSummary::new(&scenario, &agg).with_budget(shard_budget(&files));
         held.write_set(&render_outputs(&summary, &agg)?)?;

@@ -16,10 +16,11 @@ pub struct CampaignArgs {
     /// Override the scenario's trial count.
     #[arg(long)]
     pub trials: Option<u64>,
-    /// Worker threads [all cores]. Results do not depend on it.
+    /// Worker threads [all cores; at least 1]. Results do not depend on it.
     #[arg(long)]
     pub threads: Option<usize>,
-    /// Output directory [results/<scenario name>].
+    /// Output directory [results/<scenario name> for the scenario as committed; with
+    /// --trials, --no-iso, --no-budget or --shard: runs/<scenario name>-<settings>].
     #[arg(long)]
     pub out: Option<PathBuf>,
     /// Run one shard `k/K` (0-based k) and write `shard-k-of-K.json` for `merge`.
@@ -49,7 +50,8 @@ pub struct MergeArgs {
     /// Shard files written by `campaign --shard`.
     #[arg(required = true)]
     pub shards: Vec<PathBuf>,
-    /// Output directory [results/<scenario name>].
+    /// Output directory [runs/<scenario name>-merged: shards may be of any trial count, so
+    /// results/ is written only when named].
     #[arg(long)]
     pub out: Option<PathBuf>,
 }
@@ -81,10 +83,11 @@ pub struct SweepArgs {
     /// Override the trials per point.
     #[arg(long)]
     pub trials: Option<u64>,
-    /// Worker threads [all cores].
+    /// Worker threads [all cores; at least 1].
     #[arg(long)]
     pub threads: Option<usize>,
-    /// Output directory [results/<sweep name>].
+    /// Output directory [results/<sweep name> for the sweep as committed; with --trials:
+    /// runs/<sweep name>-trials-N].
     #[arg(long)]
     pub out: Option<PathBuf>,
     /// `--resume`, `--checkpoint-every`.
