@@ -22,6 +22,9 @@ mod workflow;
 
 pub use error::{CalibrateError, Refusal, Result};
 pub use files::{LoadedRobot, file_name, points_mm, poses_rad, radians_notice, row_label};
-pub use joints::{Compensation, Prediction, SAME_FRAME_MM, compensate_targets, predict};
+pub use joints::{
+    Compensation, Prediction, SAME_FRAME_DEG, SAME_FRAME_FRACTION, SAME_FRAME_MM,
+    compensate_targets, predict,
+};
 pub use request::{IdentifyRequest, Split};
 pub use workflow::{Calibration, Inputs, Validation, calibrate, mean_max, norms, residuals, run};
