@@ -251,16 +251,23 @@ pub enum Refusal {
         nominal_params: usize,
     },
     /// Compensation with a nominal model outside the calibrated robot's measurement frame
-    /// (mean shift above [`crate::SAME_FRAME_MM`]).
+    /// (rotation above [`crate::SAME_FRAME_DEG`] or mean shift above `bound_mm`).
     #[error(
         "{} and {} are not in the same measurement frame: at the target poses a rigid \
          transform of {angle_deg:.3}° and {translation_mm:.1} mm separates their points (mean \
-         shift {shift_mm:.1} mm > {} mm), so the nominal targets would be meaningless for the \
-         calibrated robot; pass the nominal model registered in its frame \
-         (`registered-nominal.json`, written by `identify` next to `identified.json`)",
+         shift {shift_mm:.1} mm; a calibration moves them by at most {bound_mm:.0} mm and {}°), \
+         so the nominal targets would be meaningless for the calibrated robot; pass the \
+         nominal model registered in its frame (`registered-nominal.json`, written by \
+         `identify` next to `identified.json`{})",
         calibrated.display(),
         nominal.display(),
-        crate::SAME_FRAME_MM
+        crate::SAME_FRAME_DEG,
+        if nominal.file_name().is_some_and(|f| f == "registered-nominal.json") {
+            "; this one is, so the calibration moved the base that far from the registration \
+             it started from: check identify's registration and fit before compensating"
+        } else {
+            ""
+        }
     )]
     DifferentFrames {
         /// The calibrated robot's file.
@@ -273,6 +280,8 @@ pub enum Refusal {
         translation_mm: f64,
         /// Mean shift of the points, mm.
         shift_mm: f64,
+        /// The largest mean shift accepted for this robot, mm.
+        bound_mm: f64,
     },
     /// Targets the calibrated robot cannot reach, when they are not allowed.
     #[error(

@@ -26,7 +26,10 @@ pub use error::{CalibrateError, Refusal, Result};
 pub use files::{
     LoadedRobot, file_name, points_mm, poses_rad, radians_evidence, radians_notice, row_label,
 };
-pub use joints::{Compensation, Prediction, SAME_FRAME_MM, compensate_targets, predict};
+pub use joints::{
+    Compensation, Prediction, SAME_FRAME_DEG, SAME_FRAME_FRACTION, SAME_FRAME_MM, compensate_rows,
+    compensate_targets, predict,
+};
 pub use memory::compensate_set;
 pub use request::{Check, IdentifyRequest, JointUnits, LengthUnits, Split};
 pub use workflow::{

@@ -9,11 +9,11 @@
 
 use std::path::PathBuf;
 
-use identify::compensate;
-use kinematics::{IkOptions, Robot, RobotSpec};
+use identify::CompensationOptions;
+use kinematics::{Robot, RobotSpec};
 use measurements::{MeasurementError, MeasurementSet};
 
-use crate::error::{CalibrateError, Refusal, Result};
+use crate::error::{CalibrateError, Result};
 use crate::files::{LoadedRobot, radians_notice};
 
 impl LoadedRobot {
@@ -137,56 +137,28 @@ impl LoadedRobot {
     }
 }
 
-/// For each commanded pose of `targets` (joints, degrees), the joints (degrees) that bring
-/// `calibrated`'s point onto `nominal`'s (flange orientation held), by IK of the calibrated
-/// model with the default [`IkOptions`]: the computation of [`crate::compensate_targets`],
-/// on a set in memory. `nominal` must be in the calibrated robot's measurement frame (the
-/// registered nominal of the same calibration).
+/// For each commanded pose of `targets` (joints, degrees), the joints (degrees) to command:
+/// [`crate::compensate_rows`] with the default [`CompensationOptions`] (the nearest exact
+/// solution; flagged rows are returned like the others), every target required reachable.
+/// `nominal` must be in the calibrated robot's measurement frame (the registered nominal of
+/// the same calibration).
 ///
 /// # Errors
-/// [`Refusal::DifferentRobots`] when the two robots have different parameter layouts;
-/// [`Refusal::Unreachable`] listing every unreachable target (`source:row: unreachable: why`).
+/// As [`crate::compensate_targets`] with unreachable targets refused.
 pub fn compensate_set(
     calibrated: &LoadedRobot,
     nominal: &LoadedRobot,
     targets: &MeasurementSet,
 ) -> Result<Vec<Vec<f64>>> {
-    let (id_r, nom_r) = (&calibrated.robot, &nominal.robot);
-    if id_r.layout() != nom_r.layout() {
-        return Err(Refusal::DifferentRobots {
-            calibrated: calibrated.path.clone(),
-            calibrated_joints: id_r.n_joints(),
-            calibrated_params: id_r.n_params(),
-            nominal: nominal.path.clone(),
-            nominal_joints: nom_r.n_joints(),
-            nominal_params: nom_r.n_params(),
-        }
-        .into());
-    }
-    let ik = IkOptions::default();
-    let mut out = Vec::with_capacity(targets.rows.len());
-    let mut unreachable = Vec::new();
-    for (k, r) in targets.rows.iter().enumerate() {
-        let mut q: Vec<f64> = r.q_deg.iter().map(|d| d.to_radians()).collect();
-        match compensate(nom_r, id_r, &mut q, &ik) {
-            Ok(_) => out.push(q.iter().map(|v| v.to_degrees()).collect()),
-            Err(e) => unreachable.push(format!(
-                "{}:{}: unreachable: {e}",
-                targets.source,
-                if r.line == 0 { k + 1 } else { r.line }
-            )),
-        }
-    }
-    if !unreachable.is_empty() {
-        return Err(Refusal::Unreachable {
-            unreachable,
-            targets: targets.rows.len(),
-            file: targets.source.clone(),
-            robot: id_r.name().to_string(),
-        }
-        .into());
-    }
-    Ok(out)
+    let c = crate::compensate_rows(
+        calibrated,
+        nominal,
+        targets.clone(),
+        false,
+        &CompensationOptions::default(),
+        "compensated joints",
+    )?;
+    Ok(c.joints_deg)
 }
 
 #[cfg(test)]

@@ -418,7 +418,7 @@ impl Scenario {
     }
 
     /// Loads the robot (relative to `base_dir`) and validates every section.
-    pub fn load(self, base_dir: &Path, source: &str) -> Result<LoadedScenario, ScenarioError> {
+    pub fn load(mut self, base_dir: &Path, source: &str) -> Result<LoadedScenario, ScenarioError> {
         let invalid = |field: &str, message: String| ScenarioError::Invalid {
             file: source.to_string(),
             field: field.to_string(),
@@ -543,6 +543,12 @@ impl Scenario {
                 }
             }
         }
+        self.unmodelled
+            .use_robot_mass_model(&nominal)
+            .map_err(|e| ScenarioError::VirtualRobot {
+                file: source.to_string(),
+                source: e,
+            })?;
         let loaded = LoadedScenario {
             source: source.to_string(),
             nominal,

@@ -149,6 +149,49 @@ impl CampaignSummary {
         s
     }
 
+    /// The "What was run" paragraph of `summary.md`: the robot file, the pose counts each
+    /// trial used, the trials and the mass model of the simulated compliance, from the
+    /// scenario as run (never its description, which is the author's text).
+    pub fn what_was_run(&self) -> String {
+        let sc = &self.scenario;
+        let tool = sc.tool_mm.map_or(String::new(), |t| {
+            format!(" with the tool at ({}, {}, {}) mm", t[0], t[1], t[2])
+        });
+        let selection = match sc.pose_selection.method {
+            crate::scenario::SelectionMethod::Random => "random".to_string(),
+            m => format!(
+                "chosen by the {} criterion from {} candidates",
+                serde_json::to_value(m)
+                    .ok()
+                    .and_then(|v| v.as_str().map(str::to_string))
+                    .unwrap_or_default(),
+                sc.pose_selection.candidates
+            ),
+        };
+        let c = &sc.unmodelled.compliance;
+        let compliance = if c.enabled {
+            let masses: Vec<String> = c.links.iter().map(|l| l.mass_kg.to_string()).collect();
+            format!(
+                "joint compliance simulated with link masses {} kg (Σ {} kg; the robot file's \
+                 `mass_model` unless the scenario lists `unmodelled.compliance.links`), payload \
+                 {} kg",
+                masses.join(", "),
+                fmt::significant(c.links.iter().map(|l| l.mass_kg).sum::<f64>()),
+                c.payload_kg
+            )
+        } else {
+            "no joint compliance simulated".to_string()
+        };
+        format!(
+            "What was run: robot file `{}`{tool}; per trial {} identification poses ({selection}) \
+             and {} validation poses; {} trials; {compliance}.\n\n",
+            sc.robot.display(),
+            sc.poses.identification.len(),
+            sc.poses.validation.len(),
+            self.trials,
+        )
+    }
+
     /// The human table (Markdown).
     pub fn to_markdown(&self) -> String {
         let mut o = String::new();
@@ -162,6 +205,7 @@ impl CampaignSummary {
             "Trials: {} ({} failed), seed {}. Values are mean ± sd over trials [p5, p95].\n\n",
             self.trials, failed, sc.seed
         ));
+        o.push_str(&self.what_was_run());
         o.push_str("## Table 4: validation error, ours beside the paper's\n\n");
         o.push_str("| metric | kincal | paper |\n|---|---:|---:|\n");
         let fmt = |m: Option<&Summary>, q: Quantity| match m {

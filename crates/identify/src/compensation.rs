@@ -5,8 +5,18 @@
 //! `p* = T_nom(q)·t_nom` with the nominal flange orientation `R* = R_nom(q)`; the physical
 //! point is the identified tool offset `t_id`. IK of the identified model from q (damped
 //! Newton, [`kinematics::Robot::solve_ik`]) gives the compensated joints.
+//!
+//! [`compensate_nearest`] is what `kincal compensate` uses: the exact solution nearest the
+//! commanded joints ([`kinematics::Robot::solve_ik_nearest`]: other branches and starts are
+//! tried before a target is called unreachable, with the reason), and a flag on a row whose
+//! solution moves a joint by more than [`CompensationOptions::flag_change_deg`], with the
+//! singularity that explains it ([`FlagReason`]).
 
-use kinematics::{IkError, IkOptions, IkReport, IkTarget, Robot};
+use std::fmt;
+
+use kinematics::{
+    ArmSingularity, IkError, IkOptions, IkReport, IkSearch, IkTarget, IkUnreachable, Robot,
+};
 
 /// The IK target that compensates commanded joints `q_rad`.
 pub fn compensation_target(nominal: &Robot, identified: &Robot, q_rad: &[f64]) -> IkTarget {
@@ -43,6 +53,219 @@ pub fn compensate(
         q_rad.copy_from_slice(&q[..n]);
     }
     result
+}
+
+/// Options of [`compensate_nearest`]. Defaults in brackets.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CompensationOptions {
+    /// The damped Newton solve \[`IkOptions::default()`\].
+    pub ik: IkOptions,
+    /// Starts and seed of the search for the nearest solution \[`IkSearch::default()`; its
+    /// `accept_change_rad` is replaced by `flag_change_deg`\].
+    pub search: IkSearch,
+    /// A row whose solution moves any joint by more than this is flagged, degrees \[2°: a
+    /// calibration moves joints by hundredths of a degree away from singularities (the UR10
+    /// README example: 95 % of rows below 0.2°), so 2° is ten times what the geometry
+    /// errors themselves explain, and small enough that a flagged move is still one a user
+    /// wants to look at before sending it to a controller\].
+    pub flag_change_deg: f64,
+}
+
+impl Default for CompensationOptions {
+    fn default() -> Self {
+        CompensationOptions {
+            ik: IkOptions::default(),
+            search: IkSearch::default(),
+            flag_change_deg: DEFAULT_FLAG_CHANGE_DEG,
+        }
+    }
+}
+
+/// Default of [`CompensationOptions::flag_change_deg`], degrees.
+pub const DEFAULT_FLAG_CHANGE_DEG: f64 = 2.0;
+
+/// Angle between the axes of joints 4 and 6 below which a large change is put down to the
+/// wrist singularity, degrees [20°: the amplification of an orientation error into q4/q6
+/// grows as 1/sin of that angle, ≈ 3 at 20°; beyond it a change of several degrees needs
+/// another cause].
+pub const WRIST_NEAR_DEG: f64 = 20.0;
+/// Elbow angle from stretched (or folded) below which a large change is put down to the
+/// elbow singularity, degrees [20°, as for the wrist].
+pub const ELBOW_NEAR_DEG: f64 = 20.0;
+/// Distance of the wrist point from the shoulder-singular surface, as a fraction of the
+/// distance from axis 2 to the wrist point, below which a large change is put down to the
+/// shoulder singularity [0.2 ≈ sin 12°, as for the angles].
+pub const SHOULDER_NEAR_FRACTION: f64 = 0.2;
+
+/// Why a compensated row moves a joint by more than the threshold.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum FlagReason {
+    /// Axes 4 and 6 at this angle, degrees (below [`WRIST_NEAR_DEG`]).
+    Wrist {
+        /// ∠(z₄, z₆), degrees.
+        angle_deg: f64,
+    },
+    /// The wrist point this far from the shoulder-singular surface, mm (below
+    /// [`SHOULDER_NEAR_FRACTION`] of the arm).
+    Shoulder {
+        /// mm.
+        distance_mm: f64,
+    },
+    /// The elbow this far from stretched, degrees (below [`ELBOW_NEAR_DEG`]).
+    Elbow {
+        /// degrees.
+        angle_deg: f64,
+    },
+    /// The commanded branch has no exact solution within the limits (it needs joint
+    /// `joint` beyond them): the nearest solution is on another branch.
+    LimitOnBranch {
+        /// The joint (0-based).
+        joint: usize,
+    },
+    /// None of the above: no named singularity nearby (or an arm without six joints).
+    Other,
+}
+
+impl fmt::Display for FlagReason {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            FlagReason::Wrist { angle_deg } => write!(
+                f,
+                "near the wrist singularity (axes 4 and 6 at {angle_deg:.1}°)"
+            ),
+            FlagReason::Shoulder { distance_mm } => write!(
+                f,
+                "near the shoulder singularity (wrist point {distance_mm:.0} mm from it)"
+            ),
+            FlagReason::Elbow { angle_deg } => write!(
+                f,
+                "near the elbow singularity (elbow {angle_deg:.1}° from stretched)"
+            ),
+            FlagReason::LimitOnBranch { joint } => write!(
+                f,
+                "the commanded branch would pass q{}'s limit: solution on another branch",
+                joint + 1
+            ),
+            FlagReason::Other => write!(f, "no singularity nearby: another solution branch"),
+        }
+    }
+}
+
+impl FlagReason {
+    /// A short key for counting: `wrist`, `shoulder`, `elbow`, `limit`, `other`.
+    pub fn key(&self) -> &'static str {
+        match self {
+            FlagReason::Wrist { .. } => "wrist",
+            FlagReason::Shoulder { .. } => "shoulder",
+            FlagReason::Elbow { .. } => "elbow",
+            FlagReason::LimitOnBranch { .. } => "limit",
+            FlagReason::Other => "other",
+        }
+    }
+}
+
+/// A compensated row ([`compensate_nearest`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Compensated {
+    /// The final solve.
+    pub report: IkReport,
+    /// Largest joint change from the commanded joints, degrees.
+    pub max_change_deg: f64,
+    /// The joint (0-based) with that change.
+    pub joint: usize,
+    /// Why the change exceeds [`CompensationOptions::flag_change_deg`] (nearest first);
+    /// empty when it does not.
+    pub flags: Vec<FlagReason>,
+}
+
+/// The reasons a large joint change at commanded joints `q_cmd` (radians) happens, from the
+/// geometry of `robot` there ([`Robot::arm_singularity`]), nearest first (by how far below
+/// its threshold each measure is).
+pub fn singularity_reasons(robot: &Robot, q_cmd: &[f64]) -> Vec<FlagReason> {
+    let Some(ArmSingularity {
+        wrist_deg,
+        shoulder_mm,
+        elbow_deg,
+        arm_mm,
+    }) = robot.arm_singularity(q_cmd)
+    else {
+        return Vec::new();
+    };
+    let mut near: Vec<(f64, FlagReason)> = Vec::new();
+    if wrist_deg < WRIST_NEAR_DEG {
+        near.push((
+            wrist_deg / WRIST_NEAR_DEG,
+            FlagReason::Wrist {
+                angle_deg: wrist_deg,
+            },
+        ));
+    }
+    if shoulder_mm < SHOULDER_NEAR_FRACTION * arm_mm {
+        near.push((
+            shoulder_mm / (SHOULDER_NEAR_FRACTION * arm_mm),
+            FlagReason::Shoulder {
+                distance_mm: shoulder_mm,
+            },
+        ));
+    }
+    if elbow_deg < ELBOW_NEAR_DEG {
+        near.push((
+            elbow_deg / ELBOW_NEAR_DEG,
+            FlagReason::Elbow {
+                angle_deg: elbow_deg,
+            },
+        ));
+    }
+    near.sort_by(|a, b| a.0.total_cmp(&b.0));
+    near.into_iter().map(|(_, r)| r).collect()
+}
+
+/// Compensates commanded joints `q_rad` in place (radians): the exact solution nearest
+/// them ([`Robot::solve_ik_nearest`]), flagged with its reasons when it moves a joint by
+/// more than [`CompensationOptions::flag_change_deg`]. On failure `q_rad` is restored and
+/// the reason returned ([`IkUnreachable`]: beyond a joint limit or beyond reach on every
+/// branch tried).
+pub fn compensate_nearest(
+    nominal: &Robot,
+    identified: &Robot,
+    q_rad: &mut [f64],
+    options: &CompensationOptions,
+) -> Result<Compensated, IkUnreachable> {
+    let target = compensation_target(nominal, identified, q_rad);
+    let mut q_cmd = [0.0; kinematics::MAX_JOINTS];
+    let n = q_rad.len().min(kinematics::MAX_JOINTS);
+    q_cmd[..n].copy_from_slice(&q_rad[..n]);
+    let search = IkSearch {
+        accept_change_rad: options.flag_change_deg.to_radians(),
+        ..options.search
+    };
+    let sol = identified.solve_ik_nearest(&target, q_rad, &options.ik, &search)?;
+    let max_change_deg = sol.max_change_rad.to_degrees();
+    let mut flags = Vec::new();
+    if max_change_deg > options.flag_change_deg {
+        flags = singularity_reasons(identified, &q_cmd[..n]);
+        if flags.is_empty() {
+            // Does the commanded branch itself end beyond a limit?
+            let mut q = q_cmd;
+            let unlimited = identified.solve_ik_unlimited(&target, &mut q[..n], &options.ik);
+            let beyond = unlimited.is_ok().then(|| {
+                (0..n).find(|&i| {
+                    let [lo, hi] = identified.limits_rad(i);
+                    q[i] < lo || q[i] > hi
+                })
+            });
+            flags.push(match beyond.flatten() {
+                Some(joint) => FlagReason::LimitOnBranch { joint },
+                None => FlagReason::Other,
+            });
+        }
+    }
+    Ok(Compensated {
+        report: sol.report,
+        max_change_deg,
+        joint: sol.joint,
+        flags,
+    })
 }
 
 #[cfg(test)]

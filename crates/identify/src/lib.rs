@@ -66,7 +66,10 @@ mod problem;
 pub mod registration;
 pub mod simd;
 
-pub use compensation::{compensate, compensation_target, compensation_target_trig};
+pub use compensation::{
+    Compensated, CompensationOptions, DEFAULT_FLAG_CHANGE_DEG, FlagReason, compensate,
+    compensate_nearest, compensation_target, compensation_target_trig, singularity_reasons,
+};
 pub use covariance::{CorrelatedPair, Covariance, covariance, covariance_at_solution};
 pub use error::IdentifyError;
 pub use fit::{Fit, IdentifyOptions, ParamEstimate, identify};

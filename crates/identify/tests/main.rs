@@ -2,6 +2,7 @@
 //! on a 2-core machine linking dominates a cold `cargo test`). Each file is a module.
 
 mod common;
+mod compensation;
 mod covariance;
 mod degenerate;
 mod fast_path;

@@ -96,6 +96,12 @@ pub struct CompensateArgs {
     /// Write the reachable rows and list the unreachable ones instead of failing.
     #[arg(long)]
     allow_unreachable: bool,
+    /// Flag rows whose joints move by more than this, degrees [2]: each row gets the exact
+    /// solution nearest the commanded joints; one moving a joint further (near a wrist,
+    /// shoulder or elbow singularity, or on another branch) is still written, and listed on
+    /// stderr and in the output's header with its reason.
+    #[arg(long, default_value_t = identify::DEFAULT_FLAG_CHANGE_DEG, value_name = "DEG")]
+    flag_change_deg: f64,
 }
 
 /// `kincal compensate`.
@@ -103,11 +109,22 @@ pub fn compensate(args: &CompensateArgs) -> Result<()> {
     check_out(args.out.as_deref())?;
     let calibrated = LoadedRobot::load(&args.robot, "calibrated robot")?;
     let nominal = LoadedRobot::load(&args.nominal, "nominal robot")?;
+    if !(args.flag_change_deg.is_finite() && args.flag_change_deg > 0.0) {
+        anyhow::bail!(
+            "--flag-change-deg {} must be a positive number of degrees",
+            args.flag_change_deg
+        );
+    }
+    let options = identify::CompensationOptions {
+        flag_change_deg: args.flag_change_deg,
+        ..identify::CompensationOptions::default()
+    };
     let c = calibrate::compensate_targets(
         &calibrated,
         &nominal,
         &args.targets,
         args.allow_unreachable,
+        &options,
         &out_label(args.out.as_deref()),
     )
     .map_err(|e| match e {
@@ -121,13 +138,29 @@ pub fn compensate(args: &CompensateArgs) -> Result<()> {
     for u in &c.unreachable {
         eprintln!("{u}");
     }
+    for f in &c.flagged {
+        eprintln!("flagged: {f}");
+    }
     emit(args.out.as_deref(), &c.csv)?;
+    let reasons = c
+        .flag_reasons
+        .iter()
+        .map(|(k, n)| format!("{k} {n}"))
+        .collect::<Vec<_>>()
+        .join(", ");
     eprintln!(
-        "compensated {} of {} targets ({} unreachable left out); largest joint change \
-         {:.4}°, largest IK position error {:.1e} mm{}",
+        "compensated {} of {} targets ({} unreachable left out; {} flagged: a joint moves > \
+         {}°{}); largest joint change {:.4}°, largest IK position error {:.1e} mm{}",
         c.compensated,
         c.targets,
         c.unreachable.len(),
+        c.flagged.len(),
+        c.flag_change_deg,
+        if reasons.is_empty() {
+            String::new()
+        } else {
+            format!(" — {reasons}")
+        },
         c.max_joint_change_deg,
         c.max_ik_error_mm,
         args.out

@@ -626,7 +626,10 @@ fn unreachable_targets_fail_unless_allowed() {
     assert!(!out.status.success());
     let err = stderr(&out);
     assert!(
-        err.contains("targets.csv:3: unreachable: IK did not converge") && err.contains("1 of 3"),
+        err.contains(
+            "targets.csv:3: unreachable: beyond a joint limit: the nearest exact solution \
+             needs q1 = 100.00° (limits -10.0° … 10.0°)"
+        ) && err.contains("1 of 3"),
         "{err}"
     );
     assert!(!out_file.exists());
@@ -787,6 +790,19 @@ fn ur10_real_data_every_15th_row() {
     let done = number_after(&err, "compensated ");
     // The rest (fully stretched arm, e.g. line 2, q3 = 0) lie beyond the calibrated reach.
     assert!(done >= 0.99 * 1495.0, "{err}");
+    // Issue 29: the row with q5 = 1.2° (line 61) moves q4 and q6 by more than the 2° flag
+    // threshold, and is flagged as near the wrist singularity, on stderr and in the file.
+    let line61 = err
+        .lines()
+        .find(|l| l.starts_with("flagged: ") && l.contains("configurations.csv:61: "))
+        .unwrap_or_else(|| panic!("line 61 not flagged:\n{err}"));
+    assert!(
+        line61.contains("q4 +")
+            && line61.contains("near the wrist singularity (axes 4 and 6 at 1.0°)"),
+        "{line61}"
+    );
+    let written = std::fs::read_to_string(&comp).unwrap();
+    assert!(written.contains("# flagged: ") && written.contains("configurations.csv:61: q4 +"));
     println!("UR10 compensation: {}", err.lines().last().unwrap_or(""));
 }
 

@@ -297,7 +297,7 @@ impl Robot {
             }
             s
         };
-        let direct = self.solve_ik_direct(target, q_rad, opts);
+        let direct = self.solve_ik_direct(target, q_rad, opts, true);
         let Err(IkError::NotConverged { iterations, .. }) = direct else {
             return direct;
         };
@@ -322,7 +322,7 @@ impl Robot {
                     Rotation3::new(w * s).matrix() * f0.rot
                 },
             };
-            last = self.solve_ik_direct(&stage, q_rad, opts);
+            last = self.solve_ik_direct(&stage, q_rad, opts, true);
             total += match &last {
                 Ok(r) => r.iterations,
                 Err(IkError::NotConverged { iterations, .. }) => *iterations,
@@ -347,12 +347,22 @@ impl Robot {
         }
     }
 
+    /// One damped Newton solve from `q_rad`; `limited = false` ignores the joint limits
+    /// (used to tell a target beyond a limit from one beyond reach).
     fn solve_ik_direct(
         &self,
         target: &IkTarget,
         q_rad: &mut [f64],
         opts: &IkOptions,
+        limited: bool,
     ) -> Result<IkReport, IkError> {
+        let limits = |i: usize| {
+            if limited {
+                self.limits_rad(i)
+            } else {
+                [f64::NEG_INFINITY, f64::INFINITY]
+            }
+        };
         let n = self.n_joints();
         if q_rad.len() != n {
             return Err(IkError::Length {
@@ -370,7 +380,7 @@ impl Robot {
         let scale = opts.orientation_scale_mm;
         let clamp = |q: &mut [f64]| {
             for (i, v) in q.iter_mut().enumerate() {
-                let [lo, hi] = self.limits_rad(i);
+                let [lo, hi] = limits(i);
                 *v = v.clamp(lo, hi);
             }
         };
@@ -441,7 +451,7 @@ impl Robot {
                 let mut newly_frozen = false;
                 for i in 0..n {
                     let step = steps[i] * shrink;
-                    let [lo, hi] = self.limits_rad(i);
+                    let [lo, hi] = limits(i);
                     if (q_rad[i] <= lo && step < 0.0) || (q_rad[i] >= hi && step > 0.0) {
                         frozen[i] = true;
                         newly_frozen = true;
@@ -487,6 +497,418 @@ impl Robot {
                 pos_err_mm: res.pos_err_mm,
                 rot_err_rad: res.rot_err_rad,
             })
+        }
+    }
+}
+
+/// How [`Robot::solve_ik_nearest`] searches for the exact solution nearest the start.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct IkSearch {
+    /// A solution that moves no joint by more than this is taken without searching further,
+    /// rad [2° = 0.0349: calibration corrections move joints by hundredths of a degree away
+    /// from singularities, so a larger change means the start's own solution is far or gone].
+    pub accept_change_rad: f64,
+    /// Random starts after the start itself and its wrist flip (half around the start with a
+    /// growing spread, half uniform within the limits) \[64: on the KR1000 and the UR10 every reachable target of 10,000 was found with
+    /// fewer; each costs one damped Newton solve, spent only on rows the start did not solve
+    /// nearby\].
+    pub random_starts: usize,
+    /// Seed of those starts [a fixed constant, so that the same target gives the same bytes].
+    pub seed: u64,
+}
+
+impl Default for IkSearch {
+    fn default() -> Self {
+        IkSearch {
+            accept_change_rad: 2.0_f64.to_radians(),
+            random_starts: 64,
+            seed: 0x6b69_6e63_616c_2d69,
+        }
+    }
+}
+
+/// The exact solution [`Robot::solve_ik_nearest`] returned.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct NearestIk {
+    /// The final solve's report (iterations of that solve only).
+    pub report: IkReport,
+    /// Largest change of a joint from the start, rad.
+    pub max_change_rad: f64,
+    /// The joint (0-based) with that change.
+    pub joint: usize,
+    /// Starts tried (1 when the start's own solve was near enough).
+    pub starts: usize,
+}
+
+/// Why [`Robot::solve_ik_nearest`] found no exact solution within the joint limits.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum IkUnreachable {
+    /// Exact solutions exist, but each puts a joint beyond its limits; the one shown is the
+    /// nearest to the limits (after shifting joints by whole turns where they allow it).
+    #[error(
+        "beyond a joint limit: the nearest exact solution needs q{} = {:.2}° (limits {:.1}° … {:.1}°)",
+        joint + 1,
+        value_rad.to_degrees(),
+        limits_rad[0].to_degrees(),
+        limits_rad[1].to_degrees()
+    )]
+    BeyondLimit {
+        /// The joint (0-based).
+        joint: usize,
+        /// The value it would need, rad.
+        value_rad: f64,
+        /// Its limits, rad.
+        limits_rad: [f64; 2],
+    },
+    /// No configuration reaches the target even with the joint limits ignored, from any of
+    /// the starts tried: the point (with the orientation held) is out of the arm's reach.
+    #[error(
+        "beyond reach: even without joint limits the closest configuration found misses by {pos_err_mm:.3} mm and {:.4}°",
+        rot_err_rad.to_degrees()
+    )]
+    BeyondReach {
+        /// Smallest position error found, mm.
+        pos_err_mm: f64,
+        /// The orientation error there, rad.
+        rot_err_rad: f64,
+    },
+    /// Wrong joint count or non-finite input.
+    #[error(transparent)]
+    Input(IkError),
+}
+
+/// Small deterministic generator (xorshift64*) for the random starts.
+struct Xorshift(u64);
+
+impl Xorshift {
+    fn unit(&mut self) -> f64 {
+        self.0 ^= self.0 >> 12;
+        self.0 ^= self.0 << 25;
+        self.0 ^= self.0 >> 27;
+        (self.0.wrapping_mul(0x2545_f491_4f6c_dd1d) >> 11) as f64 / (1u64 << 53) as f64
+    }
+}
+
+/// Largest |a_i − b_i| and its index.
+fn max_change(a: &[f64], b: &[f64]) -> (f64, usize) {
+    a.iter()
+        .zip(b)
+        .enumerate()
+        .fold((0.0, 0), |(m, k), (i, (x, y))| {
+            let d = (x - y).abs();
+            if d > m { (d, i) } else { (m, k) }
+        })
+}
+
+/// Distance between joint vectors as [`Robot::solve_ik_nearest`] ranks them: the largest
+/// joint change, then (to break ties) the sum of squared changes.
+fn distance(a: &[f64], b: &[f64]) -> (f64, f64) {
+    let sq = a.iter().zip(b).map(|(x, y)| (x - y) * (x - y)).sum::<f64>();
+    (max_change(a, b).0, sq)
+}
+
+/// Geometric measures of how near a six-joint arm is to its three singularities (see
+/// [`Robot::arm_singularity`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ArmSingularity {
+    /// Angle between the axes of joints 4 and 6, degrees in [0, 90]: 0 at the wrist
+    /// singularity (for a spherical wrist, |q5| or |180° − |q5||).
+    pub wrist_deg: f64,
+    /// Distance of the wrist point from the surface where joint 1 cannot move it out of the
+    /// arm's plane, mm: `|(z₁ × (w − o₁)) · n|` with `n` normal to the plane of the joint-2
+    /// and joint-3 motions. For an arm without shoulder offset it is the distance of the wrist
+    /// point from the axis of joint 1; 0 at the shoulder singularity.
+    pub shoulder_mm: f64,
+    /// Angle between the directions in which joints 2 and 3 move the wrist point, degrees in
+    /// [0, 90]: 0 with the elbow stretched (or folded back) — the elbow singularity.
+    pub elbow_deg: f64,
+    /// Distance of the wrist point from the origin of joint 2's axis, mm: the arm's length
+    /// in this pose, the scale for [`ArmSingularity::shoulder_mm`].
+    pub arm_mm: f64,
+}
+
+/// The angle between two lines (not directions) with the given direction vectors, in [0, 90]
+/// degrees.
+fn line_angle_deg(a: &Vector3<f64>, b: &Vector3<f64>) -> f64 {
+    a.cross(b).norm().atan2(a.dot(b).abs()).to_degrees()
+}
+
+impl Robot {
+    /// How near the configuration `q_rad` of a six-joint arm is to its wrist, shoulder and
+    /// elbow singularities ([`ArmSingularity`]); `None` for other joint counts. The wrist
+    /// point `w` is the origin of the frame before joint 6 (the wrist centre of a spherical
+    /// wrist; the intersection of axes 5 and 6 of a UR arm); with `z_i`, `o_i` axis and origin
+    /// of joint i and `c_i = z_i × (w − o_i)` how joint i moves `w`:
+    /// wrist = ∠(z₄, z₆), elbow = ∠(c₂, c₃), shoulder = |c₁ · n|, `n` = z₂ when axes 2 and 3
+    /// are parallel (as on most arms), else the unit normal of c₂ × c₃.
+    pub fn arm_singularity(&self, q_rad: &[f64]) -> Option<ArmSingularity> {
+        if self.n_joints() != 6 || q_rad.len() != 6 {
+            return None;
+        }
+        let mut axes = [(Vector3::zeros(), Vector3::zeros()); MAX_JOINTS];
+        self.joint_axes(q_rad, &mut axes);
+        let w = axes[5].1;
+        let c = |i: usize| axes[i].0.cross(&(w - axes[i].1));
+        let (c1, c2, c3) = (c(0), c(1), c(2));
+        let n = if axes[1].0.cross(&axes[2].0).norm() < 0.1 {
+            axes[1].0
+        } else {
+            let m = c2.cross(&c3);
+            if m.norm() > 0.0 {
+                m.normalize()
+            } else {
+                axes[1].0
+            }
+        };
+        Some(ArmSingularity {
+            wrist_deg: line_angle_deg(&axes[3].0, &axes[5].0),
+            shoulder_mm: c1.dot(&n).abs(),
+            elbow_deg: line_angle_deg(&c2, &c3),
+            arm_mm: (w - axes[1].1).norm(),
+        })
+    }
+
+    /// One damped Newton solve ([`IkOptions`], no path fallback) from `q_rad` with the joint
+    /// limits ignored: where the start's own branch leads.
+    pub fn solve_ik_unlimited(
+        &self,
+        target: &IkTarget,
+        q_rad: &mut [f64],
+        opts: &IkOptions,
+    ) -> Result<IkReport, IkError> {
+        self.solve_ik_direct(target, q_rad, opts, false)
+    }
+
+    /// The exact IK solution nearest the start `q_rad` (overwritten with it), within the
+    /// joint limits: [`Robot::solve_ik`] from the start; if that fails or moves a joint by
+    /// more than [`IkSearch::accept_change_rad`], damped Newton from other starts too (the
+    /// wrist flip `(q4 + π, −q5, q6 + π)`, then [`IkSearch::random_starts`] random starts:
+    /// the first half around the start with a spread growing from 2° to 180°, the rest
+    /// uniform within the limits), each solution also shifted by whole turns towards the start where the limits
+    /// allow; the nearest (largest joint change, then sum of squares) is returned. The search
+    /// stops at the first solution within `accept_change_rad`.
+    ///
+    /// Fails only when none of these starts reaches the target within the limits; the same
+    /// search with the limits ignored then tells [`IkUnreachable::BeyondLimit`] from
+    /// [`IkUnreachable::BeyondReach`]. On failure `q_rad` holds the start again.
+    pub fn solve_ik_nearest(
+        &self,
+        target: &IkTarget,
+        q_rad: &mut [f64],
+        opts: &IkOptions,
+        search: &IkSearch,
+    ) -> Result<NearestIk, IkUnreachable> {
+        let n = self.n_joints();
+        if q_rad.len() != n {
+            return Err(IkUnreachable::Input(IkError::Length {
+                expected: n,
+                found: q_rad.len(),
+            }));
+        }
+        let mut q0 = [0.0; MAX_JOINTS];
+        q0[..n].copy_from_slice(q_rad);
+        let q0 = &q0[..n];
+        let mut best: Option<([f64; MAX_JOINTS], IkReport, (f64, f64))> = None;
+        let mut starts = 1;
+        let mut worst = (f64::INFINITY, 0.0, 0.0);
+        let mut note = |q: &[f64], r: Result<IkReport, IkError>, best: &mut Option<_>| match r {
+            Ok(rep) => {
+                let (q, rep) = self.nearest_turn(target, q, q0, opts, rep, true);
+                let d = distance(&q[..n], q0);
+                if best.as_ref().is_none_or(|(_, _, bd)| d < *bd) {
+                    *best = Some((q, rep, d));
+                }
+            }
+            Err(IkError::NotConverged {
+                pos_err_mm,
+                rot_err_rad,
+                ..
+            }) => {
+                let cost = pos_err_mm.powi(2) + (rot_err_rad * opts.orientation_scale_mm).powi(2);
+                if cost < worst.0 {
+                    worst = (cost, pos_err_mm, rot_err_rad);
+                }
+            }
+            Err(_) => {}
+        };
+        let first = self.solve_ik(target, q_rad, opts);
+        if let Err(e @ (IkError::Length { .. } | IkError::NotFinite)) = first {
+            q_rad.copy_from_slice(q0);
+            return Err(IkUnreachable::Input(e));
+        }
+        note(q_rad, first, &mut best);
+        let near = |best: &Option<([f64; MAX_JOINTS], IkReport, (f64, f64))>| {
+            best.as_ref()
+                .is_some_and(|(_, _, d)| d.0 <= search.accept_change_rad)
+        };
+        let mut rng = Xorshift(search.seed | 1);
+        let mut k = 0;
+        while !near(&best) && k < search.random_starts + 1 {
+            let mut q = [0.0; MAX_JOINTS];
+            if k == 0 {
+                q[..n].copy_from_slice(q0);
+                if n >= 6 {
+                    q[3] += std::f64::consts::PI;
+                    q[4] = -q[4];
+                    q[5] += std::f64::consts::PI;
+                }
+            } else {
+                self.random_start(q0, k, search.random_starts, &mut rng, &mut q[..n]);
+            }
+            k += 1;
+            starts += 1;
+            let r = self.solve_ik(target, &mut q[..n], opts);
+            note(&q[..n], r, &mut best);
+        }
+        if let Some((q, report, d)) = best {
+            q_rad.copy_from_slice(&q[..n]);
+            let (_, joint) = max_change(&q[..n], q0);
+            return Ok(NearestIk {
+                report,
+                max_change_rad: d.0,
+                joint,
+                starts,
+            });
+        }
+        q_rad.copy_from_slice(q0);
+        Err(self.why_unreachable(target, q0, opts, search, worst))
+    }
+
+    /// Random start `k` of `count` (1-based) around `q0`: each joint uniform within
+    /// `q0 ± s`, the spread s growing geometrically from 2° (start 1) to 180° (start
+    /// count/2), then uniform over the limits; clamped to the limits. Near starts find the
+    /// solutions next to the start (the other elbow branch of a stretched arm with the wrist
+    /// kept), far ones the other branches.
+    fn random_start(&self, q0: &[f64], k: usize, count: usize, rng: &mut Xorshift, q: &mut [f64]) {
+        let half = (count / 2).max(1);
+        let pi = std::f64::consts::PI;
+        for (i, v) in q.iter_mut().enumerate() {
+            let [lo, hi] = self.limits_rad(i);
+            let (lo, hi) = (lo.max(-4.0 * pi), hi.min(4.0 * pi));
+            *v = if k <= half {
+                let t = (k - 1) as f64 / (half.max(2) - 1) as f64;
+                let spread = 2.0_f64.to_radians() * 90.0_f64.powf(t);
+                (q0[i] + spread * (2.0 * rng.unit() - 1.0)).clamp(lo, hi)
+            } else {
+                lo + (hi - lo) * rng.unit()
+            };
+        }
+    }
+
+    /// `q` (a solution reached with report `rep`) with each joint shifted by whole turns
+    /// towards `q0` where its limits allow (`limited`), solved again there (the same point
+    /// of a periodic model: one Newton check).
+    fn nearest_turn(
+        &self,
+        target: &IkTarget,
+        q: &[f64],
+        q0: &[f64],
+        opts: &IkOptions,
+        rep: IkReport,
+        limited: bool,
+    ) -> ([f64; MAX_JOINTS], IkReport) {
+        let n = q.len();
+        let mut out = [0.0; MAX_JOINTS];
+        out[..n].copy_from_slice(q);
+        let tau = std::f64::consts::TAU;
+        let mut shifted = out;
+        let mut moved = false;
+        for i in 0..n {
+            // Of q, q + ⌊d/τ⌋τ and q + ⌈d/τ⌉τ (d = q0 − q): the nearest q0 within the limits.
+            let d = (q0[i] - q[i]) / tau;
+            let [lo, hi] = self.limits_rad(i);
+            let mut pick = q[i];
+            for turns in [d.floor(), d.ceil()] {
+                let v = q[i] + turns * tau;
+                if (!limited || (lo..=hi).contains(&v)) && (v - q0[i]).abs() < (pick - q0[i]).abs()
+                {
+                    pick = v;
+                }
+            }
+            if pick != q[i] {
+                shifted[i] = pick;
+                moved = true;
+            }
+        }
+        if moved {
+            let mut trial = shifted;
+            if let Ok(r) = self.solve_ik_direct(target, &mut trial[..n], opts, limited) {
+                return (trial, r);
+            }
+        }
+        (out, rep)
+    }
+
+    /// The reason no exact solution was found within the limits: the same starts with the
+    /// limits ignored ([`IkUnreachable::BeyondLimit`] if any converges, the one least beyond
+    /// its limits) or [`IkUnreachable::BeyondReach`] with the smallest error seen.
+    fn why_unreachable(
+        &self,
+        target: &IkTarget,
+        q0: &[f64],
+        opts: &IkOptions,
+        search: &IkSearch,
+        limited_worst: (f64, f64, f64),
+    ) -> IkUnreachable {
+        let n = q0.len();
+        let mut rng = Xorshift(search.seed | 1);
+        let mut closest = limited_worst;
+        // (total violation, joint, value) of the solution least beyond its limits.
+        let mut least: Option<(f64, usize, f64)> = None;
+        for k in 0..search.random_starts + 2 {
+            let mut q = [0.0; MAX_JOINTS];
+            q[..n].copy_from_slice(q0);
+            if k == 1 && n >= 6 {
+                q[3] += std::f64::consts::PI;
+                q[4] = -q[4];
+                q[5] += std::f64::consts::PI;
+            } else if k > 1 {
+                self.random_start(q0, k - 1, search.random_starts, &mut rng, &mut q[..n]);
+            }
+            match self.solve_ik_direct(target, &mut q[..n], opts, false) {
+                Ok(_) => {
+                    // Each joint by whole turns into (or nearest to) its limits.
+                    let mut total = 0.0;
+                    let mut worst_joint = (0.0, 0, 0.0);
+                    for (i, v) in q[..n].iter().enumerate() {
+                        let [lo, hi] = self.limits_rad(i);
+                        let mid = 0.5 * (lo + hi);
+                        let t = std::f64::consts::TAU;
+                        let w = v + ((mid - v) / t).round() * t;
+                        let over = (lo - w).max(w - hi).max(0.0);
+                        total += over;
+                        if over > worst_joint.0 {
+                            worst_joint = (over, i, w);
+                        }
+                    }
+                    if least.is_none_or(|(t, _, _)| total < t) {
+                        least = Some((total, worst_joint.1, worst_joint.2));
+                    }
+                }
+                Err(IkError::NotConverged {
+                    pos_err_mm,
+                    rot_err_rad,
+                    ..
+                }) => {
+                    let cost =
+                        pos_err_mm.powi(2) + (rot_err_rad * opts.orientation_scale_mm).powi(2);
+                    if cost < closest.0 {
+                        closest = (cost, pos_err_mm, rot_err_rad);
+                    }
+                }
+                Err(e) => return IkUnreachable::Input(e),
+            }
+        }
+        match least {
+            Some((_, joint, value_rad)) => IkUnreachable::BeyondLimit {
+                joint,
+                value_rad,
+                limits_rad: self.limits_rad(joint),
+            },
+            None => IkUnreachable::BeyondReach {
+                pos_err_mm: closest.1,
+                rot_err_rad: closest.2,
+            },
         }
     }
 }

@@ -24,7 +24,10 @@ pub mod trig;
 pub use error::ModelError;
 pub use extended::{ExtendedModel, Gravity, expand_family};
 pub use frame::Frame;
-pub use ik::{IkError, IkOptions, IkReport, IkTarget, Lower6, cholesky6};
+pub use ik::{
+    ArmSingularity, IkError, IkOptions, IkReport, IkSearch, IkTarget, IkUnreachable, Lower6,
+    NearestIk, cholesky6,
+};
 pub use model::{
     BaseSpec, ExtendedParamSpec, JointSpec, LinkMassSpec, MAX_JOINTS, MassModelSpec, RobotSpec,
 };

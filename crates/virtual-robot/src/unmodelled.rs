@@ -69,7 +69,11 @@ pub struct ComplianceConfig {
     pub enabled: bool,
     /// Gravitational acceleration, m/s² (default 9.80665), along −z of the robot base.
     pub gravity_m_per_s2: f64,
-    /// One entry per joint (default: the KR1000 titan split of the crate docs).
+    /// One entry per joint. In a scenario file, left out means the robot file's own
+    /// `mass_model` ([`UnmodelledConfig::use_robot_mass_model`]; refused when it has none and
+    /// compliance is on); [`ComplianceConfig::default`] holds the KR1000 titan split of the
+    /// crate docs.
+    #[serde(default)]
     pub links: Vec<LinkMass>,
     /// Joint stiffness k_i per joint, N·m/rad (default: see the crate docs).
     pub stiffness_nm_per_rad: Vec<f64>,
@@ -336,8 +340,9 @@ impl DriftConfig {
     }
 }
 
-/// The `unmodelled` section.
-#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+/// The `unmodelled` section. Its default's compliance has no `links`: the robot file's own
+/// `mass_model` ([`UnmodelledConfig::use_robot_mass_model`]).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct UnmodelledConfig {
     /// Joint compliance under gravity (on by default).
@@ -350,7 +355,56 @@ pub struct UnmodelledConfig {
     pub drift: DriftConfig,
 }
 
+impl Default for UnmodelledConfig {
+    fn default() -> Self {
+        UnmodelledConfig {
+            compliance: ComplianceConfig {
+                links: Vec::new(),
+                ..ComplianceConfig::default()
+            },
+            gears: GearConfig::default(),
+            repeatability: RepeatabilityConfig::default(),
+            drift: DriftConfig::default(),
+        }
+    }
+}
+
 impl UnmodelledConfig {
+    /// Fills the compliance section's `links`, when it gives none, from the robot file's
+    /// `mass_model`: a simulated robot is weighed by its own
+    /// masses, not by the KR1000's. With compliance on and neither, the error names the field
+    /// and the two ways out. Idempotent.
+    pub fn use_robot_mass_model(&mut self, robot: &Robot) -> Result<(), ConfigError> {
+        let c = &mut self.compliance;
+        if !c.links.is_empty() {
+            return Ok(());
+        }
+        match robot.mass_model() {
+            Some(m) => {
+                c.links = m
+                    .links
+                    .iter()
+                    .map(|l| LinkMass {
+                        mass_kg: l.mass_kg,
+                        com_mm: l.com_mm,
+                    })
+                    .collect();
+                Ok(())
+            }
+            None if c.enabled => Err(ConfigError::invalid(
+                "unmodelled.compliance.links",
+                format!(
+                    "the simulated joint compliance needs link masses, but the robot file of \
+                     `{}` has no `mass_model` and this section gives no `links`: add a \
+                     `mass_model` to the robot file (docs/model.md §4), give `links` here, or \
+                     set `unmodelled.compliance.enabled` to false",
+                    robot.name()
+                ),
+            )),
+            None => Ok(()),
+        }
+    }
+
     /// Everything off.
     pub fn off() -> Self {
         let mut c = UnmodelledConfig::default();
@@ -364,7 +418,13 @@ impl UnmodelledConfig {
     /// Checks every subsection against the robot.
     pub fn validate(&self, nominal: &Robot) -> Result<(), ConfigError> {
         let n = nominal.n_joints();
-        self.compliance.validate(n)?;
+        if self.compliance.links.is_empty() {
+            let mut resolved = self.clone();
+            resolved.use_robot_mass_model(nominal)?;
+            resolved.compliance.validate(n)?;
+        } else {
+            self.compliance.validate(n)?;
+        }
         self.gears.validate(n)?;
         non_negative(
             "unmodelled.repeatability.sigma_mm",

@@ -156,6 +156,10 @@ impl Setup {
     /// `SCALE_POSES`, trial 0) if `truth.scale_to` is given.
     pub fn new(nominal: &Robot, cfg: &VirtualRobotConfig, seed: u64) -> Result<Setup, SimError> {
         cfg.validate(nominal)?;
+        // Compliance without `links`: the robot's own mass model (validated above).
+        let mut cfg = cfg.clone();
+        cfg.unmodelled.use_robot_mass_model(nominal)?;
+        let cfg = &cfg;
         let tracker = Tracker::new(&cfg.tracker)?;
         let (scale_poses_rad, scale_stats) = match &cfg.truth.scale_to {
             Some(target) => {

@@ -1,6 +1,7 @@
 //! Bad scenario fields give errors naming the field; good ones round-trip.
 
 use crate::common::{ideal, kr1000};
+use kinematics::{Robot, RobotSpec};
 use virtual_robot::{
     ConfigError, PoseSet, RandomErrors, ScaleTarget, SimError, VirtualRobotConfig, World,
 };
@@ -148,6 +149,7 @@ fn unmodelled_sizes_are_checked() {
         "unmodelled.compliance.stiffness_nm_per_rad[2]"
     );
     let mut c = ideal();
+    c.unmodelled.compliance.links = virtual_robot::ComplianceConfig::default().links;
     c.unmodelled.compliance.links[3].mass_kg = -1.0;
     assert_eq!(field_of(&c), "unmodelled.compliance.links[3].mass_kg");
     let mut c = ideal();
@@ -250,4 +252,51 @@ fn json_examples_in_the_module_docs_parse_and_validate() {
         found += 1;
     }
     assert_eq!(found, 4);
+}
+
+/// Issue 29: compliance without `links` weighs the robot by its own file's `mass_model`
+/// (not the KR1000's), and is refused, naming the field and the ways out, for a robot file
+/// without one.
+#[test]
+fn compliance_uses_the_robot_files_mass_model_or_refuses() {
+    let ur10_text = include_str!("../../../scenarios/robots/ur10.json");
+    let ur10 =
+        Robot::from_spec(&RobotSpec::from_json_str(ur10_text, "ur10.json").unwrap()).unwrap();
+    let cfg = VirtualRobotConfig::from_json_str(
+        r#"{ "unmodelled": { "compliance": { "enabled": true } } }"#,
+    )
+    .unwrap();
+    assert!(cfg.unmodelled.compliance.links.is_empty());
+    let mut resolved = cfg.unmodelled.clone();
+    resolved.use_robot_mass_model(&ur10).unwrap();
+    let masses: Vec<f64> = resolved
+        .compliance
+        .links
+        .iter()
+        .map(|l| l.mass_kg)
+        .collect();
+    assert_eq!(masses, [7.1, 12.7, 4.27, 2.0, 2.0, 0.365]);
+    cfg.validate(&ur10).unwrap();
+    // The KR1000 file's own masses are the crate's KR1000 split: the paper's scenarios keep
+    // their bytes.
+    let mut k = cfg.unmodelled.clone();
+    k.use_robot_mass_model(&kr1000()).unwrap();
+    assert_eq!(
+        k.compliance.links,
+        virtual_robot::ComplianceConfig::default().links
+    );
+    // A robot file without a mass model: refused with the field named.
+    let mut spec = RobotSpec::from_json_str(ur10_text, "ur10.json").unwrap();
+    spec.mass_model = None;
+    let bare = Robot::from_spec(&spec).unwrap();
+    let err = cfg.validate(&bare).unwrap_err();
+    assert_eq!(err.field(), "unmodelled.compliance.links");
+    assert!(err.to_string().contains("has no `mass_model`"), "{err}");
+    assert!(World::new(&bare, &cfg, 0, 0).is_err());
+    // Compliance off needs none.
+    let off = VirtualRobotConfig::from_json_str(
+        r#"{ "unmodelled": { "compliance": { "enabled": false } } }"#,
+    )
+    .unwrap();
+    off.validate(&bare).unwrap();
 }

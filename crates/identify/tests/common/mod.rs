@@ -1,6 +1,8 @@
 //! Shared helpers of the integration tests.
 #![allow(dead_code)]
 
+pub mod compensation_targets;
+
 use kinematics::{PoseSampler, Robot, RobotSpec};
 use nalgebra::Vector3;
 use rand::rngs::ChaCha8Rng;
