@@ -66,6 +66,8 @@ fn link_transform(j: &JointSpec) -> Result<Frame, UrdfError> {
         joint_names: None,
         mass_model: None,
         extended: None,
+        tool_rotation_deg: None,
+        targets: None,
     };
     Ok(Robot::from_spec(&one)?.flange_reference(&[0.0]))
 }
