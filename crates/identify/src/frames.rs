@@ -230,9 +230,21 @@ pub fn rotation_to_euler(r: &Matrix3<f64>) -> [f64; 3] {
     [rx, ry, rz]
 }
 
-/// The rotation vector of a rotation matrix (rad): `log` of SO(3).
+/// The rotation vector of a rotation matrix (rad): `log` of SO(3), through the unit
+/// quaternion `(w, v)` (`w ≥ 0`): `φ = 2·atan2(‖v‖, w)·v/‖v‖`, accurate to rounding at small
+/// angles too (an `acos` of the trace loses half the digits there).
 pub fn log_so3(r: &Matrix3<f64>) -> Vector3<f64> {
-    Rotation3::from_matrix_unchecked(*r).scaled_axis()
+    let q = nalgebra::UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix_unchecked(*r));
+    let (mut w, mut v) = (q.w, q.imag());
+    if w < 0.0 {
+        w = -w;
+        v = -v;
+    }
+    let n = v.norm();
+    if n < 1e-300 {
+        return v * 2.0;
+    }
+    v * (2.0 * n.atan2(w) / n)
 }
 
 /// `exp` of SO(3): the rotation by the rotation vector `v` (rad).
@@ -612,14 +624,17 @@ pub struct FrameFitOptions {
     pub cost_tol: f64,
     /// Initial Marquardt damping λ (`JᵀJ + λ·diag(JᵀJ)`) [1e-3].
     pub lambda0: f64,
+    /// Stop when every column's gradient cosine `|J_kᵀe|/(‖J_k‖‖e‖)` is below this [1e-10].
+    pub gradient_tol: f64,
 }
 
 impl Default for FrameFitOptions {
     fn default() -> Self {
         FrameFitOptions {
-            max_iterations: 100,
+            max_iterations: 200,
             cost_tol: 1e-12,
             lambda0: 1e-3,
+            gradient_tol: 1e-10,
         }
     }
 }
@@ -703,6 +718,14 @@ pub fn fit_frames(
         let mut damped = a.clone();
         for k in 0..pf {
             damped[(k, k)] += lambda * a[(k, k)].max(1e-300);
+        }
+        // Stationary: every column's gradient cosine |g_k|/(‖J_k‖·‖e‖) below 1e-10.
+        let cosine = (0..pf)
+            .map(|k| g[k].abs() / (a[(k, k)].sqrt() * cost.sqrt()).max(f64::MIN_POSITIVE))
+            .fold(0.0, f64::max);
+        if cosine < options.gradient_tol {
+            converged = true;
+            break;
         }
         let Some(ch) = damped.cholesky() else {
             lambda *= 10.0;

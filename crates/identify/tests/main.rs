@@ -5,6 +5,7 @@ mod common;
 mod covariance;
 mod degenerate;
 mod fast_path;
+mod frames;
 mod identifiability;
 mod noise;
 mod noise_free;
