@@ -16,6 +16,7 @@
 
 mod error;
 mod files;
+pub mod frames;
 mod joints;
 mod request;
 mod workflow;

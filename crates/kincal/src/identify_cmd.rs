@@ -84,6 +84,18 @@ pub struct IdentifyArgs {
     /// Output directory, created if missing (only once everything succeeded).
     #[arg(long, default_value = "identified")]
     out: PathBuf,
+    /// Euler convention of orientation columns rx,ry,rz (degrees) in the data: three axis
+    /// letters, upper case intrinsic (XYZ), lower case extrinsic (xyz); docs/model.md §5.
+    #[arg(long, value_name = "SEQ")]
+    euler: Option<measurements::EulerConvention>,
+    /// With orientation data: weigh 1° of orientation residual as this many mm of position
+    /// residual instead of by the file's σ (default: the file's σ where given, else 5).
+    #[arg(long, value_name = "MM_PER_DEG")]
+    orientation_weight: Option<f64>,
+    /// Identify from the points only, ignoring the file's orientation columns (the
+    /// point-only fit of the same poses, for comparison).
+    #[arg(long)]
+    points_only: bool,
 }
 
 impl IdentifyArgs {
@@ -172,7 +184,18 @@ pub fn write_outputs(dir: &Path, files: &[(String, String)]) -> Result<()> {
 
 /// `kincal identify`.
 pub fn run(args: &IdentifyArgs) -> Result<()> {
-    let cal = calibrate::run(&args.request()).map_err(|e| args.flagged(e))?;
+    let request = args.request();
+    let cal = if args.euler.is_some() || calibrate::frames::header_has_frames(&args.data) {
+        let inputs =
+            calibrate::frames::load_inputs(&request, args.euler).map_err(|e| args.flagged(e))?;
+        if !args.points_only && calibrate::frames::applies(&inputs.data) {
+            return run_frames(args, &request, inputs);
+        }
+        calibrate::calibrate(&request, inputs)
+    } else {
+        calibrate::run(&request)
+    }
+    .map_err(|e| args.flagged(e))?;
     for notice in &cal.notices {
         eprintln!("note: {notice}");
     }
@@ -184,6 +207,34 @@ pub fn run(args: &IdentifyArgs) -> Result<()> {
         "→ {}: {ROBOT_FILE} (the calibrated robot), {REGISTERED_FILE} (the nominal robot in \
          the same frame: compensation targets), {PARAMETERS_FILE} (parameter table), \
          {REPORT_FILE} and {REPORT_HTML_FILE} (the report, with its plots)",
+        args.out.display(),
+    );
+    Ok(())
+}
+
+/// `kincal identify` on 6-DoF or multi-target data.
+fn run_frames(
+    args: &IdentifyArgs,
+    request: &IdentifyRequest,
+    inputs: calibrate::Inputs,
+) -> Result<()> {
+    if let Some(w) = args.orientation_weight
+        && !(w.is_finite() && w > 0.0)
+    {
+        anyhow::bail!("--orientation-weight {w}: must be a finite number > 0 (mm per degree)");
+    }
+    let options = calibrate::frames::FrameOptions {
+        mm_per_deg: args.orientation_weight,
+    };
+    let cal = calibrate::frames::calibrate_frames(request, inputs, &options)
+        .map_err(|e| args.flagged(e))?;
+    for notice in &cal.notices {
+        eprintln!("note: {notice}");
+    }
+    write_outputs(&args.out, &report::calibration::frames::render(&cal))?;
+    print!("{}", report::calibration::frames::summary(&cal));
+    println!(
+        "→ {}: {ROBOT_FILE} (the calibrated robot with its tool frame), {REPORT_FILE}",
         args.out.display(),
     );
     Ok(())
