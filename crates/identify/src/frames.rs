@@ -36,10 +36,10 @@ use nalgebra::{DMatrix, DVector, Matrix3, Rotation3, Vector3};
 use crate::error::IdentifyError;
 use crate::identifiability::keep_priority;
 
-/// Default equivalence of orientation and position residuals when the data give no σ:
-/// 1° of orientation error weighs as much as this many mm of position error [5 mm/°: the
-/// ratio of the σ a laser tracker's 6-DoF probe states (≈ 0.01 mm and 0.002° on the public
-/// UR10 data of `data/ur10-ipa`, series B), i.e. equal confidence in both].
+/// Default equivalence of orientation and position residuals: 1° of orientation error
+/// weighs as much as this many mm of position error [5 mm/°: the ratio of the typical σ a
+/// laser tracker's 6-DoF probe states (≈ 0.01 mm and 0.002° on the public UR10 data of
+/// `data/ur10-ipa`, series B), i.e. equal confidence in both].
 pub const DEFAULT_MM_PER_DEG: f64 = 5.0;
 
 /// One measured row: a point of target `target` at pose `pose`, and optionally the measured

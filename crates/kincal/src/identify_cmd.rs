@@ -89,9 +89,10 @@ pub struct IdentifyArgs {
     #[arg(long, value_name = "SEQ")]
     euler: Option<measurements::EulerConvention>,
     /// With orientation data: weigh 1° of orientation residual as this many mm of position
-    /// residual instead of by the file's σ (default: the file's σ where given, else 5).
-    #[arg(long, value_name = "MM_PER_DEG")]
-    orientation_weight: Option<f64>,
+    /// residual [default 5, the ratio of a tracker probe's σ], or `sigma`: weigh every row
+    /// by the file's σ (sx,sy,sz, srx,sry,srz).
+    #[arg(long, value_name = "MM_PER_DEG|sigma")]
+    orientation_weight: Option<String>,
     /// Identify from the points only, ignoring the file's orientation columns (the
     /// point-only fit of the same poses, for comparison).
     #[arg(long)]
@@ -218,13 +219,21 @@ fn run_frames(
     request: &IdentifyRequest,
     inputs: calibrate::Inputs,
 ) -> Result<()> {
-    if let Some(w) = args.orientation_weight
-        && !(w.is_finite() && w > 0.0)
-    {
-        anyhow::bail!("--orientation-weight {w}: must be a finite number > 0 (mm per degree)");
-    }
-    let options = calibrate::frames::FrameOptions {
-        mm_per_deg: args.orientation_weight,
+    let options = match args.orientation_weight.as_deref() {
+        None => calibrate::frames::FrameOptions::default(),
+        Some("sigma") => calibrate::frames::FrameOptions {
+            sigma: true,
+            ..Default::default()
+        },
+        Some(text) => {
+            let w: f64 = text.parse().ok().filter(|w: &f64| w.is_finite() && *w > 0.0).with_context(
+                || format!("--orientation-weight {text}: must be `sigma` or a finite number > 0 (mm per degree)"),
+            )?;
+            calibrate::frames::FrameOptions {
+                mm_per_deg: Some(w),
+                sigma: false,
+            }
+        }
     };
     let cal = calibrate::frames::calibrate_frames(request, inputs, &options)
         .map_err(|e| args.flagged(e))?;
