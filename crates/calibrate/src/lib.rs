@@ -17,6 +17,7 @@
 pub mod checks;
 mod error;
 mod files;
+pub mod frames;
 mod joints;
 mod memory;
 mod request;

@@ -56,6 +56,7 @@ pub mod compensation;
 pub mod covariance;
 mod error;
 mod fit;
+pub mod frames;
 mod generic;
 pub mod identifiability;
 mod linalg;

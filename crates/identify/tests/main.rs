@@ -6,6 +6,7 @@ mod compensation;
 mod covariance;
 mod degenerate;
 mod fast_path;
+mod frames;
 mod identifiability;
 mod noise;
 mod noise_free;

@@ -96,6 +96,19 @@ pub struct IdentifyArgs {
     /// Output directory, created if missing (only once everything succeeded).
     #[arg(long, default_value = "identified")]
     out: PathBuf,
+    /// Euler convention of orientation columns rx,ry,rz (degrees) in the data: three axis
+    /// letters, upper case intrinsic (XYZ), lower case extrinsic (xyz); docs/model.md §5.
+    #[arg(long, value_name = "SEQ")]
+    euler: Option<measurements::EulerConvention>,
+    /// With orientation data: weigh 1° of orientation residual as this many mm of position
+    /// residual [default 5, the ratio of a tracker probe's σ], or `sigma`: weigh every row
+    /// by the file's σ (sx,sy,sz, srx,sry,srz).
+    #[arg(long, value_name = "MM_PER_DEG|sigma")]
+    orientation_weight: Option<String>,
+    /// Identify from the points only, ignoring the file's orientation columns (the
+    /// point-only fit of the same poses, for comparison).
+    #[arg(long)]
+    points_only: bool,
 }
 
 impl IdentifyArgs {
@@ -237,7 +250,18 @@ pub fn write_outputs(dir: &Path, files: &[(String, String)]) -> Result<()> {
 /// `kincal identify`.
 pub fn run(args: &IdentifyArgs) -> Result<()> {
     let out = lock_out(&args.out)?;
-    let cal = calibrate::run(&args.request()).map_err(|e| args.flagged(e))?;
+    let request = args.request();
+    let cal = if args.euler.is_some() || calibrate::frames::header_has_frames(&args.data) {
+        let inputs =
+            calibrate::frames::load_inputs(&request, args.euler).map_err(|e| args.flagged(e))?;
+        if !args.points_only && calibrate::frames::applies(&inputs.data) {
+            return run_frames(args, &request, inputs, &out);
+        }
+        calibrate::calibrate(&request, inputs)
+    } else {
+        calibrate::run(&request)
+    }
+    .map_err(|e| args.flagged(e))?;
     for notice in &cal.notices {
         eprintln!("note: {notice}");
     }
@@ -250,6 +274,43 @@ pub fn run(args: &IdentifyArgs) -> Result<()> {
         "→ {}: {ROBOT_FILE} (the calibrated robot), {REGISTERED_FILE} (the nominal robot in \
          the same frame: compensation targets), {PARAMETERS_FILE} (parameter table), \
          {REPORT_FILE} and {REPORT_HTML_FILE} (the report, with its plots)",
+        args.out.display(),
+    );
+    Ok(())
+}
+
+/// `kincal identify` on 6-DoF or multi-target data.
+fn run_frames(
+    args: &IdentifyArgs,
+    request: &IdentifyRequest,
+    inputs: calibrate::Inputs,
+    out: &measurements::OutputDir,
+) -> Result<()> {
+    let options = match args.orientation_weight.as_deref() {
+        None => calibrate::frames::FrameOptions::default(),
+        Some("sigma") => calibrate::frames::FrameOptions {
+            sigma: true,
+            ..Default::default()
+        },
+        Some(text) => {
+            let w: f64 = text.parse().ok().filter(|w: &f64| w.is_finite() && *w > 0.0).with_context(
+                || format!("--orientation-weight {text}: must be `sigma` or a finite number > 0 (mm per degree)"),
+            )?;
+            calibrate::frames::FrameOptions {
+                mm_per_deg: Some(w),
+                sigma: false,
+            }
+        }
+    };
+    let cal = calibrate::frames::calibrate_frames(request, inputs, &options)
+        .map_err(|e| args.flagged(e))?;
+    for notice in &cal.notices {
+        eprintln!("note: {notice}");
+    }
+    write_outputs_into(out, &report::calibration::frames::render(&cal))?;
+    print!("{}", report::calibration::frames::summary(&cal));
+    println!(
+        "→ {}: {ROBOT_FILE} (the calibrated robot with its tool frame), {REPORT_FILE}",
         args.out.display(),
     );
     Ok(())

@@ -30,6 +30,7 @@ pub use ik::{
 };
 pub use model::{
     BaseSpec, ExtendedParamSpec, JointSpec, LinkMassSpec, MAX_JOINTS, MassModelSpec, RobotSpec,
+    TargetSpec,
 };
 pub use params::{BETA_ALPHA_TOL_DEG, ExtendedKind, ParamInfo, ParamKind, ParamLayout, Unit};
 pub use robot::{MAX_PARAMS, POSE_LANES, PoseLanes, PoseTrig, Robot, gram_of_axes};

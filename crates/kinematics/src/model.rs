@@ -251,6 +251,27 @@ pub struct RobotSpec {
     /// absent from files and output when not given.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub extended: Option<Vec<ExtendedParamSpec>>,
+    /// Optional orientation of the measured frame (a 6-DoF probe's, e.g. a T-Mac's) in the
+    /// flange frame, degrees: `[rx, ry, rz]` with `R_tool = Rz(rz)·Ry(ry)·Rx(rx)`, the base's
+    /// convention; its origin is `tool_mm`. Absent from files and output when not given (a
+    /// 6-DoF calibration then starts from a closed-form estimate, `docs/model.md` §5).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub tool_rotation_deg: Option<[f64; 3]>,
+    /// Optional named targets (reflectors) on the tool, each a point in the flange frame
+    /// (mm), for measurement files with a `target` column; absent when not given (a
+    /// calibration then starts each from a closed-form estimate).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub targets: Option<Vec<TargetSpec>>,
+}
+
+/// One named target (reflector) of a robot file's `targets` section.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TargetSpec {
+    /// The name the measurement file's `target` column uses.
+    pub name: String,
+    /// The target's centre in the flange frame, mm.
+    pub point_mm: [f64; 3],
 }
 
 /// One non-geometric parameter of a robot file's `extended` section.
@@ -353,6 +374,24 @@ impl RobotSpec {
         }
         for (k, v) in self.tool_mm.iter().enumerate() {
             finite(format!("tool_mm[{k}]"), *v)?;
+        }
+        if let Some(r) = &self.tool_rotation_deg {
+            for (k, v) in r.iter().enumerate() {
+                finite(format!("tool_rotation_deg[{k}]"), *v)?;
+            }
+        }
+        if let Some(targets) = &self.targets {
+            for (k, t) in targets.iter().enumerate() {
+                if t.name.is_empty() || targets[..k].iter().any(|u| u.name == t.name) {
+                    return Err(invalid(
+                        format!("targets[{k}].name"),
+                        format!("{:?} is empty or repeated", t.name),
+                    ));
+                }
+                for (c, v) in t.point_mm.iter().enumerate() {
+                    finite(format!("targets[{k}].point_mm[{c}]"), *v)?;
+                }
+            }
         }
         if let Some(names) = &self.joint_names {
             if names.len() != self.joints.len() {

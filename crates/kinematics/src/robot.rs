@@ -6,7 +6,9 @@ use nalgebra::{DMatrix, Matrix3, Matrix6, Rotation3, Vector3, Vector6};
 use crate::error::ModelError;
 use crate::extended::ExtendedModel;
 use crate::frame::Frame;
-use crate::model::{BaseSpec, ExtendedParamSpec, JointSpec, MAX_JOINTS, MassModelSpec, RobotSpec};
+use crate::model::{
+    BaseSpec, ExtendedParamSpec, JointSpec, MAX_JOINTS, MassModelSpec, RobotSpec, TargetSpec,
+};
 use crate::params::{ParamKind, ParamLayout};
 
 mod families;
@@ -126,6 +128,10 @@ pub struct Robot {
     /// The non-geometric joint-error parameters of an extended robot
     /// ([`Robot::with_extended`]).
     extended: Option<Box<ExtendedPart>>,
+    /// The robot file's optional tool orientation (rx, ry, rz, rad; `R = Rz·Ry·Rx`).
+    tool_rotation_rad: Option<[f64; 3]>,
+    /// The robot file's optional named targets (flange frame, mm).
+    targets: Option<Vec<(String, Vector3<f64>)>>,
 }
 
 /// The non-geometric part of an extended robot.
@@ -211,6 +217,14 @@ impl Robot {
             base_index,
             mass_model: spec.mass_model.clone(),
             extended: None,
+            tool_rotation_rad: spec
+                .tool_rotation_deg
+                .map(|r| [r[0].to_radians(), r[1].to_radians(), r[2].to_radians()]),
+            targets: spec.targets.as_ref().map(|t| {
+                t.iter()
+                    .map(|t| (t.name.clone(), Vector3::from(t.point_mm)))
+                    .collect()
+            }),
         })
         .and_then(|r: Robot| match &spec.extended {
             None => Ok(r),
@@ -436,6 +450,17 @@ impl Robot {
                     })
                     .collect()
             }),
+            tool_rotation_deg: self
+                .tool_rotation_rad
+                .map(|r| [r[0].to_degrees(), r[1].to_degrees(), r[2].to_degrees()]),
+            targets: self.targets.as_ref().map(|t| {
+                t.iter()
+                    .map(|(name, p)| TargetSpec {
+                        name: name.clone(),
+                        point_mm: (*p).into(),
+                    })
+                    .collect()
+            }),
         }
     }
 
@@ -492,6 +517,116 @@ impl Robot {
     /// Replaces the measured point in the flange frame.
     pub fn set_tool_mm(&mut self, tool_mm: Vector3<f64>) {
         self.tool_mm = tool_mm;
+    }
+
+    /// The tool orientation of the robot file, if it gives one: `[rx, ry, rz]` (rad) with
+    /// `R_tool = Rz·Ry·Rx`, the measured frame's axes in the flange frame.
+    pub fn tool_rotation_rad(&self) -> Option<[f64; 3]> {
+        self.tool_rotation_rad
+    }
+
+    /// The tool orientation as a matrix (identity when the file gives none).
+    pub fn tool_rotation(&self) -> Matrix3<f64> {
+        self.tool_rotation_rad.map_or_else(Matrix3::identity, |r| {
+            Frame::from_base_pose(r, [0.0; 3]).rot
+        })
+    }
+
+    /// Replaces the tool orientation (`None`: not given, as in a point-only robot file).
+    pub fn set_tool_rotation_rad(&mut self, r_rad: Option<[f64; 3]>) {
+        self.tool_rotation_rad = r_rad;
+    }
+
+    /// The named targets of the robot file (flange frame, mm), if it gives any.
+    pub fn targets(&self) -> Option<&[(String, Vector3<f64>)]> {
+        self.targets.as_deref()
+    }
+
+    /// Replaces the named targets.
+    pub fn set_targets(&mut self, targets: Option<Vec<(String, Vector3<f64>)>>) {
+        self.targets = targets;
+    }
+
+    /// The flange frame and its exact derivatives with respect to every parameter: for
+    /// parameter k, `lin[k] = ∂o/∂param_k` (the flange origin's, mm per rad or mm per mm) and
+    /// `ang[k] = ω_k`, the flange's angular derivative in the measurement frame
+    /// (`∂R_flange/∂param_k = [ω_k]× · R_flange`, rad per unit). With the notation of
+    /// [`Robot::point_jacobian_into`] and `o` the flange origin:
+    /// - `θ_i`: `ω = z_{i−1}`, `∂o = z_{i−1} × (o − o_{i−1})`; `d_i`: `ω = 0`, `∂o = z_{i−1}`;
+    /// - `a_i`: `ω = 0`, `∂o = x'_i`; `α_i`: `ω = x'_i`, `∂o = x'_i × (o − o_i)`;
+    ///   `β_i`: `ω = y'_i`, `∂o = y'_i × (o − o_i)`;
+    /// - base rotations: `ω = axis`, `∂o = axis × (o − d)`; base translation: `ω = 0`, `∂o = I`;
+    /// - tool point: 0 (the flange does not depend on it); extended: `w_k` times θ_j's.
+    ///
+    /// A point `t` fixed in the flange then has `∂p/∂param_k = lin[k] + ω_k × (R_flange t)`
+    /// (and `R_flange`'s columns for the tool-point parameters). No heap allocation; the
+    /// straightforward chain (one [`Frame`] per link).
+    pub fn frame_jacobian_into(
+        &self,
+        q_rad: &[f64],
+        lin: &mut [Vector3<f64>],
+        ang: &mut [Vector3<f64>],
+    ) -> Frame {
+        assert_eq!(
+            lin.len(),
+            self.layout.len(),
+            "Jacobian column buffer length"
+        );
+        assert_eq!(
+            ang.len(),
+            self.layout.len(),
+            "Jacobian column buffer length"
+        );
+        assert_eq!(q_rad.len(), self.links.len(), "joint vector length");
+        let mut frames = [Frame::identity(); MAX_JOINTS + 1];
+        let mut qe = [0.0; MAX_JOINTS];
+        let mut w = [0.0; MAX_EXTENDED];
+        self.effective_joints(q_rad, &mut qe, &mut w);
+        let q_rad = &qe[..q_rad.len()];
+        self.chain_reference(q_rad, &mut frames);
+        let n = self.links.len();
+        let o = frames[n].pos_mm;
+        let zero = Vector3::zeros();
+        for (i, (l, q)) in self.links.iter().zip(q_rad).enumerate() {
+            let prev = &frames[i];
+            let z = prev.rot.column(2).into_owned();
+            let (st, ct) = (l.theta_rad + q).sin_cos();
+            let x = prev.rot * Vector3::new(ct, st, 0.0);
+            let r_prev = o - prev.pos_mm;
+            let r_this = o - frames[i + 1].pos_mm;
+            (lin[4 * i], ang[4 * i]) = (z.cross(&r_prev), z);
+            (lin[4 * i + 1], ang[4 * i + 1]) = (z, zero);
+            (lin[4 * i + 2], ang[4 * i + 2]) = (x, zero);
+            (lin[4 * i + 3], ang[4 * i + 3]) = (x.cross(&r_this), x);
+            if let Some(k) = self.beta_index[i] {
+                let y = prev.rot * Vector3::new(-st * l.cos_alpha, ct * l.cos_alpha, l.sin_alpha);
+                (lin[k], ang[k]) = (y.cross(&r_this), y);
+            }
+        }
+        let b = self.base_index;
+        let [_, ry, rz] = self.base.r_rad;
+        let rzm = Rotation3::from_axis_angle(&Vector3::z_axis(), rz);
+        let axes = [
+            rzm * Rotation3::from_axis_angle(&Vector3::y_axis(), ry) * Vector3::x(),
+            rzm * Vector3::y(),
+            Vector3::z(),
+        ];
+        let r_base = o - self.base_frame.pos_mm;
+        for (c, axis) in axes.iter().enumerate() {
+            (lin[b + c], ang[b + c]) = (axis.cross(&r_base), *axis);
+        }
+        for (c, e) in [Vector3::x(), Vector3::y(), Vector3::z()]
+            .iter()
+            .enumerate()
+        {
+            (lin[b + 3 + c], ang[b + 3 + c]) = (*e, zero);
+        }
+        for c in 6..9 {
+            (lin[b + c], ang[b + c]) = (zero, zero);
+        }
+        self.extended_columns(&w, lin);
+        self.extended_columns(&w, ang);
+        frames[n]
     }
 
     /// The base frame `T_base` (measurement frame ← robot base).

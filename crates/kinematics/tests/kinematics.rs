@@ -105,6 +105,8 @@ fn random_chain(u: &[f64]) -> Robot {
         joint_names: None,
         mass_model: None,
         extended: None,
+        tool_rotation_deg: None,
+        targets: None,
     };
     Robot::from_spec(&spec).unwrap()
 }

@@ -66,6 +66,8 @@ fn link_transform(j: &JointSpec) -> Result<Frame, UrdfError> {
         joint_names: None,
         mass_model: None,
         extended: None,
+        tool_rotation_deg: None,
+        targets: None,
     };
     Ok(Robot::from_spec(&one)?.flange_reference(&[0.0]))
 }
@@ -172,8 +174,14 @@ pub fn export(spec: &RobotSpec, opts: &ExportOptions) -> Result<String, UrdfErro
     }
     let _ = n;
     fixed(&mut out, "flange_fixed", &parent, FLANGE_LINK, &prev_fixed);
+    // The tool frame: its orientation where the robot file gives one (a 6-DoF
+    // calibration's identified probe frame), else the flange's axes.
     let tool = Frame {
-        rot: nalgebra::Matrix3::identity(),
+        rot: spec
+            .tool_rotation_deg
+            .map_or_else(nalgebra::Matrix3::identity, |r| {
+                Frame::from_base_pose(r.map(f64::to_radians), [0.0; 3]).rot
+            }),
         pos_mm: nalgebra::Vector3::from(spec.tool_mm),
     };
     fixed(&mut out, "tool_fixed", FLANGE_LINK, TOOL_LINK, &tool);

@@ -306,6 +306,8 @@ pub fn import_str(
         joint_names: None,
         mass_model: None,
         extended: None,
+        tool_rotation_deg: None,
+        targets: None,
     };
 
     // Joints 1..N−1: frame i has z along axis i+1 and its origin on it; each frame is the

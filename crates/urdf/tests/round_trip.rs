@@ -197,3 +197,29 @@ proptest! {
         prop_assert!(u < tol && b < tol, "{u:e} {b:e} (tolerance {tol:e})");
     }
 }
+
+/// The identified tool frame of a 6-DoF calibration (`tool_rotation_deg`) is the
+/// `tool_fixed` joint's rotation; without it the export is as before (identity rpy).
+#[test]
+fn export_carries_the_tool_orientation() {
+    let spec = repo_robot("ur10.json");
+    let plain = export(&spec, &ExportOptions::default()).unwrap();
+    let tool_line = |text: &str| {
+        let at = text.find("<joint name=\"tool_fixed\"").unwrap();
+        text[at..]
+            .lines()
+            .find(|l| l.contains("<origin"))
+            .unwrap()
+            .to_string()
+    };
+    assert!(
+        tool_line(&plain).contains("rpy=\"0 0 0\""),
+        "{}",
+        tool_line(&plain)
+    );
+    let mut with = spec.clone();
+    with.tool_rotation_deg = Some([0.0, 0.0, -90.0]);
+    let text = export(&with, &ExportOptions::default()).unwrap();
+    let line = tool_line(&text);
+    assert!(line.contains("rpy=\"0 0 -1.5707963267948"), "{line}");
+}

@@ -15,6 +15,7 @@
 //! fixed notation (a `-0.000` kept, an explicit `+`), the text keeps it: those cells are
 //! marked `signed` below.
 
+pub mod frames;
 mod markdown;
 mod parameters;
 pub mod plots;
