@@ -27,6 +27,8 @@ struct Cli {
 
 #[allow(rustdoc::broken_intra_doc_links, rustdoc::invalid_html_tags)] // clap help text
 #[derive(Subcommand)]
+// Parsed once per process: the size of its largest variant costs nothing.
+#[allow(clippy::large_enum_variant)]
 enum Cmd {
     /// Print the forward kinematics of a robot model at a few reference poses.
     Poses {
