@@ -618,13 +618,13 @@ pub fn select_free(
 /// Options of [`fit_frames`]. Defaults in brackets.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct FrameFitOptions {
-    /// Iteration limit [100].
+    /// Iteration limit \[100\].
     pub max_iterations: usize,
-    /// Stop when the relative cost decrease of an accepted step is below this [1e-12].
+    /// Stop when the relative cost decrease of an accepted step is below this \[1e-12\].
     pub cost_tol: f64,
-    /// Initial Marquardt damping λ (`JᵀJ + λ·diag(JᵀJ)`) [1e-3].
+    /// Initial Marquardt damping λ (`JᵀJ + λ·diag(JᵀJ)`) \[1e-3\].
     pub lambda0: f64,
-    /// Stop when every column's gradient cosine `|J_kᵀe|/(‖J_k‖‖e‖)` is below this [1e-10].
+    /// Stop when every column's gradient cosine `|J_kᵀe|/(‖J_k‖‖e‖)` is below this \[1e-10\].
     pub gradient_tol: f64,
 }
 

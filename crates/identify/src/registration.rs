@@ -295,7 +295,7 @@ fn smallest(r: &[f64], h: usize) -> Vec<usize> {
 
 /// The robust rigid transform taking `from` onto `to`: least trimmed squares (the `h = ⌊(n +
 /// 4)/2⌋` best points, concentration steps as in FAST-LTS) from the all-point Kabsch fit and
-/// from [`ROBUST_STARTS`] deterministic 4-point subsets spread over the data, the start with
+/// from `ROBUST_STARTS` deterministic 4-point subsets spread over the data, the start with
 /// the least median residual (LMedS) kept; then the closed form on its inliers (residual ≤
 /// [`ROBUST_INLIER_FACTOR`] × median). On clean data every point is an inlier and the result
 /// is [`kabsch`] on all points. Returns the transform and the inliers.
