@@ -7,7 +7,9 @@
 //! `results/`, so a block can use files an earlier block wrote (`--out ur10-cal`, then
 //! `--robot ur10-cal/identified.json`) and the repository stays untouched. Wall-clock
 //! figures (`12.3 ms`, `0.25 s`) are compared as `<time>`; everything else to the
-//! character, trailing spaces aside.
+//! character, trailing spaces aside, but for elisions in the doc's text: a line that is only
+//! `…` stands for any number of lines, and a `…` ending a line for the rest of that line
+//! (`flagged: …`), so a long listing can be shown in part.
 //!
 //! `KINCAL_BLESS_DOCS=1 cargo test -p kincal --test integration docs_examples` rewrites the blocks with
 //! what the commands print now (after a change that moves them on purpose).
@@ -82,6 +84,34 @@ fn normalise(text: &str) -> String {
         .to_string()
 }
 
+/// Whether `got` is what the doc's `expected` shows (both normalised): equal, or equal but
+/// for the elisions (a line `…`: any lines; a line ending in `…`: any rest of that line).
+fn shows(expected: &str, got: &str) -> bool {
+    if !expected.contains('…') {
+        return expected == got;
+    }
+    let mut pattern = String::from("^");
+    for (k, line) in expected.lines().enumerate() {
+        if line == "…" {
+            pattern.push_str(r"(?:[^\n]*\n)*?");
+            continue;
+        }
+        match line.strip_suffix('…') {
+            Some(head) => {
+                pattern.push_str(&regex::escape(head));
+                pattern.push_str(r"[^\n]*");
+            }
+            None => pattern.push_str(&regex::escape(line)),
+        }
+        let last = k + 1 == expected.lines().count();
+        if !last {
+            pattern.push_str(r"\n");
+        }
+    }
+    pattern.push('$');
+    Regex::new(&pattern).is_ok_and(|re| re.is_match(got))
+}
+
 fn doc_files(root: &Path) -> Vec<PathBuf> {
     let mut files = vec![root.join("README.md")];
     if let Ok(dir) = std::fs::read_dir(root.join("docs")) {
@@ -111,6 +141,18 @@ fn the_parser_finds_commands_continuations_and_output() {
         normalise("fit: 5 iterations; 12.3 ms  \nin 0.25 s → x\n"),
         "fit: 5 iterations; <time>\nin <time> → x"
     );
+}
+
+#[test]
+fn elisions_stand_for_lines_and_line_ends_only() {
+    let got = "a 1\nflagged: x\nflagged: y\nflagged: z\ndone";
+    assert!(shows("a 1\nflagged: …\n…\ndone", got));
+    assert!(shows("a …\n…\ndone", got));
+    assert!(shows(got, got));
+    assert!(!shows("a 1\n…\nnot done", got));
+    assert!(!shows("a 2…\n…\ndone", got));
+    assert!(!shows("a 1\nflagged: …\ndone", got));
+    assert!(!shows("a 1", got));
 }
 
 #[test]
@@ -145,7 +187,7 @@ fn console_examples_in_the_docs_print_what_they_show() {
                 String::from_utf8_lossy(&out.stdout),
                 String::from_utf8_lossy(&out.stderr)
             );
-            if normalise(&got) != normalise(&ex.expected) {
+            if !shows(&normalise(&ex.expected), &normalise(&got)) {
                 blessed.push((ex.output_lines.clone(), got.trim_end().to_string()));
                 failures.push(format!(
                     "{}:{}: `kincal {}` printed\n{}\n--- but the doc shows ---\n{}",
