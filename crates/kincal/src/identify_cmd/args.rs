@@ -1,0 +1,222 @@
+//! The arguments of `kincal identify` and their mapping onto a [`calibrate::IdentifyRequest`]
+//! (and of library refusals onto the flags that cause them).
+
+use std::path::PathBuf;
+
+use calibrate::{CalibrateError, IdentifyRequest, JointUnits, LengthUnits, Refusal, Split};
+use clap::Args;
+use identify::ParamSpec;
+
+use crate::solver_args::{RedundantArg, RegistrationArg, Schedule};
+
+/// Arguments of `identify`.
+#[allow(rustdoc::broken_intra_doc_links, rustdoc::invalid_html_tags)] // clap help text
+#[derive(Args, Debug)]
+#[command(
+    after_help = "Example (the real UR10 of data/ur10-ipa, from the repository root):
+  kincal identify --robot scenarios/robots/ur10.json \\
+      --data data/ur10-ipa/series-b-joint-configurations.csv --every 15 --out ur10-cal
+  → ur10-cal/identified.json, registered-nominal.json, parameters.json, report.md, report.html
+  kincal identify --robot scenarios/robots/ur10.json \\
+      --data data/ur10-ipa/series-b-joint-configurations.csv --select 30 --criterion i --out ur10-i30
+  → 30 rows chosen by the I criterion identify, the other 1465 validate"
+)]
+pub struct IdentifyArgs {
+    /// Nominal robot model file (JSON); its joint limits check the data.
+    #[arg(long)]
+    pub(crate) robot: PathBuf,
+    /// Identification measurements (docs/model.md §5 CSV: q1…qN in degrees, x, y, z in mm).
+    #[arg(long)]
+    pub(crate) data: PathBuf,
+    /// Validation measurements (same CSV format): Table 4 of the nominal (after
+    /// registration) and the identified model's predictions.
+    #[arg(long, conflicts_with = "every")]
+    pub(crate) validate: Option<PathBuf>,
+    /// Hold-out split of --data: identify on data rows OFFSET, OFFSET+K, OFFSET+2K, …
+    /// (0-based, comments and blank lines not counted) and validate on all the others.
+    #[arg(long, value_name = "K")]
+    pub(crate) every: Option<usize>,
+    /// First identification row of --every.
+    #[arg(long, default_value_t = 0, requires = "every")]
+    pub(crate) offset: usize,
+    /// Identify on N rows of --data chosen by design (their joints only; the nominal
+    /// model's minimal identifiable set) and validate on all the others: what N well-chosen
+    /// poses of the recording would have given.
+    #[arg(long, value_name = "N", conflicts_with_all = ["every", "validate"])]
+    pub(crate) select: Option<usize>,
+    /// Design criterion of --select: d (log det M), a (trace M⁻¹), e (λ_min), i (mean
+    /// predicted variance on the data's poses), o1, o3, o5 (docs/design.md).
+    #[arg(long, default_value = "d", requires = "select")]
+    pub(crate) criterion: design::Criterion,
+    /// Parameters to identify: `paper` (all, redundant ones included), `minimal` (the
+    /// identifiable set at the registered nominal model), or comma-separated names; then,
+    /// after `+`, non-geometric joint parameters (docs/extended-model.md): `compliance`
+    /// (every joint's; needs the robot file's mass_model), `gears` (first harmonic of every
+    /// joint) or names, e.g. `paper+compliance`, `paper+compliance+gears`,
+    /// `minimal+compliance_2,compliance_3`. identified.json then has an `extended` section.
+    #[arg(long, default_value = "paper")]
+    pub(crate) params: ParamSpec,
+    /// Damping schedule.
+    #[arg(long, value_enum, default_value_t = Schedule::Levenberg)]
+    pub(crate) schedule: Schedule,
+    /// Free parameters exactly redundant at the start (e.g. 10 of the UR10's 35): held at
+    /// their start values, or kept in the damped system as the paper does.
+    #[arg(long, value_enum, default_value_t = RedundantArg::Hold)]
+    pub(crate) redundant: RedundantArg,
+    /// Registration of the measurement frame.
+    #[arg(long, value_enum, default_value_t = RegistrationArg::Auto)]
+    pub(crate) registration: RegistrationArg,
+    /// Drop the outliers found after the first fit and refit (without it they are only
+    /// reported).
+    #[arg(long)]
+    pub(crate) reject_outliers: bool,
+    /// Outlier threshold: ‖residual‖ > k·σ̂₃, σ̂₃ = √3·σ̂ the fit's 3-D residual scale.
+    #[arg(long, default_value_t = 3.0, value_name = "K")]
+    pub(crate) outlier_k: f64,
+    /// Worst points listed in the report, per data set.
+    #[arg(long, default_value_t = 10, value_name = "N")]
+    pub(crate) worst: usize,
+    /// Units of the joint columns of --data and --validate: deg (the format's) or rad
+    /// (converted to degrees on reading).
+    #[arg(long, value_enum, default_value_t = JointUnitsArg::Deg, value_name = "UNITS")]
+    pub(crate) joint_units: JointUnitsArg,
+    /// Units of the x, y, z columns: mm (the format's), m or in (converted to millimetres on
+    /// reading).
+    #[arg(long, value_enum, default_value_t = LengthUnitsArg::Mm, value_name = "UNITS")]
+    pub(crate) length_units: LengthUnitsArg,
+    /// Pass over a plausibility check (docs/calibrating-real-data.md, "Checks"), repeatable:
+    /// joint-units, length-units, mirror, outliers, parameters, validation.
+    #[arg(long, value_name = "CHECK")]
+    pub(crate) allow: Vec<calibrate::Check>,
+    /// Output directory, created if missing (only once everything succeeded).
+    #[arg(long, default_value = "identified")]
+    pub(crate) out: PathBuf,
+    /// Euler convention of orientation columns rx,ry,rz (degrees) in the data: three axis
+    /// letters, upper case intrinsic (XYZ), lower case extrinsic (xyz); docs/model.md §5.
+    #[arg(long, value_name = "SEQ")]
+    pub(crate) euler: Option<measurements::EulerConvention>,
+    /// With orientation data: weigh 1° of orientation residual as this many mm of position
+    /// residual [default 5, the ratio of a tracker probe's σ], or `sigma`: weigh every row
+    /// by the file's σ (sx,sy,sz, srx,sry,srz).
+    #[arg(long, value_name = "MM_PER_DEG|sigma")]
+    pub(crate) orientation_weight: Option<String>,
+    /// Identify from the points only, ignoring the file's orientation columns (the
+    /// point-only fit of the same poses, for comparison).
+    #[arg(long)]
+    pub(crate) points_only: bool,
+}
+
+impl IdentifyArgs {
+    pub(crate) fn request(&self) -> IdentifyRequest {
+        IdentifyRequest {
+            validate: self.validate.clone(),
+            split: match (self.every, self.select) {
+                (Some(every), _) => Split::Every {
+                    every,
+                    offset: self.offset,
+                },
+                (None, Some(poses)) => Split::Select {
+                    poses,
+                    criterion: self.criterion,
+                },
+                (None, None) => Split::All,
+            },
+            params: self.params.clone(),
+            damping: self.schedule.into(),
+            redundant: self.redundant.into(),
+            registration: self.registration.into(),
+            reject_outliers: self.reject_outliers,
+            outlier_k: self.outlier_k,
+            worst: self.worst,
+            joint_units: match self.joint_units {
+                JointUnitsArg::Deg => JointUnits::Deg,
+                JointUnitsArg::Rad => JointUnits::Rad,
+            },
+            length_units: match self.length_units {
+                LengthUnitsArg::Mm => LengthUnits::Mm,
+                LengthUnitsArg::M => LengthUnits::M,
+                LengthUnitsArg::In => LengthUnits::In,
+            },
+            allow: self.allow.clone(),
+            ..IdentifyRequest::new(&self.robot, &self.data)
+        }
+    }
+
+    /// The error of the workflow in the command line's words: the flag that sets the request
+    /// field at fault, before the library's message (which names the field).
+    pub(crate) fn flagged(&self, e: CalibrateError) -> anyhow::Error {
+        let flag = match &e {
+            CalibrateError::Refused(refusal) => match refusal {
+                Refusal::OutlierK(k) => Some(format!("--outlier-k {k}")),
+                Refusal::EveryZero => Some("--every 0".to_string()),
+                Refusal::OffsetNotBelowEvery { every, offset } => {
+                    Some(format!("--every {every} --offset {offset}"))
+                }
+                Refusal::ValidateWithSplit { split } => Some(format!("--validate with --{split}")),
+                Refusal::SelectTooFew { poses, .. } | Refusal::SelectTooMany { poses, .. } => {
+                    Some(format!("--select {poses}"))
+                }
+                Refusal::TooManyOutliers { .. } => Some("--reject-outliers".to_string()),
+                Refusal::Implausible { check, .. } => Some(format!(
+                    "refused by the {} check (override: --allow {})",
+                    check.name(),
+                    check.name()
+                )),
+                Refusal::NoDataRows { .. } => self
+                    .validate
+                    .as_ref()
+                    .map(|v| format!("--validate {}", v.display())),
+                _ => None,
+            },
+            CalibrateError::TooFewRows { source, .. } => match source.as_ref() {
+                CalibrateError::Refused(Refusal::EveryTooFew { every, offset, .. }) => {
+                    Some(format!("--every {every} --offset {offset}"))
+                }
+                _ => None,
+            },
+            CalibrateError::Design { .. } => self
+                .select
+                .map(|n| format!("--select {n} --criterion {}", self.criterion.as_str())),
+            _ => None,
+        };
+        let e = match e {
+            CalibrateError::Params { spec, source } => {
+                anyhow::Error::new(source).context(format!("--params {spec}"))
+            }
+            CalibrateError::TooFewRows {
+                free,
+                spec,
+                needed,
+                source,
+            } => anyhow::Error::new(*source).context(format!(
+                "{free} free parameters (--params {spec}) need at least {needed} rows: 3 \
+                 equations per row, at least as many equations as free parameters"
+            )),
+            e => anyhow::Error::new(e),
+        };
+        match flag {
+            Some(flag) => e.context(flag),
+            None => e,
+        }
+    }
+}
+
+/// `--joint-units`.
+#[derive(Clone, Copy, Debug, clap::ValueEnum)]
+pub(crate) enum JointUnitsArg {
+    /// Degrees.
+    Deg,
+    /// Radians.
+    Rad,
+}
+
+/// `--length-units`.
+#[derive(Clone, Copy, Debug, clap::ValueEnum)]
+pub(crate) enum LengthUnitsArg {
+    /// Millimetres.
+    Mm,
+    /// Metres.
+    M,
+    /// Inches.
+    In,
+}
