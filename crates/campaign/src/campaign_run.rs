@@ -139,6 +139,31 @@ pub(crate) fn lock_out_dir(out: &Path) -> Result<measurements::OutputDir, Campai
     Ok(held)
 }
 
+/// Takes the output directory `out` as the member `shard` of the campaign's shards
+/// ([`measurements::OutputDir::lock_member`]) and creates it.
+fn lock_member_dir(
+    out: &Path,
+    shard: &Shard,
+) -> Result<measurements::SharedOutputDir, CampaignError> {
+    let member = shard.file_name();
+    let member = member.strip_suffix(".json").unwrap_or(&member);
+    let held = measurements::OutputDir::lock_member(out, member)?;
+    std::fs::create_dir_all(held.path()).map_err(|source| CampaignError::CreateDir {
+        path: out.to_path_buf(),
+        source,
+    })?;
+    Ok(held)
+}
+
+/// How a campaign run holds its output directory.
+enum Held {
+    /// A whole campaign: its set is written at the end.
+    Whole(measurements::OutputDir),
+    /// A shard: it writes its own files beside the other shards'.
+    #[allow(dead_code, reason = "held for its locks, released when dropped")]
+    Member(measurements::SharedOutputDir),
+}
+
 /// Refuses a run where every trial failed (its outputs, written by then, list the causes).
 pub(crate) fn check_some_succeeded(
     agg: &crate::run::Aggregate,
@@ -255,8 +280,13 @@ impl CampaignRun {
             Some(shard) => shard.range(scenario.trials),
             None => 0..scenario.trials,
         };
-        // The output directory is taken (checked, locked) before the work.
-        let held = lock_out_dir(&out)?;
+        // The output directory is taken (checked, locked) before the work: as a whole by a
+        // campaign, as one member by a shard (the shards of a campaign write their files side
+        // by side into one directory, each refusing a second run of itself).
+        let held = match self.shard {
+            Some(shard) => Held::Member(lock_member_dir(&out, &shard)?),
+            None => Held::Whole(lock_out_dir(&out)?),
+        };
         let started = Instant::now();
         let ctx = Context::new(loaded)?;
         let checkpoint = match (self.checkpoint, self.shard) {
@@ -328,6 +358,9 @@ impl CampaignRun {
             .and_then(|n| n.to_str())
             .into_iter()
             .collect();
+        let Held::Whole(held) = held else {
+            unreachable!("a campaign that is not a shard holds its directory as a whole")
+        };
         held.write_set_dropping(&files, &dropped)?;
         finish_checkpoint(&visible_files(&out))?;
         drop(held);

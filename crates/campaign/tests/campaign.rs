@@ -339,8 +339,8 @@ fn sharded_campaign_run_and_merge_give_the_single_run_outputs() {
         panic!("a whole campaign")
     };
     assert!(summary.residual_budget.is_some());
-    let mut files = Vec::new();
-    for k in [1, 0] {
+    // The two shards run at the same time into one directory (as a Slurm array does).
+    let shard_run = |k: u64| {
         let mut run = request("shards");
         run.shard = Some(Shard::new(k, 2).unwrap());
         run.checkpoint = Some(Checkpointing {
@@ -351,11 +351,15 @@ fn sharded_campaign_run_and_merge_give_the_single_run_outputs() {
             CampaignOutcome::Shard { file, trials, .. } => {
                 assert_eq!(trials, campaign::shard_range(4, k, 2));
                 assert!(file.ends_with(format!("shard-{k}-of-2.json")));
-                files.push(file);
+                file
             }
             other => panic!("a shard: {other:?}"),
         }
-    }
+    };
+    let files: Vec<_> = std::thread::scope(|s| {
+        let handles: Vec<_> = [1, 0].map(|k| s.spawn(move || shard_run(k))).into();
+        handles.into_iter().map(|h| h.join().unwrap()).collect()
+    });
     let left: Vec<_> = std::fs::read_dir(dir.path().join("shards"))
         .unwrap()
         .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())

@@ -97,7 +97,11 @@
 //!   holder's pid, start time (UTC) and command line; a second writer is refused at once
 //!   with [`OutputError::Locked`] naming them (it does not wait). The lock dies with its
 //!   process, so a killed run never blocks the next one; the file is removed when the
-//!   [`OutputDir`] is dropped.
+//!   [`OutputDir`] is dropped. Runs that only write single files side by side into one
+//!   directory (the shards of a campaign) take it as *members* ([`OutputDir::lock_member`]):
+//!   the directory lock shared, so members run at once while a whole-set writer is refused,
+//!   and a lock of their own, `.NAME.kincal-lock-MEMBER`, so a second run of one member is
+//!   refused.
 //! * *Staging and exchange.* The new set is written into `.NAME.kincal-stage-PID` beside the
 //!   directory and flushed to disk, then exchanged with the directory in one atomic rename
 //!   (Linux `renameat2(RENAME_EXCHANGE)`), and the previous set (now under the staged name)
@@ -180,7 +184,8 @@ pub use error::{EulerConventionError, MeasurementError};
 pub use limits::{SizeError, available_memory, bytes_in_words, check_size};
 #[cfg(unix)]
 pub use output::{
-    FAULT_ENV, NO_EXCHANGE_ENV, OutputDir, OutputError, OutputKind, TargetProblem, check_output,
+    FAULT_ENV, NO_EXCHANGE_ENV, OutputDir, OutputError, OutputKind, SharedOutputDir, TargetProblem,
+    check_output,
 };
 pub use read::{read_file, read_str};
 pub use rotation::{

@@ -413,50 +413,9 @@ impl OutputDir {
     /// a directory another process holds ([`OutputError::Locked`], naming the holder's pid,
     /// start time and command line).
     pub fn lock(path: &Path) -> Result<Self, OutputError> {
-        let resolved = check_output(path, OutputKind::Directory)?;
-        let unswappable = |why| OutputError::Unswappable {
-            path: path.to_path_buf(),
-            why,
-        };
-        let exists = resolved.exists();
-        let dir = if exists {
-            fs::canonicalize(&resolved).map_err(io_err(path, "resolving the output directory"))?
-        } else {
-            let name = match resolved.components().next_back() {
-                Some(Component::Normal(n)) => n.to_owned(),
-                _ => return Err(unswappable("does not name a directory")),
-            };
-            let parent = match resolved.parent() {
-                Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
-                _ => PathBuf::from("."),
-            };
-            fs::create_dir_all(&parent).map_err(io_err(&parent, "creating the directory"))?;
-            fs::canonicalize(&parent)
-                .map_err(io_err(&parent, "resolving the directory"))?
-                .join(name)
-        };
-        let (Some(parent), Some(name)) = (dir.parent(), dir.file_name()) else {
-            return Err(unswappable("is the root directory"));
-        };
-        let parent = parent.to_path_buf();
-        let name = name.to_string_lossy().into_owned();
-        if exists {
-            let dev = |p: &Path| fs::metadata(p).map(|m| m.dev());
-            let d = dev(&dir).map_err(io_err(&dir, "inspecting"))?;
-            let p = dev(&parent).map_err(io_err(&parent, "inspecting"))?;
-            if d != p {
-                return Err(unswappable("is a mount point"));
-            }
-            if let Ok(cwd) = std::env::current_dir().and_then(fs::canonicalize)
-                && cwd.starts_with(&dir)
-            {
-                return Err(unswappable(
-                    "is the current directory or contains it (replacing it would leave the shell in a removed directory)",
-                ));
-            }
-        }
+        let (dir, parent, name) = resolve_dir(path)?;
         let lock_path = sibling(&parent, &name, "lock");
-        let lock = take_lock(&lock_path, path)?;
+        let lock = take_lock(&lock_path, path, LockMode::Exclusive)?;
         let held = Self {
             dir,
             parent,
@@ -468,6 +427,128 @@ impl OutputDir {
         Ok(held)
     }
 
+    /// Takes `path` as one *member* of a group of runs that write single files side by side
+    /// into one output directory (the shards of a campaign, each writing its own shard file
+    /// and checkpoint): the directory's lock `.NAME.kincal-lock` is taken *shared*, so any
+    /// number of members may hold it at once while a whole-set writer ([`OutputDir::lock`])
+    /// is refused and refuses them; the member's own lock `.NAME.kincal-lock-MEMBER` is taken
+    /// exclusively, so a second run of the same member is refused naming the first. The
+    /// checks are those of [`OutputDir::lock`]; of an interrupted run's leftovers only the
+    /// single-file temporaries of processes that are gone are removed (staged and retired
+    /// copies are left to the next whole-set writer).
+    ///
+    /// A member writes single files only ([`write_atomically`](crate::write_atomically) into
+    /// [`SharedOutputDir::path`]); it has no set to write.
+    pub fn lock_member(path: &Path, member: &str) -> Result<SharedOutputDir, OutputError> {
+        let (dir, parent, name) = resolve_dir(path)?;
+        let dir_lock = take_lock(&sibling(&parent, &name, "lock"), path, LockMode::Shared)?;
+        let member_lock_path = sibling(&parent, &name, &format!("lock-{member}"));
+        let member_lock = take_lock(&member_lock_path, path, LockMode::Exclusive)?;
+        let held = SharedOutputDir {
+            dir,
+            member_lock_path,
+            _member_lock: member_lock,
+            _dir_lock: dir_lock,
+        };
+        remove_dead_temporaries(&held.dir)?;
+        Ok(held)
+    }
+}
+
+/// An output directory held by this process as one member of a group of single-file
+/// writers ([`OutputDir::lock_member`]); the locks are released when the value is dropped.
+#[derive(Debug)]
+pub struct SharedOutputDir {
+    dir: PathBuf,
+    member_lock_path: PathBuf,
+    _member_lock: File,
+    _dir_lock: File,
+}
+
+impl SharedOutputDir {
+    /// The output directory: absolute, links resolved. Write this member's files here.
+    pub fn path(&self) -> &Path {
+        &self.dir
+    }
+}
+
+impl Drop for SharedOutputDir {
+    fn drop(&mut self) {
+        // The member's own lock is removed while still held (as `OutputDir`'s); the shared
+        // directory lock is left: other members may hold it.
+        let _ = fs::remove_file(&self.member_lock_path);
+    }
+}
+
+/// Removes the single-file temporaries in `dir` whose writing process is gone (one that
+/// another cleaner removed first is not an error).
+fn remove_dead_temporaries(dir: &Path) -> Result<(), OutputError> {
+    if let Ok(entries) = fs::read_dir(dir) {
+        for e in entries.flatten() {
+            let f = e.file_name().to_string_lossy().into_owned();
+            if temp_file_pid(&f).is_some_and(|pid| !is_alive(pid)) {
+                let p = e.path();
+                match fs::remove_file(&p) {
+                    Err(err) if err.kind() != io::ErrorKind::NotFound => {
+                        return Err(io_err(&p, "removing a leftover temporary")(err));
+                    }
+                    _ => {}
+                }
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Checks `path` as an output directory and resolves it: the directory (absolute, its
+/// parent's links resolved), its parent and its name; creates the parent if needed.
+fn resolve_dir(path: &Path) -> Result<(PathBuf, PathBuf, String), OutputError> {
+    let resolved = check_output(path, OutputKind::Directory)?;
+    let unswappable = |why| OutputError::Unswappable {
+        path: path.to_path_buf(),
+        why,
+    };
+    let exists = resolved.exists();
+    let dir = if exists {
+        fs::canonicalize(&resolved).map_err(io_err(path, "resolving the output directory"))?
+    } else {
+        let name = match resolved.components().next_back() {
+            Some(Component::Normal(n)) => n.to_owned(),
+            _ => return Err(unswappable("does not name a directory")),
+        };
+        let parent = match resolved.parent() {
+            Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+            _ => PathBuf::from("."),
+        };
+        fs::create_dir_all(&parent).map_err(io_err(&parent, "creating the directory"))?;
+        fs::canonicalize(&parent)
+            .map_err(io_err(&parent, "resolving the directory"))?
+            .join(name)
+    };
+    let (Some(parent), Some(name)) = (dir.parent(), dir.file_name()) else {
+        return Err(unswappable("is the root directory"));
+    };
+    let parent = parent.to_path_buf();
+    let name = name.to_string_lossy().into_owned();
+    if exists {
+        let dev = |p: &Path| fs::metadata(p).map(|m| m.dev());
+        let d = dev(&dir).map_err(io_err(&dir, "inspecting"))?;
+        let p = dev(&parent).map_err(io_err(&parent, "inspecting"))?;
+        if d != p {
+            return Err(unswappable("is a mount point"));
+        }
+        if let Ok(cwd) = std::env::current_dir().and_then(fs::canonicalize)
+            && cwd.starts_with(&dir)
+        {
+            return Err(unswappable(
+                "is the current directory or contains it (replacing it would leave the shell in a removed directory)",
+            ));
+        }
+    }
+    Ok((dir, parent, name))
+}
+
+impl OutputDir {
     /// The output directory: absolute, links resolved (for a link to a directory, the linked
     /// directory). Write single files (checkpoints, say) here.
     pub fn path(&self) -> &Path {
@@ -503,16 +584,7 @@ impl OutputDir {
         for p in staged.iter().chain(&retired) {
             fs::remove_dir_all(p).map_err(io_err(p, "removing an interrupted run's leftovers"))?;
         }
-        if let Ok(entries) = fs::read_dir(&self.dir) {
-            for e in entries.flatten() {
-                let f = e.file_name().to_string_lossy().into_owned();
-                if temp_file_pid(&f).is_some_and(|pid| !is_alive(pid)) {
-                    let p = e.path();
-                    fs::remove_file(&p).map_err(io_err(&p, "removing a leftover temporary"))?;
-                }
-            }
-        }
-        Ok(())
+        remove_dead_temporaries(&self.dir)
     }
 
     /// Writes `files` (`(name, contents)`, names relative to the directory, `/`-separated
@@ -724,8 +796,18 @@ impl Drop for OutputDir {
     }
 }
 
-/// Takes the advisory lock at `lock_path` and writes this process's details into it.
-fn take_lock(lock_path: &Path, shown: &Path) -> Result<File, OutputError> {
+/// How a lock file is taken.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum LockMode {
+    /// One holder, whose details are written into the file.
+    Exclusive,
+    /// Any number of holders (members); nothing is written.
+    Shared,
+}
+
+/// Takes the advisory lock at `lock_path` (exclusive: and writes this process's details into
+/// it).
+fn take_lock(lock_path: &Path, shown: &Path, mode: LockMode) -> Result<File, OutputError> {
     for _ in 0..100 {
         let mut f = OpenOptions::new()
             .read(true)
@@ -737,13 +819,17 @@ fn take_lock(lock_path: &Path, shown: &Path) -> Result<File, OutputError> {
                 lock_path,
                 "creating the lock file (an output directory is replaced as a whole, so the directory holding it must be writable)",
             ))?;
-        match f.try_lock() {
+        let taken = match mode {
+            LockMode::Exclusive => f.try_lock(),
+            LockMode::Shared => f.try_lock_shared(),
+        };
+        match taken {
             Ok(()) => {}
             Err(fs::TryLockError::WouldBlock) => {
                 return Err(OutputError::Locked {
                     path: shown.to_path_buf(),
                     lock: lock_path.to_path_buf(),
-                    holder: read_holder(&mut f),
+                    holder: read_holder(&mut f, lock_path),
                 });
             }
             Err(fs::TryLockError::Error(e)) => {
@@ -754,6 +840,9 @@ fn take_lock(lock_path: &Path, shown: &Path) -> Result<File, OutputError> {
         let named = fs::metadata(lock_path);
         if !named.is_ok_and(|m| m.ino() == ours.ino() && m.dev() == ours.dev()) {
             continue; // the previous holder removed it after we opened it
+        }
+        if mode == LockMode::Shared {
+            return Ok(f);
         }
         let started = std::time::SystemTime::now()
             .duration_since(std::time::UNIX_EPOCH)
@@ -781,7 +870,10 @@ fn take_lock(lock_path: &Path, shown: &Path) -> Result<File, OutputError> {
 /// The holder's details from a lock file held by another process. The holder writes them
 /// just after taking the lock, so an empty file, or one naming a process that is gone (left
 /// by a killed run), is read again for a moment.
-fn read_holder(f: &mut File) -> String {
+///
+/// An empty directory lock held shared is held by members ([`OutputDir::lock_member`]):
+/// their details are in their own lock files `LOCK-MEMBER`, which are read instead.
+fn read_holder(f: &mut File, lock_path: &Path) -> String {
     let mut text = String::new();
     for _ in 0..40 {
         text.clear();
@@ -796,9 +888,35 @@ fn read_holder(f: &mut File) -> String {
         std::thread::sleep(std::time::Duration::from_millis(5));
     }
     match text.trim() {
-        "" => "a process that has not written its details yet".to_owned(),
+        "" => member_holders(lock_path)
+            .unwrap_or_else(|| "a process that has not written its details yet".to_owned()),
         t => t.to_owned(),
     }
+}
+
+/// The details of the members holding the directory lock `lock_path`, read from their lock
+/// files `LOCK-MEMBER` beside it; `None` when there are none.
+fn member_holders(lock_path: &Path) -> Option<String> {
+    let parent = lock_path.parent()?;
+    let prefix = format!("{}-", lock_path.file_name()?.to_string_lossy());
+    let mut members: Vec<(String, String)> = fs::read_dir(parent)
+        .ok()?
+        .flatten()
+        .filter_map(|e| {
+            let n = e.file_name().to_string_lossy().into_owned();
+            let member = n.strip_prefix(&prefix)?.to_owned();
+            let text = fs::read_to_string(e.path()).ok()?;
+            (!text.trim().is_empty()).then(|| (member, text.trim().to_owned()))
+        })
+        .collect();
+    members.sort();
+    (!members.is_empty()).then(|| {
+        members
+            .iter()
+            .map(|(m, t)| format!("{m}: {t}"))
+            .collect::<Vec<_>>()
+            .join("; ")
+    })
 }
 
 /// Carries every entry of `from` (the output directory at `rel`) into `to` (the staged one

@@ -368,6 +368,52 @@ fn the_lock_names_its_holder() {
 
 /// Foreign files are carried over (the same files, as hard links), obsolete ones dropped,
 /// an interrupted run's leftovers removed, the directory's permissions kept.
+/// The shards of a campaign write side by side: members of different names hold one
+/// directory at once; a second run of one member is refused naming the first; a whole-set
+/// writer and the members exclude each other, each naming the other.
+#[test]
+fn members_share_the_directory_and_exclude_whole_set_writers() {
+    let root = scratch("members");
+    let out = root.join("shards");
+    let a = OutputDir::lock_member(&out, "shard-0-of-2").unwrap();
+    let b = OutputDir::lock_member(&out, "shard-1-of-2").unwrap();
+    assert_eq!(a.path(), b.path());
+    let e = OutputDir::lock_member(&out, "shard-0-of-2").unwrap_err();
+    let msg = e.to_string();
+    assert!(
+        matches!(e, OutputError::Locked { .. })
+            && msg.contains(".shards.kincal-lock-shard-0-of-2")
+            && msg.contains(&format!("pid {}, started 20", std::process::id())),
+        "{msg}"
+    );
+    let e = OutputDir::lock(&out).unwrap_err();
+    let msg = e.to_string();
+    assert!(
+        matches!(e, OutputError::Locked { .. })
+            && msg.contains("shard-0-of-2: pid ")
+            && msg.contains("shard-1-of-2: pid "),
+        "{msg}"
+    );
+    drop(a);
+    assert!(OutputDir::lock(&out).is_err(), "member 1 still holds it");
+    drop(b);
+    let whole = OutputDir::lock(&out).unwrap();
+    let e = OutputDir::lock_member(&out, "shard-0-of-2").unwrap_err();
+    assert!(
+        e.to_string()
+            .contains(&format!("(pid {}, started 20", std::process::id())),
+        "{e}"
+    );
+    drop(whole);
+    let again = OutputDir::lock_member(&out, "shard-0-of-2").unwrap();
+    drop(again);
+    let left: Vec<String> = names(&root)
+        .into_iter()
+        .filter(|n| n != ".shards.kincal-lock")
+        .collect();
+    assert!(left.is_empty(), "{left:?}");
+}
+
 #[test]
 fn foreign_files_survive_and_leftovers_go() {
     let root = scratch("foreign");
