@@ -1,16 +1,13 @@
 //! Killing a campaign with SIGKILL at many moments and resuming it gives the uninterrupted
 //! run's bytes (issue 23): the xtask binary itself is run, killed and rerun with `--resume`.
 
+mod common;
+
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 use std::time::Duration;
 
-fn repo() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .parent()
-        .expect("workspace root")
-        .to_path_buf()
-}
+use common::root as repo;
 
 const TRIALS: &str = "120";
 /// SIGKILLs in all.
