@@ -427,18 +427,82 @@ pub fn fingerprint(bytes: &[u8]) -> u64 {
 /// The code version a checkpoint is tied to: the crate version and a fingerprint of the
 /// running executable, so that a rebuilt binary (which might compute other bits) does not
 /// resume an old run's checkpoint. Falls back to the crate version alone when the
-/// executable cannot be read.
+/// executable cannot be read. The executable is read in blocks ([`fingerprint_reader`]), not
+/// whole: it is tens of megabytes, which would otherwise be every run's peak memory.
 pub fn code_version() -> String {
     let version = env!("CARGO_PKG_VERSION");
-    match std::env::current_exe().and_then(std::fs::read) {
-        Ok(bytes) => format!("{version} (executable {:016x})", fingerprint(&bytes)),
+    match std::env::current_exe()
+        .and_then(std::fs::File::open)
+        .and_then(fingerprint_reader)
+    {
+        Ok(h) => format!("{version} (executable {h:016x})"),
         Err(_) => version.to_string(),
     }
+}
+
+/// [`fingerprint`] of everything `r` yields, read in 64 KiB blocks (the same value as
+/// `fingerprint` of the bytes in memory).
+pub fn fingerprint_reader(mut r: impl std::io::Read) -> std::io::Result<u64> {
+    const PRIME: u64 = 0x0000_0100_0000_01b3;
+    let mut h = 0xcbf2_9ce4_8422_2325u64;
+    let mut len = 0u64;
+    // `block[..filled]`: bytes read and not yet hashed (fewer than 8 after each round).
+    let mut block = vec![0u8; 1 << 16];
+    let mut filled = 0;
+    loop {
+        let n = match r.read(&mut block[filled..]) {
+            Ok(0) => break,
+            Ok(n) => n,
+            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => continue,
+            Err(e) => return Err(e),
+        };
+        len += n as u64;
+        filled += n;
+        let whole = filled - filled % 8;
+        for w in block[..whole].chunks_exact(8) {
+            h = (h ^ u64::from_le_bytes(w.try_into().expect("8 bytes"))).wrapping_mul(PRIME);
+        }
+        block.copy_within(whole..filled, 0);
+        filled -= whole;
+    }
+    h = block[..filled]
+        .iter()
+        .fold(h, |h, b| (h ^ u64::from(*b)).wrapping_mul(PRIME));
+    Ok((h ^ len).wrapping_mul(PRIME))
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Read in blocks of any size (a reader that returns 1 to 13 bytes at a time, and a
+    /// file larger than the 64 KiB block), the fingerprint is that of the bytes in memory.
+    #[test]
+    fn the_streamed_fingerprint_equals_the_in_memory_one() {
+        struct Trickle<'a>(&'a [u8], usize);
+        impl std::io::Read for Trickle<'_> {
+            fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+                self.1 = self.1 % 13 + 1;
+                let n = self.1.min(buf.len()).min(self.0.len());
+                buf[..n].copy_from_slice(&self.0[..n]);
+                self.0 = &self.0[n..];
+                Ok(n)
+            }
+        }
+        let bytes: Vec<u8> = (0..200_003u32)
+            .map(|i| (i.wrapping_mul(2_654_435_761) >> 24) as u8)
+            .collect();
+        for len in [0, 1, 7, 8, 9, 65_535, 65_536, 65_537, 200_003] {
+            let b = &bytes[..len];
+            assert_eq!(fingerprint_reader(b).unwrap(), fingerprint(b), "{len}");
+            assert_eq!(
+                fingerprint_reader(Trickle(b, 0)).unwrap(),
+                fingerprint(b),
+                "{len} in pieces"
+            );
+        }
+        assert_ne!(fingerprint(&bytes[..8]), fingerprint(&bytes[..9]));
+    }
 
     #[test]
     fn fnv1a_matches_the_reference_vectors() {

@@ -578,14 +578,15 @@ impl Scenario {
 
 /// The most poses a set of a scenario may have (`poses.identification`,
 /// `poses.validation`, `pose_selection.candidates`): 10⁶. A trial holds its poses'
-/// Jacobian rows and points, about [`BYTES_PER_POSE`] per pose and worker thread, and takes
-/// about 0.28 ms per identification pose per trial on one core, so 10⁶ poses are
-/// already about 5 minutes per trial and 3 GB per thread.
+/// Jacobian rows and points, about [`BYTES_PER_POSE`] per pose and worker thread; its time
+/// and memory per pose, and a trial of 10⁶ poses extrapolated from them, are measured by
+/// `cargo xtask timings` (`docs/timings.md`, "Poses per trial").
 pub const MAX_POSES: u64 = 1_000_000;
 
-/// Memory per pose of a trial, per worker thread, rounded up from a measurement
-/// (`docs/scale.md`: 2.75 kB per identification pose, the slope of the peak RSS of one
-/// trial with 20,000 and 200,000 poses on one thread).
+/// Memory per pose of a trial, per worker thread, rounded up from the measurement of
+/// `cargo xtask timings` (`docs/timings.md`, "Poses per trial": the slope of the peak
+/// memory of one trial with 20,000 and 200,000 poses on one thread; 2.7 kB when this was
+/// set).
 pub const BYTES_PER_POSE: u64 = 3_072;
 
 /// Trials per budget run when the scenario does not say \[200\].

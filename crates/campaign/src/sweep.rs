@@ -448,8 +448,10 @@ pub fn run_sweep_checkpointed(
         let agg = match cfg {
             None => run_range(&ctx, 0..scenario.trials, &|_| {}),
             Some(cfg) => {
+                // Not the sweep's name: renaming it changes only how the results are shown,
+                // and must not block resuming the point in progress (`SweepSpec::work`).
                 let manifest = CheckpointManifest::new(
-                    &format!("sweep {} point {i}", spec.name),
+                    &format!("sweep point {i}"),
                     &ctx,
                     0..scenario.trials,
                     &cfg.code,

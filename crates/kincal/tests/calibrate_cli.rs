@@ -2,10 +2,9 @@
 //! trip, malformed inputs, file-format variants, outliers, unreachable targets and the real
 //! UR10 data.
 
-use crate::common::{kincal, ok, root, s};
+use crate::common::{kincal, ok, root, s, stderr};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
-use std::process::Output;
 use std::sync::OnceLock;
 
 use kinematics::{Robot, RobotSpec};
@@ -15,10 +14,6 @@ use nalgebra::Vector3;
 fn kr1000() -> &'static Path {
     static P: OnceLock<PathBuf> = OnceLock::new();
     P.get_or_init(|| root().join("scenarios/robots/kr1000-titan.json"))
-}
-
-fn stderr(out: &Output) -> String {
-    String::from_utf8_lossy(&out.stderr).into_owned()
 }
 
 /// The number after `key` in `text` (up to the next space or comma).

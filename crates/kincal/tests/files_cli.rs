@@ -8,11 +8,7 @@ use std::os::unix::process::ExitStatusExt as _;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
 
-use crate::common::{kincal, ok, root, s};
-
-fn stderr(out: &Output) -> String {
-    String::from_utf8_lossy(&out.stderr).into_owned()
-}
+use crate::common::{dir_set, kincal, ok, root, s, stderr};
 
 fn ur10() -> PathBuf {
     root().join("scenarios/robots/ur10.json")
@@ -172,20 +168,6 @@ fn a_closed_stdout_stops_every_printing_command_quietly() {
         assert!(!err.contains("panicked"), "{args:?}: {err}");
         assert!(!err.contains("Broken pipe"), "{args:?}: {err}");
     }
-}
-
-/// The files of an output directory (name → bytes), hidden ones left out.
-fn dir_set(dir: &Path) -> std::collections::BTreeMap<String, Vec<u8>> {
-    std::fs::read_dir(dir)
-        .unwrap()
-        .flatten()
-        .map(|e| e.file_name().to_string_lossy().into_owned())
-        .filter(|n| !n.starts_with('.'))
-        .map(|n| {
-            let b = std::fs::read(dir.join(&n)).unwrap();
-            (n, b)
-        })
-        .collect()
 }
 
 /// Two `identify` runs started together into one `--out`, `KINCAL_CONCURRENT_RUNS` pairs

@@ -12,6 +12,7 @@ pub fn root() -> PathBuf {
 }
 
 /// Runs the built `xtask` with `args` in the workspace root.
+#[allow(dead_code)] // not every test binary runs commands this way
 pub fn xtask(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_xtask"))
         .args(args)

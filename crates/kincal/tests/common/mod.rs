@@ -28,6 +28,27 @@ pub fn s(p: &Path) -> &str {
     p.to_str().unwrap()
 }
 
+/// A command's stderr as text.
+#[allow(dead_code)] // not every test binary uses it
+pub fn stderr(out: &Output) -> String {
+    String::from_utf8_lossy(&out.stderr).into_owned()
+}
+
+/// The files of an output directory (name → bytes), hidden ones left out.
+#[allow(dead_code)] // not every test binary uses it
+pub fn dir_set(dir: &Path) -> std::collections::BTreeMap<String, Vec<u8>> {
+    std::fs::read_dir(dir)
+        .unwrap()
+        .flatten()
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .filter(|n| !n.starts_with('.'))
+        .map(|n| {
+            let b = std::fs::read(dir.join(&n)).unwrap();
+            (n, b)
+        })
+        .collect()
+}
+
 /// The stdout of a command that must have succeeded (else stdout and stderr in the panic).
 #[allow(dead_code)] // not every test binary uses it
 pub fn ok(out: &Output) -> String {
