@@ -286,6 +286,15 @@ impl PoseSelection {
     }
 }
 
+/// Smallest plausible chain size `Σ(|a_i| + |d_i|)` of a scenario's robot, mm [20: the
+/// smallest arms calibrated with a tracker sum to several hundred mm (a UR3 0.9 m); a robot
+/// file in metres sums to a few units]. The same bounds as `urdf` import.
+pub const MIN_CHAIN_SIZE_MM: f64 = 20.0;
+
+/// Largest plausible chain size of a scenario's robot, mm [50,000: the largest serial arms
+/// sum to 5–7 m (the KR1000 Titan 4.7 m)].
+pub const MAX_CHAIN_SIZE_MM: f64 = 50_000.0;
+
 /// A scenario file.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -300,6 +309,10 @@ pub struct Scenario {
     /// Measured point (ball) in the flange frame, mm; overrides the model file's `tool_mm`.
     #[serde(default)]
     pub tool_mm: Option<[f64; 3]>,
+    /// Checks of the scenario passed over [none]: `length-units` accepts a robot file whose
+    /// chain size is outside [`MIN_CHAIN_SIZE_MM`] … [`MAX_CHAIN_SIZE_MM`].
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub allow: Vec<String>,
     /// Seed of every random stream.
     pub seed: u64,
     /// Monte Carlo trials \[200\].
@@ -461,6 +474,37 @@ impl Scenario {
                 file: source.to_string(),
                 source: source_err,
             })?;
+        if let Some(a) = self.allow.iter().find(|a| *a != "length-units") {
+            return Err(invalid(
+                "allow",
+                format!("{a:?} is no check of a scenario (the one there is: \"length-units\")"),
+            ));
+        }
+        let size_mm: f64 = nominal
+            .to_spec()
+            .joints
+            .iter()
+            .map(|j| j.a_mm.abs() + j.d_mm.abs())
+            .sum();
+        if !(MIN_CHAIN_SIZE_MM..=MAX_CHAIN_SIZE_MM).contains(&size_mm)
+            && !self.allow.iter().any(|a| a == "length-units")
+        {
+            return Err(invalid(
+                "robot",
+                format!(
+                    "{}: the chain sums to Σ(|a| + |d|) = {size_mm:.1} mm, outside the \
+                     {MIN_CHAIN_SIZE_MM} … {MAX_CHAIN_SIZE_MM} mm of robot arms: its lengths look \
+                     like {} where a robot file has millimetres; convert the file, or pass the \
+                     check with \"allow\": [\"length-units\"]",
+                    robot_path.display(),
+                    if size_mm < MIN_CHAIN_SIZE_MM {
+                        "metres"
+                    } else {
+                        "micrometres (or a URDF's millimetres taken for metres)"
+                    }
+                ),
+            ));
+        }
         if let Some(t) = self.tool_mm {
             if t.iter().any(|v| !v.is_finite()) {
                 return Err(invalid("tool_mm", format!("{t:?} is not finite")));

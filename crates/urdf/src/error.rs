@@ -141,6 +141,21 @@ pub enum UrdfError {
         /// The most a robot file can hold.
         max: usize,
     },
+    /// A chain too large or too small for a robot arm: lengths in the wrong unit
+    /// ([`crate::check_chain_size`]).
+    #[error(
+        "{source_name}: the imported chain sums to Σ(|a| + |d|) = {size_mm:.1} mm, outside the {min} … {max} mm of robot arms: {looks_like}; convert the file, or import it as it is with the override (allow_implausible_size)",
+        min = crate::MIN_CHAIN_SIZE_MM,
+        max = crate::MAX_CHAIN_SIZE_MM
+    )]
+    ImplausibleSize {
+        /// File path or label.
+        source_name: String,
+        /// The chain's size, mm.
+        size_mm: f64,
+        /// What the size suggests.
+        looks_like: &'static str,
+    },
     /// Export options that do not fit the robot (e.g. a joint-name list of another length).
     #[error("{0}")]
     Options(String),
