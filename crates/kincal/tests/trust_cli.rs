@@ -368,3 +368,75 @@ fn a_campaign_of_another_robot_says_what_was_run_without_the_paper_column() {
         std::fs::read_to_string(root().join("results/paper-kr1000/summary.md")).unwrap();
     assert!(committed.contains("| metric | kincal | paper |"));
 }
+
+/// Table row "UR10 README example, `report.md`": the held, redundant and identifiable sets
+/// agree — every parameter the console lists as held is in the report's redundant set or
+/// named as held outside it with the reason, its table row says "held", and every row that
+/// says "yes" (identifiable) has a standard error.
+#[test]
+fn ur10_report_held_redundant_and_identifiable_sets_agree() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path().join("cal");
+    let out = ok(&kincal(&[
+        "identify",
+        "--robot",
+        s(&root().join("scenarios/robots/ur10.json")),
+        "--data",
+        s(&root().join("data/ur10-ipa/series-b-joint-configurations.csv")),
+        "--every",
+        "15",
+        "--out",
+        s(&dir),
+    ]));
+    let list =
+        |line: &str| -> Vec<String> { line.split(", ").map(|n| n.trim().to_string()).collect() };
+    let held = list(
+        out.lines()
+            .find_map(|l| l.strip_prefix("held at their start values"))
+            .and_then(|l| l.split_once("): ").map(|(_, r)| r))
+            .unwrap_or_else(|| panic!("{out}")),
+    );
+    assert_eq!(held.len(), 10, "{held:?}");
+    let report = std::fs::read_to_string(dir.join("report.md")).unwrap();
+    let redundant: Vec<&str> = report
+        .lines()
+        .filter_map(|l| l.strip_prefix("- `"))
+        .filter_map(|l| l.split_once('`').map(|(n, _)| n))
+        .collect();
+    let outside: Vec<String> = report
+        .lines()
+        .find_map(|l| {
+            l.strip_prefix(
+                "Held at their start values but not in the redundant set at the solution: ",
+            )
+        })
+        .map(|l| list(l.split(" — ").next().unwrap()))
+        .unwrap_or_default();
+    for h in &held {
+        assert!(
+            redundant.contains(&h.as_str()) != outside.contains(h),
+            "{h}: redundant {redundant:?}, held outside it {outside:?}"
+        );
+        let row = report
+            .lines()
+            .find(|l| l.starts_with(&format!("| {h} |")))
+            .unwrap_or_else(|| panic!("no row {h}"));
+        assert!(
+            row.ends_with(
+                "| held (exactly redundant at the start: not fitted, no standard error) |"
+            ),
+            "{row}"
+        );
+    }
+    let mut rows = 0;
+    for l in report.lines().filter(|l| l.ends_with("| yes |")) {
+        let cells: Vec<&str> = l.split('|').map(str::trim).collect();
+        // | name | unit | nominal | identified | Δ | std error | identifiable |
+        assert!(
+            cells[6].parse::<f64>().is_ok(),
+            "identifiable without SE: {l}"
+        );
+        rows += 1;
+    }
+    assert_eq!(rows, 35 - 10, "{report}");
+}
