@@ -440,3 +440,41 @@ fn ur10_report_held_redundant_and_identifiable_sets_agree() {
     }
     assert_eq!(rows, 35 - 10, "{report}");
 }
+
+/// "A simulated campaign uses the robot file's own mass model, or refuses when the
+/// scenario's unmodelled errors need one it lacks": a `paper-kr1000` copy (compliance on)
+/// with a UR10 file stripped of its `mass_model` is refused at load, naming the field.
+#[test]
+fn a_campaign_needing_a_mass_model_the_robot_lacks_is_refused() {
+    let tmp = tempfile::tempdir().unwrap();
+    let mut spec: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(root().join("scenarios/robots/ur10.json")).unwrap(),
+    )
+    .unwrap();
+    spec.as_object_mut().unwrap().remove("mass_model").unwrap();
+    let robot = tmp.path().join("ur10-bare.json");
+    std::fs::write(&robot, spec.to_string()).unwrap();
+    let mut scenario: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(root().join("scenarios/paper-kr1000.json")).unwrap(),
+    )
+    .unwrap();
+    scenario["robot"] = s(&robot).into();
+    let file = tmp.path().join("bare.json");
+    std::fs::write(&file, scenario.to_string()).unwrap();
+    let dir = tmp.path().join("out");
+    let out = kincal(&[
+        "campaign",
+        s(&file),
+        "--trials",
+        "1",
+        "--quiet",
+        "--out",
+        s(&dir),
+    ]);
+    let err = stderr(&out);
+    assert!(!out.status.success() && !dir.exists(), "{err}");
+    assert!(
+        err.contains("unmodelled.compliance.links") && err.contains("mass_model"),
+        "{err}"
+    );
+}
