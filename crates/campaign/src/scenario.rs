@@ -286,14 +286,15 @@ impl PoseSelection {
     }
 }
 
-/// Smallest plausible chain size `Σ(|a_i| + |d_i|)` of a scenario's robot, mm [20: the
-/// smallest arms calibrated with a tracker sum to several hundred mm (a UR3 0.9 m); a robot
-/// file in metres sums to a few units]. The same bounds as `urdf` import.
-pub const MIN_CHAIN_SIZE_MM: f64 = 20.0;
+/// Smallest plausible reach of a scenario's robot (the measured point from the base origin
+/// at q = 0 and mid-limits), mm [20: the smallest arms calibrated with a tracker reach a few
+/// hundred mm (a UR3 0.5 m); a robot file in metres reaches a few units]. The bounds of
+/// `urdf` import.
+pub const MIN_REACH_MM: f64 = 20.0;
 
-/// Largest plausible chain size of a scenario's robot, mm [50,000: the largest serial arms
-/// sum to 5–7 m (the KR1000 Titan 4.7 m)].
-pub const MAX_CHAIN_SIZE_MM: f64 = 50_000.0;
+/// Largest plausible reach of a scenario's robot, mm [50,000: the largest serial arms reach
+/// 3–5 m (the KR1000 Titan 3.6 m)].
+pub const MAX_REACH_MM: f64 = 50_000.0;
 
 /// A scenario file.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -310,7 +311,7 @@ pub struct Scenario {
     #[serde(default)]
     pub tool_mm: Option<[f64; 3]>,
     /// Checks of the scenario passed over [none]: `length-units` accepts a robot file whose
-    /// chain size is outside [`MIN_CHAIN_SIZE_MM`] … [`MAX_CHAIN_SIZE_MM`].
+    /// reach is outside [`MIN_REACH_MM`] … [`MAX_REACH_MM`].
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub allow: Vec<String>,
     /// Seed of every random stream.
@@ -480,24 +481,33 @@ impl Scenario {
                 format!("{a:?} is no check of a scenario (the one there is: \"length-units\")"),
             ));
         }
-        let size_mm: f64 = nominal
-            .to_spec()
-            .joints
+        // The reach (the measured point from the base origin at q = 0 and mid-limits), as
+        // `urdf::reach_mm` measures it: a physical size, which a robot file in metres has
+        // a thousand times too small.
+        let base = nominal.to_spec().base;
+        let origin = nalgebra::Vector3::new(base.dx_mm, base.dy_mm, base.dz_mm);
+        let mid: Vec<f64> = (0..nominal.n_joints())
+            .map(|i| {
+                let l = nominal.limits_rad(i);
+                0.5 * (l[0] + l[1])
+            })
+            .collect();
+        let reach_mm = [vec![0.0; nominal.n_joints()], mid]
             .iter()
-            .map(|j| j.a_mm.abs() + j.d_mm.abs())
-            .sum();
-        if !(MIN_CHAIN_SIZE_MM..=MAX_CHAIN_SIZE_MM).contains(&size_mm)
+            .map(|q| (nominal.point(q) - origin).norm())
+            .fold(0.0, f64::max);
+        if !(MIN_REACH_MM..=MAX_REACH_MM).contains(&reach_mm)
             && !self.allow.iter().any(|a| a == "length-units")
         {
             return Err(invalid(
                 "robot",
                 format!(
-                    "{}: the chain sums to Σ(|a| + |d|) = {size_mm:.1} mm, outside the \
-                     {MIN_CHAIN_SIZE_MM} … {MAX_CHAIN_SIZE_MM} mm of robot arms: its lengths look \
-                     like {} where a robot file has millimetres; convert the file, or pass the \
-                     check with \"allow\": [\"length-units\"]",
+                    "{}: the robot reaches {reach_mm:.1} mm from its base (the measured point at \
+                     q = 0 or mid-limits), outside the {MIN_REACH_MM} … {MAX_REACH_MM} mm of robot \
+                     arms: its lengths look like {} where a robot file has millimetres; convert \
+                     the file, or pass the check with \"allow\": [\"length-units\"]",
                     robot_path.display(),
-                    if size_mm < MIN_CHAIN_SIZE_MM {
+                    if reach_mm < MIN_REACH_MM {
                         "metres"
                     } else {
                         "micrometres (or a URDF's millimetres taken for metres)"

@@ -45,9 +45,10 @@ pub enum UrdfCmd {
         /// The robot file's name [default: the URDF's robot name].
         #[arg(long)]
         name: Option<String>,
-        /// Pass over a check: `length-units` imports a chain whose size Σ(|a| + |d|) is
-        /// outside 20 mm … 50 m (refused by default: a URDF written in millimetres instead
-        /// of metres gives a robot a thousand times too large).
+        /// Pass over a check: `length-units` imports a robot whose reach (the measured point
+        /// from the base at q = 0 or mid-limits) is outside 20 mm … 50 m (refused by default:
+        /// a URDF written in millimetres instead of metres gives a robot a thousand times too
+        /// large).
         #[arg(long, value_name = "CHECK", value_parser = ["length-units"])]
         allow: Vec<String>,
         /// Output robot file (JSON); `-` writes it to stdout.

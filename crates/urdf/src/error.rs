@@ -141,18 +141,18 @@ pub enum UrdfError {
         /// The most a robot file can hold.
         max: usize,
     },
-    /// A chain too large or too small for a robot arm: lengths in the wrong unit
-    /// ([`crate::check_chain_size`]).
+    /// A robot too large or too small for a robot arm: lengths in the wrong unit
+    /// ([`crate::check_reach`]).
     #[error(
-        "{source_name}: the imported chain sums to Σ(|a| + |d|) = {size_mm:.1} mm, outside the {min} … {max} mm of robot arms: {looks_like}; convert the file, or import it as it is with the override (allow_implausible_size)",
-        min = crate::MIN_CHAIN_SIZE_MM,
-        max = crate::MAX_CHAIN_SIZE_MM
+        "{source_name}: the imported robot reaches {reach_mm:.1} mm from its base (the measured point at q = 0 or mid-limits), outside the {min} … {max} mm of robot arms: {looks_like}; convert the file, or import it as it is with the override (allow_implausible_size)",
+        min = crate::MIN_REACH_MM,
+        max = crate::MAX_REACH_MM
     )]
     ImplausibleSize {
         /// File path or label.
         source_name: String,
-        /// The chain's size, mm.
-        size_mm: f64,
+        /// The reach, mm.
+        reach_mm: f64,
         /// What the size suggests.
         looks_like: &'static str,
     },

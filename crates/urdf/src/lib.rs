@@ -22,6 +22,6 @@ pub use export::{
     BASE_LINK, ExportOptions, FLANGE_LINK, ROOT_LINK, TOOL_LINK, export, offsets_json,
 };
 pub use import::{
-    ImportOptions, Imported, MAX_CHAIN_SIZE_MM, MIN_CHAIN_SIZE_MM, chain_size_mm, check_chain_size,
-    import_file, import_str,
+    ImportOptions, Imported, MAX_REACH_MM, MIN_REACH_MM, check_reach, import_file, import_str,
+    reach_mm,
 };
