@@ -27,8 +27,9 @@ pub const MAX_REJECTED_FRACTION: f64 = 0.1;
 /// (metres ×0.001, centimetres ×0.1, inches ×0.039) or a different robot].
 pub const SPREAD_RATIO_MAX: f64 = 1.25;
 
-/// Nominal spread below which the length check says nothing, mm [50: poses that barely move
-/// the point carry no scale evidence].
+/// Spread below which the length check says nothing, mm, when both the nominal and the
+/// measured points spread less [50: poses that barely move the point carry no scale
+/// evidence].
 pub const MIN_SPREAD_MM: f64 = 50.0;
 
 /// The mirror check refuses when the best improper rigid fit's RMS is below the proper one's
@@ -78,6 +79,31 @@ pub fn joint_units(
     Ok(())
 }
 
+/// Joint values declared radians (`joint_units = rad`) that are degrees: the file, read in
+/// degrees, is within the robot's limits, and some |q| exceeds 2π — no revolute joint
+/// value in radians does (one turn), while degrees data of almost any pose do. `deg_rows`
+/// are the file's rows read as degrees (unconverted). Called where the declared-radians read
+/// failed, typically on a joint limit (the limits in radians are ±2.6 for ±150°), so that
+/// the refusal names the evidence instead of the first row beyond a limit.
+pub fn declared_radians(source: &str, deg_rows: &[Measurement]) -> Result<(), Refusal> {
+    let largest = deg_rows
+        .iter()
+        .flat_map(|r| r.q_deg.iter())
+        .fold(0.0_f64, |m, q| m.max(q.abs()));
+    if largest > std::f64::consts::TAU {
+        return Err(refuse(
+            Check::JointUnits,
+            format!(
+                "{source}: the joint values are declared radians (joint_units = rad) but reach \
+                 |q| = {largest:.4}, beyond one turn (2π = 6.2832), and read as degrees every \
+                 row is within the robot's joint limits: these look like degrees"
+            ),
+            "if the joints are in degrees, leave joint_units at deg (the default)",
+        ));
+    }
+    Ok(())
+}
+
 fn spread(points: &[Vector3<f64>]) -> f64 {
     let n = points.len().max(1) as f64;
     let c = points.iter().sum::<Vector3<f64>>() / n;
@@ -89,7 +115,9 @@ fn spread(points: &[Vector3<f64>]) -> f64 {
 pub fn length_units(source: &str, nominal: &Robot, rows: &[Measurement]) -> Result<(), Refusal> {
     let predicted = nominal.points(&poses_rad(rows));
     let (sp, sm) = (spread(&predicted), spread(&points_mm(rows)));
-    if sp < MIN_SPREAD_MM || rows.len() < 3 {
+    // Scale evidence needs motion: of the nominal points, or of the measured ones (a robot
+    // file in metres spreads its points over millimetres while the tracker's spread metres).
+    if (sp < MIN_SPREAD_MM && sm < MIN_SPREAD_MM) || rows.len() < 3 {
         return Ok(());
     }
     let ratio = sm / sp;
@@ -100,7 +128,11 @@ pub fn length_units(source: &str, nominal: &Robot, rows: &[Measurement]) -> Resu
         (0.001, "metres: length_units = m"),
         (0.01, "centimetres: multiply by 10"),
         (1.0 / 25.4, "inches: length_units = in"),
-        (1000.0, "micrometres: divide by 1000"),
+        (
+            1000.0,
+            "micrometres (divide by 1000) — or the robot file's lengths are metres \
+             (its a, d and tool must be millimetres)",
+        ),
     ]
     .iter()
     .find(|(f, _)| (ratio / f - 1.0).abs() < 0.25)

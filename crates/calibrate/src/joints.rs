@@ -189,10 +189,23 @@ pub fn compensate_targets(
     )
 }
 
-/// Refuses two robots with different parameter layouts.
+/// Refuses two robots with different parameter layouts, up to the Hayati β parameters:
+/// those follow the twists (β_i is a parameter where |α_i| < 1°, `docs/model.md` §3), and a
+/// calibration may move a nominal α = 0 past 1° (the `parameters` check allows 5°), so that
+/// `identified.json` read back has one β fewer than `identify`'s own
+/// `registered-nominal.json`. Both still carry every joint's β, which is all compensation
+/// (forward kinematics and IK) uses.
 fn check_same_layout(calibrated: &LoadedRobot, nominal: &LoadedRobot) -> Result<()> {
     let (id_r, nom_r): (&Robot, &Robot) = (&calibrated.robot, &nominal.robot);
-    if id_r.layout() != nom_r.layout() {
+    let without_beta = |r: &Robot| -> Vec<kinematics::ParamKind> {
+        r.layout()
+            .params()
+            .iter()
+            .map(|p| p.kind)
+            .filter(|k| !matches!(k, kinematics::ParamKind::Beta(_)))
+            .collect()
+    };
+    if id_r.n_joints() != nom_r.n_joints() || without_beta(id_r) != without_beta(nom_r) {
         return Err(Refusal::DifferentRobots {
             calibrated: calibrated.path.clone(),
             calibrated_joints: id_r.n_joints(),

@@ -344,7 +344,9 @@ impl CampaignRun {
                 seconds,
             });
         }
-        let summary = CampaignSummary::new(&scenario, &agg).with_budget(budget);
+        let summary = CampaignSummary::new(&scenario, &agg)
+            .with_robot(&ctx.loaded.nominal)
+            .with_budget(budget);
         let mut files = render_outputs(&summary, &agg)?;
         files.push((
             "timing.json".to_string(),

@@ -61,7 +61,9 @@ pub fn summarize(
     } else {
         None
     };
-    let summary = CampaignSummary::new(&scenario, &agg).with_budget(budget);
+    let summary = CampaignSummary::new(&scenario, &agg)
+        .with_robot(&ctx.loaded.nominal)
+        .with_budget(budget);
     Ok(InMemoryOutcome {
         summary,
         threads,

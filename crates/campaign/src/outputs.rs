@@ -21,7 +21,7 @@ pub fn render_outputs(
 ) -> Result<Vec<(String, Vec<u8>)>, CampaignError> {
     let plot_err = CampaignError::Plot;
     let name = &summary.scenario.name;
-    let paper = is_paper(name);
+    let paper = is_paper(name) && summary.paper.is_some();
     let mut files = vec![
         ("summary.json".to_string(), summary.to_json().into_bytes()),
         ("summary.md".to_string(), summary.to_markdown().into_bytes()),

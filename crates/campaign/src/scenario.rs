@@ -286,6 +286,16 @@ impl PoseSelection {
     }
 }
 
+/// Smallest plausible reach of a scenario's robot (the measured point from the base origin
+/// at q = 0 and mid-limits), mm [20: the smallest arms calibrated with a tracker reach a few
+/// hundred mm (a UR3 0.5 m); a robot file in metres reaches a few units]. The bounds of
+/// `urdf` import.
+pub const MIN_REACH_MM: f64 = 20.0;
+
+/// Largest plausible reach of a scenario's robot, mm [50,000: the largest serial arms reach
+/// 3–5 m (the KR1000 Titan 3.6 m)].
+pub const MAX_REACH_MM: f64 = 50_000.0;
+
 /// A scenario file.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -300,6 +310,10 @@ pub struct Scenario {
     /// Measured point (ball) in the flange frame, mm; overrides the model file's `tool_mm`.
     #[serde(default)]
     pub tool_mm: Option<[f64; 3]>,
+    /// Checks of the scenario passed over [none]: `length-units` accepts a robot file whose
+    /// reach is outside [`MIN_REACH_MM`] … [`MAX_REACH_MM`].
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub allow: Vec<String>,
     /// Seed of every random stream.
     pub seed: u64,
     /// Monte Carlo trials \[200\].
@@ -461,6 +475,46 @@ impl Scenario {
                 file: source.to_string(),
                 source: source_err,
             })?;
+        if let Some(a) = self.allow.iter().find(|a| *a != "length-units") {
+            return Err(invalid(
+                "allow",
+                format!("{a:?} is no check of a scenario (the one there is: \"length-units\")"),
+            ));
+        }
+        // The reach (the measured point from the base origin at q = 0 and mid-limits), as
+        // `urdf::reach_mm` measures it: a physical size, which a robot file in metres has
+        // a thousand times too small.
+        let base = nominal.to_spec().base;
+        let origin = nalgebra::Vector3::new(base.dx_mm, base.dy_mm, base.dz_mm);
+        let mid: Vec<f64> = (0..nominal.n_joints())
+            .map(|i| {
+                let l = nominal.limits_rad(i);
+                0.5 * (l[0] + l[1])
+            })
+            .collect();
+        let reach_mm = [vec![0.0; nominal.n_joints()], mid]
+            .iter()
+            .map(|q| (nominal.point(q) - origin).norm())
+            .fold(0.0, f64::max);
+        if !(MIN_REACH_MM..=MAX_REACH_MM).contains(&reach_mm)
+            && !self.allow.iter().any(|a| a == "length-units")
+        {
+            return Err(invalid(
+                "robot",
+                format!(
+                    "{}: the robot reaches {reach_mm:.1} mm from its base (the measured point at \
+                     q = 0 or mid-limits), outside the {MIN_REACH_MM} … {MAX_REACH_MM} mm of robot \
+                     arms: its lengths look like {} where a robot file has millimetres; convert \
+                     the file, or pass the check with \"allow\": [\"length-units\"]",
+                    robot_path.display(),
+                    if reach_mm < MIN_REACH_MM {
+                        "metres"
+                    } else {
+                        "micrometres (or a URDF's millimetres taken for metres)"
+                    }
+                ),
+            ));
+        }
         if let Some(t) = self.tool_mm {
             if t.iter().any(|v| !v.is_finite()) {
                 return Err(invalid("tool_mm", format!("{t:?} is not finite")));

@@ -81,8 +81,10 @@ pub struct CampaignSummary {
     pub recovery: BTreeMap<String, RecoverySummary>,
     /// Categorical outcomes.
     pub counts: BTreeMap<String, BTreeMap<String, u64>>,
-    /// The paper's figures for comparison.
-    pub paper: PaperFigures,
+    /// The paper's figures for comparison: only when the scenario simulates the paper's robot
+    /// ([`is_paper_robot`]); absent for any other robot, whose summary shows no paper column.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub paper: Option<PaperFigures>,
     /// The residual budget, when the scenario asks for it ([`crate::budget`]).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub residual_budget: Option<ResidualBudget>,
@@ -126,9 +128,19 @@ impl CampaignSummary {
                 .iter()
                 .map(|(k, v)| (k.clone(), v.0.clone()))
                 .collect(),
-            paper: PAPER,
+            paper: is_paper_robot_file(&scenario.robot).then_some(PAPER),
             residual_budget: None,
         }
+    }
+
+    /// The summary for the nominal robot the scenario loaded: the paper's figures are kept
+    /// only when its geometry is the paper's KR1000 ([`is_paper_robot`]; [`Self::new`] decides
+    /// from the robot file's name alone, which is all a merge of shards knows).
+    pub fn with_robot(mut self, nominal: &kinematics::Robot) -> Self {
+        if !is_paper_robot(nominal) {
+            self.paper = None;
+        }
+        self
     }
 
     /// The summary with its residual budget.
@@ -206,8 +218,15 @@ impl CampaignSummary {
             self.trials, failed, sc.seed
         ));
         o.push_str(&self.what_was_run());
-        o.push_str("## Table 4: validation error, ours beside the paper's\n\n");
-        o.push_str("| metric | kincal | paper |\n|---|---:|---:|\n");
+        let paper_col = self.paper.is_some();
+        if paper_col {
+            o.push_str("## Table 4: validation error, ours beside the paper's\n\n");
+            o.push_str("| metric | kincal | paper |\n|---|---:|---:|\n");
+        } else {
+            // The paper's figures are a KR1000's: another robot is compared with nothing.
+            o.push_str("## Validation error (Table 4's metrics)\n\n");
+            o.push_str("| metric | kincal |\n|---|---:|\n");
+        }
         let fmt = |m: Option<&Summary>, q: Quantity| match m {
             Some(s) => q.mean_sd_range(s.mean, s.sd, s.p5, s.p95),
             None => "n/a".into(),
@@ -272,24 +291,32 @@ impl CampaignSummary {
                     (Some(b), Some(af)) => format!("{} → {}", fmt::mm(b), fmt::mm(af)),
                     _ => "n/a".into(),
                 };
-                o.push_str(&format!(
-                    "| {label} | {ours} | {} → {} |\n",
-                    fmt::mm(pb),
-                    fmt::mm(pa)
-                ));
+                if paper_col {
+                    o.push_str(&format!(
+                        "| {label} | {ours} | {} → {} |\n",
+                        fmt::mm(pb),
+                        fmt::mm(pa)
+                    ));
+                } else {
+                    o.push_str(&format!("| {label} | {ours} |\n"));
+                }
                 continue;
             }
-            let p = paper.map_or_else(|| "–".to_string(), |v| d.format(v));
-            o.push_str(&format!(
-                "| {label} | {} | {p} |\n",
-                fmt(self.metric(key), d)
-            ));
+            let ours = fmt(self.metric(key), d);
+            if paper_col {
+                let p = paper.map_or_else(|| "–".to_string(), |v| d.format(v));
+                o.push_str(&format!("| {label} | {ours} | {p} |\n"));
+            } else {
+                o.push_str(&format!("| {label} | {ours} |\n"));
+            }
         }
         o.push('\n');
         if self.metric("iso_ap_before_mm").is_some() {
-            o.push_str(
-                "## ISO 9283 (mean over P1–P5)\n\n| metric | kincal | paper |\n|---|---:|---:|\n",
-            );
+            o.push_str(if paper_col {
+                "## ISO 9283 (mean over P1–P5)\n\n| metric | kincal | paper |\n|---|---:|---:|\n"
+            } else {
+                "## ISO 9283 (mean over P1–P5)\n\n| metric | kincal |\n|---|---:|\n"
+            });
             for (label, key, paper, q) in [
                 ("AP_p before (mm)", "iso_ap_before_mm", "–", MM),
                 ("AP_p after (mm)", "iso_ap_after_mm", "–", MM),
@@ -308,10 +335,12 @@ impl CampaignSummary {
                     Quantity::MeanCount,
                 ),
             ] {
-                o.push_str(&format!(
-                    "| {label} | {} | {paper} |\n",
-                    fmt(self.metric(key), q)
-                ));
+                let ours = fmt(self.metric(key), q);
+                if paper_col {
+                    o.push_str(&format!("| {label} | {ours} | {paper} |\n"));
+                } else {
+                    o.push_str(&format!("| {label} | {ours} |\n"));
+                }
             }
             o.push('\n');
         }
@@ -461,6 +490,41 @@ pub fn kinematic_order<'a>(names: impl IntoIterator<Item = &'a str>) -> Vec<&'a 
         (k, *n)
     });
     v
+}
+
+/// The paper's robot: the KUKA KR1000 Titan of `scenarios/robots/kr1000-titan.json`, as
+/// (θ°, d mm, a mm, α°) per joint. Li et al.'s figures (Table 4, ISO 9283) were measured on
+/// it; for any other robot they mean nothing.
+const PAPER_ROBOT_DH: [[f64; 4]; 6] = [
+    [0.0, 1100.0, 600.0, -90.0],
+    [-90.0, 0.0, 1400.0, 0.0],
+    [0.0, 0.0, 65.0, -90.0],
+    [0.0, 1200.0, 0.0, 90.0],
+    [0.0, 0.0, 0.0, -90.0],
+    [0.0, 372.0, 0.0, 0.0],
+];
+
+/// Whether `nominal` is the paper's robot: six joints whose nominal θ, d, a, α are the
+/// KR1000 Titan's [to 1 mm and 0.1°: a robot file of the same arm with rounded or slightly
+/// corrected values is still that arm; another robot differs by metres or tens of degrees].
+pub fn is_paper_robot(nominal: &kinematics::Robot) -> bool {
+    let spec = nominal.to_spec();
+    spec.joints.len() == PAPER_ROBOT_DH.len()
+        && spec.joints.iter().zip(&PAPER_ROBOT_DH).all(|(j, r)| {
+            (j.theta_deg - r[0]).abs() <= 0.1
+                && (j.d_mm - r[1]).abs() <= 1.0
+                && (j.a_mm - r[2]).abs() <= 1.0
+                && (j.alpha_deg - r[3]).abs() <= 0.1
+        })
+}
+
+/// Whether a scenario's robot file is the paper's by its name (`kr1000-titan.json`), what a
+/// summary knows without the robot (a merge of shards); [`CampaignSummary::with_robot`]
+/// checks the geometry where the robot is loaded.
+pub fn is_paper_robot_file(robot: &std::path::Path) -> bool {
+    robot
+        .file_name()
+        .is_some_and(|n| n.eq_ignore_ascii_case("kr1000-titan.json"))
 }
 
 /// Whether a campaign reproduces the paper (its Table 4 is the reference).

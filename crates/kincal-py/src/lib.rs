@@ -107,6 +107,7 @@ impl PyRobot {
         let opts = urdf::ImportOptions {
             tool_in_tip_mm: [tool_mm.0, tool_mm.1, tool_mm.2],
             name,
+            ..Default::default()
         };
         let spec = py
             .detach(|| urdf::import_file(&path, base, tip, &opts))

@@ -45,6 +45,12 @@ pub enum UrdfCmd {
         /// The robot file's name [default: the URDF's robot name].
         #[arg(long)]
         name: Option<String>,
+        /// Pass over a check: `length-units` imports a robot whose reach (the measured point
+        /// from the base at q = 0 or mid-limits) is outside 20 mm … 50 m (refused by default:
+        /// a URDF written in millimetres instead of metres gives a robot a thousand times too
+        /// large).
+        #[arg(long, value_name = "CHECK", value_parser = ["length-units"])]
+        allow: Vec<String>,
         /// Output robot file (JSON); `-` writes it to stdout.
         #[arg(long)]
         out: PathBuf,
@@ -79,6 +85,7 @@ pub fn run(args: &UrdfArgs) -> Result<()> {
             tip,
             tool_mm,
             name,
+            allow,
             out,
         } => {
             crate::check_file_out("--out", out)?;
@@ -91,8 +98,14 @@ pub fn run(args: &UrdfArgs) -> Result<()> {
             let opts = urdf::ImportOptions {
                 tool_in_tip_mm: [x, y, z],
                 name: name.clone(),
+                allow_implausible_size: allow.iter().any(|a| a == "length-units"),
             };
-            let imported = urdf::import_file(path, base, tip, &opts)?;
+            let imported = urdf::import_file(path, base, tip, &opts).map_err(|e| match e {
+                e @ urdf::UrdfError::ImplausibleSize { .. } => {
+                    anyhow::Error::new(e).context("refused (override: --allow length-units)")
+                }
+                e => e.into(),
+            })?;
             crate::write_file_out(out, imported.spec.to_json_string().as_bytes())?;
             // With `--out -` the robot file is on stdout: the notes go to stderr.
             let note = |line: String| {

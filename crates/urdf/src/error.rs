@@ -141,6 +141,21 @@ pub enum UrdfError {
         /// The most a robot file can hold.
         max: usize,
     },
+    /// A robot too large or too small for a robot arm: lengths in the wrong unit
+    /// ([`crate::check_reach`]).
+    #[error(
+        "{source_name}: the imported robot reaches {reach_mm:.1} mm from its base (the measured point at q = 0 or mid-limits), outside the {min} … {max} mm of robot arms: {looks_like}; convert the file, or import it as it is with the override (allow_implausible_size)",
+        min = crate::MIN_REACH_MM,
+        max = crate::MAX_REACH_MM
+    )]
+    ImplausibleSize {
+        /// File path or label.
+        source_name: String,
+        /// The reach, mm.
+        reach_mm: f64,
+        /// What the size suggests.
+        looks_like: &'static str,
+    },
     /// Export options that do not fit the robot (e.g. a joint-name list of another length).
     #[error("{0}")]
     Options(String),

@@ -26,6 +26,58 @@ pub struct ImportOptions {
     pub tool_in_tip_mm: [f64; 3],
     /// The robot file's name (default: the URDF's `<robot name>`).
     pub name: Option<String>,
+    /// Import a chain whose reach is implausible for a robot arm ([`check_reach`]), e.g. a
+    /// URDF that really describes a 60 m crane (default false: refused).
+    pub allow_implausible_size: bool,
+}
+
+/// Smallest plausible reach of an imported robot ([`reach_mm`]), mm [20: the smallest arms
+/// calibrated with a tracker reach a few hundred mm (a UR3 0.5 m); a chain in a unit a
+/// thousand times too large for its numbers (kilometres) reaches a few mm].
+pub const MIN_REACH_MM: f64 = 20.0;
+
+/// Largest plausible reach of an imported robot, mm [50,000: the largest serial arms reach
+/// 3–5 m (the KR1000 Titan 3.6 m); a URDF written in millimetres, where the format requires
+/// metres, gives a thousand times the robot: hundreds of metres to kilometres].
+pub const MAX_REACH_MM: f64 = 50_000.0;
+
+/// The reach of a robot file, mm: the larger distance of the measured point from the base
+/// frame's origin at q = 0 and at the middle of the joint limits. A physical size: unlike
+/// Σ(|a| + |d|) it does not grow with the common normals of nearly parallel axes, which lie
+/// metres away on a compact robot.
+pub fn reach_mm(spec: &RobotSpec) -> Result<f64, UrdfError> {
+    let robot = Robot::from_spec(spec)?;
+    let origin = Vector3::new(spec.base.dx_mm, spec.base.dy_mm, spec.base.dz_mm);
+    let zero = vec![0.0; spec.joints.len()];
+    let mid: Vec<f64> = spec
+        .joints
+        .iter()
+        .map(|j| (0.5 * (j.limits_deg[0] + j.limits_deg[1])).to_radians())
+        .collect();
+    Ok([zero, mid]
+        .iter()
+        .map(|q| (robot.point(q) - origin).norm())
+        .fold(0.0, f64::max))
+}
+
+/// Refuses a robot whose reach ([`reach_mm`]) is outside
+/// [[`MIN_REACH_MM`], [`MAX_REACH_MM`]]: lengths in the wrong unit (a URDF's
+/// `<origin xyz>` in millimetres instead of metres, ×1000).
+pub fn check_reach(spec: &RobotSpec, source_name: &str) -> Result<(), UrdfError> {
+    let reach_mm = reach_mm(spec)?;
+    if (MIN_REACH_MM..=MAX_REACH_MM).contains(&reach_mm) {
+        return Ok(());
+    }
+    let looks_like = if reach_mm > MAX_REACH_MM {
+        "URDF lengths are metres: these look like millimetres (each length 1000 times the robot's)"
+    } else {
+        "smaller than any robot arm (lengths in a unit larger than metres, or a scaled model)"
+    };
+    Err(UrdfError::ImplausibleSize {
+        source_name: source_name.to_string(),
+        reach_mm,
+        looks_like,
+    })
 }
 
 /// A converted chain.
@@ -338,6 +390,9 @@ pub fn import_str(
     spec.tool_mm = tool.map(|v| if v.abs() < 1e-10 { 0.0 } else { v }).into();
     spec.joint_names = Some(joint_names.clone());
     spec.validate(source_name)?;
+    if !opts.allow_implausible_size {
+        check_reach(&spec, source_name)?;
+    }
     Ok(Imported {
         spec,
         joint_names,

@@ -21,4 +21,7 @@ pub use error::UrdfError;
 pub use export::{
     BASE_LINK, ExportOptions, FLANGE_LINK, ROOT_LINK, TOOL_LINK, export, offsets_json,
 };
-pub use import::{ImportOptions, Imported, import_file, import_str};
+pub use import::{
+    ImportOptions, Imported, MAX_REACH_MM, MIN_REACH_MM, check_reach, import_file, import_str,
+    reach_mm,
+};
