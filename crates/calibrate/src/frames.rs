@@ -15,7 +15,7 @@
 use std::path::Path;
 use std::time::Instant;
 
-use identify::IdentifyError;
+use identify::BlockScreen;
 use identify::RegistrationPolicy;
 use identify::RegistrationReport;
 use identify::frames::{
@@ -26,9 +26,9 @@ use kinematics::Robot;
 use measurements::{Measurement, MeasurementSet, quaternion_to_matrix};
 use nalgebra::Vector3;
 
-use crate::error::{CalibrateError, Result, id_err};
+use crate::error::{CalibrateError, Refusal, Result, id_err};
 use crate::files::file_name;
-use crate::request::{IdentifyRequest, Split};
+use crate::request::{Check, IdentifyRequest, Split};
 use crate::workflow::Inputs;
 
 /// Options of the 6-DoF / multi-target calibration beyond the [`IdentifyRequest`].
@@ -73,23 +73,14 @@ pub fn load_inputs(
     request: &IdentifyRequest,
     euler: Option<measurements::EulerConvention>,
 ) -> Result<Inputs> {
+    crate::workflow::check(request)?;
     let nominal = crate::files::LoadedRobot::load(&request.robot, "robot")?;
+    let units = (
+        request.joint_units.deg_per_unit(),
+        request.length_units.mm_per_unit(),
+    );
     let read = |path: &Path, what: &str| -> Result<MeasurementSet> {
-        let mut opts = measurements::ReadOptions::new(nominal.robot.n_joints())
-            .with_limits_deg(nominal.limits_deg())
-            .with_min_rows(1);
-        if let Some(e) = euler {
-            opts = opts.with_euler(e);
-        }
-        measurements::read_file(path, &opts).map_err(|source| CalibrateError::Read {
-            context: format!(
-                "reading the {what} {} for {} ({} joints)",
-                path.display(),
-                nominal.robot.name(),
-                nominal.robot.n_joints()
-            ),
-            source,
-        })
+        nominal.read_set_with(path, true, (1, None), what, units, euler)
     };
     let data = read(&request.data, "identification data")?;
     let validate = match (&request.validate, &request.split) {
@@ -164,10 +155,17 @@ pub struct FrameCalibration {
     pub held: Vec<String>,
     /// The final fit.
     pub fit: FrameFit,
-    /// Outlier rows after the first fit (row indices into the identification data, with
-    /// their position error mm and orientation error deg).
-    pub outliers: Vec<(usize, f64, f64)>,
-    /// Whether outlier poses were dropped and the model refitted.
+    /// The outlier screen of every identification pose against the final fit (the rule of
+    /// [`identify::outliers`] on each pose's block of weighted rows: [`identify::frames::screen_poses`];
+    /// `None` without residual degrees of freedom). Its indices are poses of
+    /// [`FrameCalibration::screened`].
+    pub screen: Option<BlockScreen>,
+    /// The identification data screened (every identification pose, outliers included).
+    pub screened: FrameData,
+    /// The file line of each pose of [`FrameCalibration::screened`] (its first row).
+    pub screened_lines: Vec<usize>,
+    /// Whether outlier poses were dropped and the model refitted (to a fixed point, as for
+    /// points: the poses kept are those the fit on them passes).
     pub rejected: bool,
     /// Errors of the start and the identified model on the identification poses.
     pub fit_errors: (FrameErrors, FrameErrors),
@@ -346,34 +344,110 @@ fn free_set(
     Ok((free, held))
 }
 
-/// Outlier rows after a fit: position error above `k·√3·s_p` (s_p the RMS per axis) or
-/// orientation error above `k·√3·s_r` (s_r likewise, degrees).
-fn screen(model: &FrameModel, data: &FrameData, k: f64) -> Vec<(usize, f64, f64)> {
-    let errs = model.errors(data);
-    let rms =
-        |v: &[f64]| (v.iter().map(|x| x * x).sum::<f64>() / (3 * v.len().max(1)) as f64).sqrt();
-    let pos: Vec<f64> = errs.iter().map(|(p, _)| p.norm()).collect();
-    let ori: Vec<f64> = errs
-        .iter()
-        .map(|(_, o)| o.map_or(0.0, |o| o.norm()))
-        .collect();
-    let (lp, lo) = (k * 3f64.sqrt() * rms(&pos), k * 3f64.sqrt() * rms(&ori));
-    (0..errs.len())
-        .filter(|&i| pos[i] > lp || (lo > 0.0 && ori[i] > lo))
-        .map(|i| (i, pos[i], ori[i]))
-        .collect()
+/// One registration, start and fit on `d` (a pass of [`calibrate_frames`]).
+struct Pass {
+    start: FrameModel,
+    registration: Option<RegistrationReport>,
+    rotation_given: bool,
+    targets_estimated: Vec<String>,
+    held: Vec<String>,
+    fit: FrameFit,
+}
+
+/// The pose indices of `set` chosen by the request's split, the validation poses (with
+/// their source) and the selection in words.
+type PoseSplit = (Vec<usize>, Option<(String, Vec<usize>)>, String);
+
+fn split_poses(
+    request: &IdentifyRequest,
+    robot: &Robot,
+    data: &MeasurementSet,
+    all: &FrameData,
+    lines: &[usize],
+) -> Result<PoseSplit> {
+    let m = all.n_poses();
+    let rows_of = |sel: &[usize]| all.subset(sel).rows.len();
+    Ok(match request.split {
+        Split::Every { every, offset } => {
+            let sel: Vec<usize> = (0..m).filter(|i| i % every == offset).collect();
+            let rest: Vec<usize> = (0..m).filter(|i| i % every != offset).collect();
+            let text = format!(
+                "{} of {m} poses (every {every}th from {offset}; {} rows)",
+                sel.len(),
+                rows_of(&sel)
+            );
+            let val = (!rest.is_empty()).then(|| {
+                (
+                    format!("{} (the {} other poses)", data.source, rest.len()),
+                    rest,
+                )
+            });
+            (sel, val, text)
+        }
+        Split::All => ((0..m).collect(), None, format!("all {m} poses")),
+        Split::Select { poses, criterion } => {
+            if poses >= m {
+                return Err(Refusal::SelectTooMany {
+                    poses,
+                    file: data.source.clone(),
+                    rows: m,
+                }
+                .into());
+            }
+            // The design works on the poses' joints (one joint vector per pose, the point
+            // information matrix of the nominal's minimal set), as for point data.
+            let q_deg: Vec<f64> = all.poses_rad.iter().map(|q| q.to_degrees()).collect();
+            let chosen =
+                design::select_rows(robot, &q_deg, poses, criterion, None).map_err(|source| {
+                    CalibrateError::Design {
+                        context: format!(
+                            "choosing {poses} poses of {} by the {} criterion",
+                            data.source,
+                            criterion.as_str()
+                        ),
+                        source: Box::new(source),
+                    }
+                })?;
+            let rest: Vec<usize> = (0..m)
+                .filter(|i| chosen.binary_search(i).is_err())
+                .collect();
+            let first: Vec<String> = chosen
+                .iter()
+                .take(3)
+                .map(|&j| lines[j].to_string())
+                .collect();
+            let text = format!(
+                "{} of {m} poses chosen by the {} criterion on their joints (lines {}, …; {} \
+                 rows)",
+                chosen.len(),
+                criterion.as_str().to_uppercase(),
+                first.join(", "),
+                rows_of(&chosen)
+            );
+            let val = Some((
+                format!("{} (the {} other poses)", data.source, rest.len()),
+                rest,
+            ));
+            (chosen, val, text)
+        }
+    })
+}
+
+/// The file line of each pose of `set` (its first row), in [`MeasurementSet::poses`] order.
+pub fn pose_lines(set: &MeasurementSet) -> Vec<usize> {
+    set.poses().iter().map(|p| set.rows[p[0]].line).collect()
 }
 
 /// Calibrates `inputs` whose data carry orientations or targets ([`applies`]).
 ///
 /// # Errors
-/// The identification's errors with context; a `--select` split is refused (not yet
-/// available for 6-DoF data).
+/// The request's refusals, the identification's errors with context.
 pub fn calibrate_frames(
     request: &IdentifyRequest,
     inputs: Inputs,
     options: &FrameOptions,
 ) -> Result<FrameCalibration> {
+    crate::workflow::check(request)?;
     let started = Instant::now();
     let Inputs {
         nominal,
@@ -388,72 +462,93 @@ pub fn calibrate_frames(
             source,
         })?;
     let (all, weighting) = frame_data(&data, options);
-    let m = all.n_poses();
-    let (id_poses, val, selection): (Vec<usize>, Option<(String, FrameData)>, String) =
-        match request.split {
-            Split::Every { every, offset } => {
-                let sel: Vec<usize> = (0..m).filter(|i| i % every.max(1) == offset).collect();
-                let rest: Vec<usize> = (0..m).filter(|i| i % every.max(1) != offset).collect();
-                let text = format!(
-                    "{} of {m} poses (every {every}th from {offset}; {} rows)",
-                    sel.len(),
-                    all.subset(&sel).rows.len()
-                );
-                let val = (!rest.is_empty()).then(|| {
-                    (
-                        format!("{} (the {} other poses)", data.source, rest.len()),
-                        all.subset(&rest),
-                    )
-                });
-                (sel, val, text)
-            }
-            Split::All => {
-                let val = validate.map(|v| {
-                    let (d, _) = frame_data(&v, options);
-                    (v.source.clone(), d)
-                });
-                ((0..m).collect(), val, format!("all {m} poses"))
-            }
-            Split::Select { poses, .. } => {
-                return Err(id_err("splitting the 6-DoF data")(
-                    IdentifyError::InvalidOption {
-                        name: "split",
-                        value: format!("select {poses}"),
-                        reason: "choosing poses by design is not yet available for 6-DoF or \
-                                 multi-target data; split by every k-th pose instead",
-                    },
-                ));
-            }
-        };
+    let lines = pose_lines(&data);
+    let (id_poses, val, selection) = split_poses(request, &robot, &data, &all, &lines)?;
+    let val = match val {
+        Some((source, poses)) => Some((source, all.subset(&poses))),
+        None => validate.map(|v| {
+            let (d, _) = frame_data(&v, options);
+            (v.source.clone(), d)
+        }),
+    };
     let id_data = all.subset(&id_poses);
-    let (registered, registration) = register(&robot, &id_data, request.registration)
-        .map_err(|e| e.context(format!("identification data {}", data.source)))?;
-    let (start, rotation_given, targets_estimated) = start_model(&registered, &id_data);
-    let (free, held) = free_set(request, &start, &id_data)?;
+    let id_lines: Vec<usize> = id_poses.iter().map(|&j| lines[j]).collect();
     let fit_opts = FrameFitOptions::default();
-    let run_fit = |d: &FrameData| {
-        fit_frames(&start, d, &free, &fit_opts).map_err(id_err(format!(
+    // One pass: register on the position rows, start the tool frame, choose the unknowns
+    // (the one rank decision), fit.
+    let pass = |d: &FrameData| -> Result<Pass> {
+        let (registered, registration) = register(&robot, d, request.registration)
+            .map_err(|e| e.context(format!("identification data {}", data.source)))?;
+        let (start, rotation_given, targets_estimated) = start_model(&registered, d);
+        let (free, held) = free_set(request, &start, d)?;
+        let fit = fit_frames(&start, d, &free, &fit_opts).map_err(id_err(format!(
             "identifying {} on {} (6-DoF)",
             robot.name(),
             data.source
-        )))
+        )))?;
+        Ok(Pass {
+            start,
+            registration,
+            rotation_given,
+            targets_estimated,
+            held,
+            fit,
+        })
     };
-    let first = run_fit(&id_data)?;
-    let outliers = screen(&first.model, &id_data, request.outlier_k);
-    let rejected = request.reject_outliers && !outliers.is_empty();
-    let (fit, used) = if rejected {
-        let bad: Vec<usize> = outliers.iter().map(|o| id_data.rows[o.0].pose).collect();
-        let keep: Vec<usize> = (0..id_data.n_poses())
-            .filter(|p| !bad.contains(p))
+    let screen_of = |fit: &FrameFit| {
+        identify::frames::screen_poses(fit, &id_data, request.outlier_k)
+            .map_err(id_err("screening outliers"))
+    };
+    let mut current = pass(&id_data)?;
+    let mut screen = screen_of(&current.fit)?;
+    let mut kept: Vec<usize> = (0..id_data.n_poses()).collect();
+    let mut rejected = false;
+    let mut passes = 0;
+    // Rejection to a fixed point, as for points (`crate::calibrate`): every identification
+    // pose is screened against the fit on the poses kept, until the kept poses are those the
+    // screen passes.
+    while request.reject_outliers && passes <= crate::MAX_REJECTION_PASSES {
+        let flagged = screen.as_ref().map_or_else(Vec::new, |s| s.indices());
+        let next: Vec<usize> = (0..id_data.n_poses())
+            .filter(|i| flagged.binary_search(i).is_err())
             .collect();
-        let kept = id_data.subset(&keep);
-        (
-            run_fit(&kept).map_err(|e| e.context("refitting without the outliers"))?,
-            kept,
-        )
-    } else {
-        (first, id_data)
-    };
+        if next == kept || passes == crate::MAX_REJECTION_PASSES {
+            break;
+        }
+        if !request.allows(Check::Outliers) {
+            crate::checks::rejected_fraction(
+                &data.source,
+                flagged.len(),
+                id_data.n_poses(),
+                request.outlier_k,
+            )?;
+        }
+        let next_data = id_data.subset(&next);
+        if next_data.n_equations() < current.fit.free.len() {
+            return Err(Refusal::TooManyOutliers {
+                file: data.source.clone(),
+                outliers: flagged.len(),
+                rows: id_data.n_poses(),
+                kept: next.len(),
+                free: current.fit.free.len(),
+            }
+            .into());
+        }
+        kept = next;
+        rejected = true;
+        passes += 1;
+        current = pass(&next_data).map_err(|e| e.context("refitting without the outliers"))?;
+        screen = screen_of(&current.fit)?;
+    }
+    let used = id_data.subset(&kept);
+    let Pass {
+        start,
+        registration,
+        rotation_given,
+        targets_estimated,
+        held,
+        fit,
+    } = current;
     let fit_errors = (
         FrameErrors::of(&start, &used),
         FrameErrors::of(&fit.model, &used),
@@ -478,7 +573,9 @@ pub fn calibrate_frames(
         weighting,
         held,
         fit,
-        outliers,
+        screen,
+        screened: id_data,
+        screened_lines: id_lines,
         rejected,
         fit_errors,
         validation,
@@ -487,7 +584,57 @@ pub fn calibrate_frames(
     })
 }
 
+/// A flagged pose of [`FrameCalibration::outlier_poses`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct PoseOutlier {
+    /// Index into [`FrameCalibration::screened`].
+    pub pose: usize,
+    /// Its file line (first row).
+    pub line: usize,
+    /// `‖e_pose‖ / (√d·σ̂)` of the screen.
+    pub ratio: f64,
+    /// Its largest position error (over its targets) at the final model, mm.
+    pub position_mm: f64,
+    /// Its largest orientation error at the final model, degrees (`None` without orientation).
+    pub orientation_deg: Option<f64>,
+}
+
 impl FrameCalibration {
+    /// The flagged poses of the screen (largest ratio first), with their errors at the final
+    /// model.
+    pub fn outlier_poses(&self) -> Vec<PoseOutlier> {
+        let Some(screen) = &self.screen else {
+            return Vec::new();
+        };
+        let errs = self.fit.model.errors(&self.screened);
+        screen
+            .outliers
+            .iter()
+            .map(|o| {
+                let rows = self
+                    .screened
+                    .rows
+                    .iter()
+                    .zip(&errs)
+                    .filter(|(r, _)| r.pose == o.index);
+                let (mut p, mut a) = (0.0_f64, None::<f64>);
+                for (_, (ep, eo)) in rows {
+                    p = p.max(ep.norm());
+                    if let Some(eo) = eo {
+                        a = Some(a.unwrap_or(0.0).max(eo.norm()));
+                    }
+                }
+                PoseOutlier {
+                    pose: o.index,
+                    line: self.screened_lines[o.index],
+                    ratio: o.ratio,
+                    position_mm: p,
+                    orientation_deg: a,
+                }
+            })
+            .collect()
+    }
+
     /// The calibrated robot as written (`identified.json`): the fit with its tool frame
     /// (`tool_mm`, `tool_rotation_deg` where orientation was measured, `targets` where
     /// named), named after the nominal and the data file.

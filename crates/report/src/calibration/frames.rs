@@ -107,18 +107,42 @@ pub fn summary(c: &FrameCalibration) -> String {
             c.held.join(", ")
         );
     }
-    if !c.outliers.is_empty() {
-        let _ = writeln!(
-            out,
-            "outliers (> {}·√3·RMS per axis): {} rows{}",
-            c.request.outlier_k,
-            c.outliers.len(),
-            if c.rejected {
-                ", their poses dropped and refitted"
-            } else {
-                " (reported only)"
-            }
+    if let Some(sc) = &c.screen {
+        let ol = c.outlier_poses();
+        let rule = format!(
+            "outliers (pose residual ‖e‖ > {}·√d·σ̂, d its rows, σ̂ {})",
+            sc.k,
+            fixed(sc.sigma_row, 3)
         );
+        if ol.is_empty() {
+            let _ = writeln!(out, "{rule}: none");
+        } else {
+            let list: Vec<String> = ol
+                .iter()
+                .take(10)
+                .map(|o| {
+                    let mut t = format!("line {} {} mm", o.line, fixed(o.position_mm, 3));
+                    if let Some(a) = o.orientation_deg {
+                        let _ = write!(t, " {}°", fixed(a, 4));
+                    }
+                    let _ = write!(t, " ({}×)", fixed(o.ratio, 1));
+                    t
+                })
+                .collect();
+            let _ = writeln!(
+                out,
+                "{rule}: {} pose{} — {}{}; {}",
+                ol.len(),
+                if ol.len() == 1 { "" } else { "s" },
+                list.join(", "),
+                if ol.len() > 10 { ", …" } else { "" },
+                if c.rejected {
+                    "dropped and refitted"
+                } else {
+                    "kept (--reject-outliers to exclude)"
+                }
+            );
+        }
     }
     if let Some((source, before, after)) = &c.validation {
         let _ = writeln!(
