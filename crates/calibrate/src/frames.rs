@@ -481,11 +481,24 @@ pub fn calibrate_frames(
             .map_err(|e| e.context(format!("identification data {}", data.source)))?;
         let (start, rotation_given, targets_estimated) = start_model(&registered, d);
         let (free, held) = free_set(request, &start, d)?;
-        let fit = fit_frames(&start, d, &free, &fit_opts).map_err(id_err(format!(
+        let mut fit = fit_frames(&start, d, &free, &fit_opts).map_err(id_err(format!(
             "identifying {} on {} (6-DoF)",
             robot.name(),
             data.source
         )))?;
+        // As for points (`crate::calibrate`): an extended model's gravity torques were
+        // evaluated on the geometry it was extended from; `identified.json` re-extends its
+        // own geometry when read, so the model validated and reported is that one (the
+        // frame's own tool fields are ignored by the frame model: its targets stand for them).
+        if fit.model.robot.is_extended() {
+            let written = fit.model.to_robot(&d.target_names, d.has_orientation());
+            fit.model.robot =
+                Robot::from_spec(&written.to_spec()).map_err(|source| CalibrateError::Robot {
+                    what: "identified robot",
+                    path: nominal.path.clone(),
+                    source,
+                })?;
+        }
         Ok(Pass {
             start,
             registration,

@@ -74,22 +74,7 @@ fn run_frames(
     inputs: calibrate::Inputs,
     out: &measurements::OutputDir,
 ) -> Result<()> {
-    let options = match args.orientation_weight.as_deref() {
-        None => calibrate::frames::FrameOptions::default(),
-        Some("sigma") => calibrate::frames::FrameOptions {
-            sigma: true,
-            ..Default::default()
-        },
-        Some(text) => {
-            let w: f64 = text.parse().ok().filter(|w: &f64| w.is_finite() && *w > 0.0).with_context(
-                || format!("--orientation-weight {text}: must be `sigma` or a finite number > 0 (mm per degree)"),
-            )?;
-            calibrate::frames::FrameOptions {
-                mm_per_deg: Some(w),
-                sigma: false,
-            }
-        }
-    };
+    let options = args::OrientationWeight::options(args.orientation_weight);
     let cal = calibrate::frames::calibrate_frames(request, inputs, &options)
         .map_err(|e| args.flagged(e))?;
     for notice in &cal.notices {

@@ -6,4 +6,5 @@ mod campaign_cli;
 mod common;
 mod docs_examples;
 mod files_cli;
+mod frames_cli;
 mod urdf_cli;
