@@ -171,6 +171,8 @@ pub struct FrameCalibration {
     pub fit_errors: (FrameErrors, FrameErrors),
     /// Errors on the validation poses (start, identified) and their source, if any.
     pub validation: Option<(String, FrameErrors, FrameErrors)>,
+    /// The validation poses, if any (for per-pose plots).
+    pub validation_data: Option<FrameData>,
     /// Reader notices.
     pub notices: Vec<String>,
     /// Wall-clock time of the calibration (ms).
@@ -566,13 +568,14 @@ pub fn calibrate_frames(
         FrameErrors::of(&start, &used),
         FrameErrors::of(&fit.model, &used),
     );
-    let validation = val.map(|(source, d)| {
+    let validation = val.as_ref().map(|(source, d)| {
         (
-            source,
-            FrameErrors::of(&start, &d),
-            FrameErrors::of(&fit.model, &d),
+            source.clone(),
+            FrameErrors::of(&start, d),
+            FrameErrors::of(&fit.model, d),
         )
     });
+    let validation_data = val.map(|(_, d)| d);
     Ok(FrameCalibration {
         request: request.clone(),
         data_source: data.source.clone(),
@@ -592,6 +595,7 @@ pub fn calibrate_frames(
         rejected,
         fit_errors,
         validation,
+        validation_data,
         notices: data.notices.clone(),
         elapsed_ms: started.elapsed().as_secs_f64() * 1e3,
     })

@@ -80,10 +80,13 @@ fn run_frames(
     for notice in &cal.notices {
         eprintln!("note: {notice}");
     }
-    write_outputs_into(out, &report::calibration::frames::render(&cal))?;
+    let files = report::calibration::frames::render(&cal)
+        .with_context(|| format!("drawing the plots of {REPORT_HTML_FILE}"))?;
+    write_outputs_into(out, &files)?;
     print!("{}", report::calibration::frames::summary(&cal));
     println!(
-        "→ {}: {ROBOT_FILE} (the calibrated robot with its tool frame), {REPORT_FILE}",
+        "→ {}: {ROBOT_FILE} (the calibrated robot with its tool frame), {REPORT_FILE} and \
+         {REPORT_HTML_FILE} (the report, with its plots: position and orientation errors)",
         args.out.display(),
     );
     Ok(())

@@ -51,6 +51,10 @@ fn six_dof_and_points_only_keep_the_documented_figures() {
     assert!(six.contains("orientation rows 5 per degree"), "{six}");
     let robot = std::fs::read_to_string(tmp.path().join("six/identified.json")).unwrap();
     assert!(robot.contains("tool_rotation_deg"));
+    // The HTML report shows position (mm) and orientation (degrees) errors separately.
+    let html = std::fs::read_to_string(tmp.path().join("six/report.html")).unwrap();
+    assert!(html.contains("error-cdf.svg") && html.contains("orientation-error-cdf.svg"));
+    assert!(html.contains("position error") && html.contains("orientation error"));
     let points = ok(&identify(
         SIX,
         &tmp.path().join("points"),
