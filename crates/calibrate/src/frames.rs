@@ -1,10 +1,12 @@
 //! Calibration from 6-DoF measurements (a tracker probe's orientation, `qw,qx,qy,qz`) and
 //! from several targets per pose (`target` column): `docs/model.md` §5 and §6.4.
 //!
-//! read → (split by pose) → register the base from the position rows (as the point-only
-//! workflow) → closed-form start of the tool frame and targets the robot file does not give
-//! → choose the identifiable unknowns → identify ([`identify::frames`]) → screen outliers
-//! (refit without them on request) → validate: position (mm) and orientation (degrees)
+//! read → (split by pose: every k-th, or chosen by design on the poses' joints) → register
+//! the base from the position rows (as the point-only workflow) → closed-form start of the
+//! tool frame and targets the robot file does not give → choose the identifiable unknowns
+//! (the rank decision of [`identify::identifiability`]) → identify ([`identify::frames`]) →
+//! screen outliers pose by pose (the rule of [`identify::outliers`]; refit without them on
+//! request, to a fixed point) → validate: position (mm) and orientation (degrees)
 //! errors, separately. The base orientation is refined by the fit (its rotations are among
 //! the unknowns).
 //!
