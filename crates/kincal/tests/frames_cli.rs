@@ -193,3 +193,74 @@ fn select_works_with_six_dof_data() {
     let many = identify(SIX, &dir, &["--select", "1495"]);
     fails_naming(&many, &dir, &["--select 1495"]);
 }
+
+/// Three reflectors per pose (synthetic, from the measured frame: `p + R·o_k`, the `o_k` at
+/// 120° on a 100 mm circle), one of them mistyped by 3 mm at one pose: the targets start from
+/// their closed form, the pose is flagged as one block (its 9 rows), and `--reject-outliers`
+/// drops it and refits.
+#[test]
+fn three_targets_per_pose_and_a_flagged_pose() {
+    let tmp = tempfile::tempdir().unwrap();
+    let set = measurements::read_file(
+        &crate::common::root().join(SIX),
+        &measurements::ReadOptions::new(6),
+    )
+    .unwrap();
+    let mut csv = String::from("id,target,q1,q2,q3,q4,q5,q6,x,y,z\n");
+    let mut bad_line = 0;
+    let mut line = 1;
+    for (j, r) in set.rows.iter().step_by(30).take(40).enumerate() {
+        let m = nalgebra::Matrix3::from(measurements::quaternion_to_matrix(r.orientation.unwrap()))
+            .transpose();
+        let p = nalgebra::Vector3::from(r.point_mm.unwrap());
+        for (k, deg) in [0.0_f64, 120.0, 240.0].iter().enumerate() {
+            let a = deg.to_radians();
+            let mut t = p + m * nalgebra::Vector3::new(100.0 * a.cos(), 100.0 * a.sin(), 0.0);
+            line += 1;
+            if j == 17 && k == 1 {
+                t.x += 3.0;
+                bad_line = line;
+            }
+            let q: Vec<String> = r.q_deg.iter().map(|v| v.to_string()).collect();
+            csv.push_str(&format!(
+                "p{j},T{k},{},{},{},{}\n",
+                q.join(","),
+                t.x,
+                t.y,
+                t.z
+            ));
+        }
+    }
+    let file = tmp.path().join("targets.csv");
+    std::fs::write(&file, &csv).unwrap();
+    let out = ok(&identify(s(&file), &tmp.path().join("t"), &[]));
+    assert!(out.contains("3 targets per pose: all 40 poses"), "{out}");
+    assert!(
+        out.contains("targets started from the closed-form estimate"),
+        "{out}"
+    );
+    let flagged = out
+        .lines()
+        .find(|l| l.starts_with("outliers"))
+        .unwrap()
+        .to_string();
+    assert!(
+        flagged.contains(": 1 pose — line ") && flagged.contains("kept"),
+        "{flagged}"
+    );
+    // The flagged pose's first row (its block of 9 rows holds the mistyped one).
+    let first_row_of_pose = bad_line - 1;
+    assert!(
+        flagged.contains(&format!("line {first_row_of_pose} ")),
+        "{flagged} (bad line {bad_line})"
+    );
+    let rejected = ok(&identify(
+        s(&file),
+        &tmp.path().join("r"),
+        &["--reject-outliers"],
+    ));
+    assert!(rejected.contains("on 39 poses"), "{rejected}");
+    assert!(rejected.contains("dropped and refitted"), "{rejected}");
+    let robot = std::fs::read_to_string(tmp.path().join("r/identified.json")).unwrap();
+    assert!(robot.contains("\"targets\""), "{robot}");
+}
