@@ -66,7 +66,22 @@ impl LoadedRobot {
         require_points: bool,
         (min_rows, why): (usize, Option<&str>),
         what: &str,
+        units: (f64, f64),
+    ) -> Result<MeasurementSet> {
+        self.read_set_with(path, require_points, (min_rows, why), what, units, None)
+    }
+
+    /// [`LoadedRobot::read_set_in`] with an Euler convention for orientation columns
+    /// `rx,ry,rz` (degrees, converted on reading). The σ of the points (`sx,sy,sz`) are
+    /// converted to millimetres with the points.
+    pub fn read_set_with(
+        &self,
+        path: &Path,
+        require_points: bool,
+        (min_rows, why): (usize, Option<&str>),
+        what: &str,
         (deg_per_unit, mm_per_unit): (f64, f64),
+        euler: Option<measurements::EulerConvention>,
     ) -> Result<MeasurementSet> {
         let limits: Vec<[f64; 2]> = self
             .limits_deg()
@@ -84,6 +99,9 @@ impl LoadedRobot {
             .with_min_rows(min_rows);
         if !require_points {
             opts = opts.joints_only();
+        }
+        if let Some(e) = euler {
+            opts = opts.with_euler(e);
         }
         let mut set = read_file(path, &opts).map_err(|source| {
             let too_few = matches!(source, MeasurementError::TooFewRows { .. });
@@ -106,6 +124,9 @@ impl LoadedRobot {
                 r.q_deg.iter_mut().for_each(|q| *q *= deg_per_unit);
                 if let Some(p) = &mut r.point_mm {
                     p.iter_mut().for_each(|v| *v *= mm_per_unit);
+                }
+                if let Some(s) = &mut r.sigma_mm {
+                    s.iter_mut().for_each(|v| *v *= mm_per_unit);
                 }
             }
         } else if let Some(note) = radians_notice(&set, &self.limits_deg()) {

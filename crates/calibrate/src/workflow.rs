@@ -314,7 +314,7 @@ fn not_registered(nominal: &Robot, before: f64) -> RegistrationReport {
 }
 
 /// Refuses a request that cannot run, before anything is read.
-fn check(request: &IdentifyRequest) -> Result<()> {
+pub(crate) fn check(request: &IdentifyRequest) -> Result<()> {
     let k = request.outlier_k;
     if !(k.is_finite() && k > 0.0) {
         return Err(Refusal::OutlierK(k).into());

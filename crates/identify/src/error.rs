@@ -155,6 +155,17 @@ pub enum IdentifyError {
         /// What is required.
         reason: &'static str,
     },
+    /// Part of the tool frame (its orientation or a target point) is not determined by the
+    /// data.
+    #[error(
+        "the data do not determine the tool frame: {} redundant (measure more poses, or \
+         each target at several poses)",
+        unknowns.join(", ")
+    )]
+    ToolFrameNotIdentifiable {
+        /// The undetermined unknowns (`tool_rx`, `<target>_x`, …).
+        unknowns: Vec<String>,
+    },
     /// The pose sampler could not find enough admissible poses.
     #[error(transparent)]
     Sampling(#[from] kinematics::sampling::SamplingError),

@@ -34,7 +34,7 @@ use kinematics::{Frame, Robot, Unit};
 use nalgebra::{DMatrix, DVector, Matrix3, Rotation3, Vector3};
 
 use crate::error::IdentifyError;
-use crate::identifiability::keep_priority;
+use crate::identifiability::{IdentifiabilityOptions, analyze_matrix, free_priority};
 
 /// Default equivalence of orientation and position residuals: 1° of orientation error
 /// weighs as much as this many mm of position error [5 mm/°: the ratio of the typical σ a
@@ -541,16 +541,18 @@ pub fn project_so3(m: &Matrix3<f64>) -> Matrix3<f64> {
     u * Matrix3::from_diagonal(&Vector3::new(1.0, 1.0, d)) * vt
 }
 
-/// Relative tolerance of [`select_free`]: a column whose component orthogonal to the kept
-/// ones is below this fraction of its norm is dependent [1e-7: far above rounding on
-/// column-normalised Jacobians (≈1e-13), far below any physically weak but real direction].
-pub const DEPENDENCE_TOL: f64 = 1e-7;
-
 /// The identifiable unknowns among `candidates` (robot parameters; the tool point excluded
-/// automatically) plus the tool orientation and the targets, on the Jacobian at `model`:
-/// the tool frame first, then the robot parameters in [`keep_priority`] order, each kept
-/// when its column is independent of those kept (Gram–Schmidt on unit columns, tolerance
-/// [`DEPENDENCE_TOL`]). Returns the free set and the candidates dropped as dependent.
+/// automatically) plus the tool orientation and the targets, on the weighted Jacobian at
+/// `model`, decided as every other rank decision ([`crate::identifiability`], default
+/// [`IdentifiabilityOptions`]): the columns scaled to unit norm, the rank from the singular
+/// values (`σ_i > rank_rtol·σ_1`), and the redundant ones dropped from the lowest priority up,
+/// the priority being the tool frame (orientation, then the targets) first, then the robot
+/// parameters in [`crate::keep_priority`] order. Returns the free set and the candidates dropped
+/// (layout indices, ascending).
+///
+/// # Errors
+/// The data's errors; [`IdentifyError::ToolFrameNotIdentifiable`] when the data leave part of
+/// the tool frame itself undetermined (e.g. a target measured at one pose only).
 pub fn select_free(
     model: &FrameModel,
     data: &FrameData,
@@ -558,8 +560,7 @@ pub fn select_free(
 ) -> Result<(FrameFree, Vec<usize>), IdentifyError> {
     data.check(&model.robot)?;
     let layout = model.robot.layout();
-    let cand: Vec<usize> = keep_priority(layout)
-        .into_iter()
+    let cand: Vec<usize> = (0..layout.len())
         .filter(|k| candidates.contains(k))
         .filter(|&k| {
             !matches!(
@@ -578,33 +579,29 @@ pub fn select_free(
     let mut j = DMatrix::zeros(0, 0);
     residual_jacobian(model, data, &all, Some(&mut j));
     let nr = cand.len();
-    // Tool frame columns first, then the candidates in priority order.
-    let order: Vec<usize> = (nr..all.len()).chain(0..nr).collect();
-    let mut basis: Vec<DVector<f64>> = Vec::new();
-    let mut keep = vec![false; all.len()];
-    for &c in &order {
-        let col = j.column(c).into_owned();
-        let norm = col.norm();
-        if norm == 0.0 {
-            continue;
-        }
-        let mut v = col / norm;
-        for _ in 0..2 {
-            for b in &basis {
-                let d = b.dot(&v);
-                v -= b * d;
-            }
-        }
-        let rn = v.norm();
-        if rn > DEPENDENCE_TOL {
-            basis.push(v / rn);
-            keep[c] = true;
-        }
+    // Tool frame columns first, then the candidates in keep-priority order.
+    let priority: Vec<usize> = (nr..all.len())
+        .chain(free_priority(layout, &cand))
+        .collect();
+    let an = analyze_matrix(j, &priority, &IdentifiabilityOptions::default())?;
+    if an.dropped.iter().any(|&c| c >= nr) {
+        let names = all.names(&model.robot, &data.target_names);
+        return Err(IdentifyError::ToolFrameNotIdentifiable {
+            unknowns: an
+                .dropped
+                .iter()
+                .filter(|&&c| c >= nr)
+                .map(|&c| names[c].clone())
+                .collect(),
+        });
     }
-    let mut robot: Vec<usize> = (0..nr).filter(|&c| keep[c]).map(|c| cand[c]).collect();
-    robot.sort_unstable();
-    let mut dropped: Vec<usize> = (0..nr).filter(|&c| !keep[c]).map(|c| cand[c]).collect();
-    dropped.sort_unstable();
+    let robot: Vec<usize> = an
+        .kept
+        .iter()
+        .filter(|&&c| c < nr)
+        .map(|&c| cand[c])
+        .collect();
+    let dropped: Vec<usize> = an.dropped.iter().map(|&c| cand[c]).collect();
     Ok((
         FrameFree {
             robot,
@@ -613,6 +610,48 @@ pub fn select_free(
         },
         dropped,
     ))
+}
+
+/// Per pose of `data`: the norm of its weighted residual rows at `model` (those of
+/// [`residual_jacobian`], summed in row order) and their number d (3 per point, 3 per
+/// orientation): the blocks [`crate::outliers::screen_blocks`] screens.
+pub fn pose_blocks(model: &FrameModel, data: &FrameData) -> Vec<(f64, usize)> {
+    let none = FrameFree {
+        robot: Vec::new(),
+        rotation: false,
+        n_targets: 0,
+    };
+    let e = residual_jacobian(model, data, &none, None);
+    let mut sq = vec![0.0; data.n_poses()];
+    let mut rows = vec![0usize; data.n_poses()];
+    let mut at = 0;
+    for r in &data.rows {
+        let d = if r.rotation.is_some() { 6 } else { 3 };
+        for i in at..at + d {
+            sq[r.pose] += e[i] * e[i];
+        }
+        rows[r.pose] += d;
+        at += d;
+    }
+    sq.into_iter().map(f64::sqrt).zip(rows).collect()
+}
+
+/// The outlier screen of the poses of `data` after `fit` (its model and per-row σ̂): the
+/// rule of [`crate::outliers`] on each pose's block of rows, `‖e_pose‖ > k·√d·σ̂` (block
+/// indices are pose indices). `None` when the fit has no residual degrees of freedom (σ̂
+/// undefined), as for points.
+///
+/// # Errors
+/// `k` not finite and positive.
+pub fn screen_poses(
+    fit: &FrameFit,
+    data: &FrameData,
+    k: f64,
+) -> Result<Option<crate::BlockScreen>, IdentifyError> {
+    if fit.dof == 0 || !fit.sigma_hat.is_finite() {
+        return Ok(None);
+    }
+    crate::outliers::screen_blocks(&pose_blocks(&fit.model, data), fit.sigma_hat, k).map(Some)
 }
 
 /// Options of [`fit_frames`]. Defaults in brackets.

@@ -80,7 +80,7 @@ pub use identifiability::{
     Redundancy, analyze, keep_priority,
 };
 pub use lm::{Damping, LmOptions, LmSolution, Redundant, StopReason, TraceEntry, solve};
-pub use outliers::{Outlier, OutlierScreen};
+pub use outliers::{BlockOutlier, BlockScreen, Outlier, OutlierScreen};
 pub use params::ParamSpec;
 pub use problem::{Problem, SAME_POSE_TOL_RAD};
 pub use registration::{

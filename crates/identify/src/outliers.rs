@@ -16,6 +16,17 @@
 //!
 //! Screening is one pass on the fit as given; whether flagged points are dropped and the
 //! problem refitted is the caller's decision.
+//!
+//! # Blocks: one rule for every measurement type
+//!
+//! A pose of a 6-DoF or multi-target measurement gives a block of d rows (3 for a point, 6
+//! for a point and an orientation, 3k for k targets, 3k + 3 for both), kept or dropped
+//! together. With the fit's per-row noise estimate σ̂ = √(F / (n − r)) (F the weighted
+//! residual sum of squares, n the rows, r the unknowns), the block's scale is `√d · σ̂` and a
+//! block is an outlier when `‖e_b‖ > max(k · √d · σ̂, 1 nm)` ([`screen_blocks`]): the rule
+//! above, which is its d = 3 case to the bit ([`block_threshold`] is the one formula of both).
+//! For Gaussian residuals ‖e_b‖²/σ² is χ² with d degrees of freedom, so the false-alarm rate
+//! falls with d (`P(χ²₆ > 54) ≈ 7·10⁻¹⁰`): a flagged block is a gross error, as for points.
 
 use kinematics::Robot;
 use nalgebra::Vector3;
@@ -64,6 +75,101 @@ impl OutlierScreen {
     }
 }
 
+/// The scale `√rows · sigma_row` of a block of `rows` residual rows and its outlier threshold
+/// `max(k · scale, MIN_THRESHOLD_MM)` (module docs): the one formula of [`screen`] (rows = 3)
+/// and [`screen_blocks`].
+pub fn block_threshold(k: f64, sigma_row: f64, rows: usize) -> (f64, f64) {
+    let scale = (rows as f64).sqrt() * sigma_row;
+    (scale, (k * scale).max(MIN_THRESHOLD_MM))
+}
+
+fn check_k_sigma(k: f64, sigma: f64, sigma_name: &'static str) -> Result<(), IdentifyError> {
+    if !(k.is_finite() && k > 0.0) {
+        return Err(IdentifyError::InvalidOption {
+            name: "outlier k",
+            value: format!("{k:?}"),
+            reason: "must be finite and > 0",
+        });
+    }
+    if !(sigma.is_finite() && sigma >= 0.0) {
+        return Err(IdentifyError::InvalidOption {
+            name: sigma_name,
+            value: format!("{sigma:?}"),
+            reason: "must be finite and ≥ 0",
+        });
+    }
+    Ok(())
+}
+
+/// One flagged block of [`screen_blocks`].
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct BlockOutlier {
+    /// 0-based index of the block (the pose) in the data given to [`screen_blocks`].
+    pub index: usize,
+    /// Its number of residual rows d.
+    pub rows: usize,
+    /// The norm of its (weighted) residual rows.
+    pub norm: f64,
+    /// Its threshold `max(k·√d·σ̂, 1e-6)`.
+    pub threshold: f64,
+    /// `norm / (√d·σ̂)`.
+    pub ratio: f64,
+}
+
+/// The outcome of [`screen_blocks`].
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct BlockScreen {
+    /// The factor k.
+    pub k: f64,
+    /// The per-row noise estimate σ̂ of the fit (weighted units).
+    pub sigma_row: f64,
+    /// Flagged blocks, largest ratio first (ties: lower index first).
+    pub outliers: Vec<BlockOutlier>,
+}
+
+impl BlockScreen {
+    /// Indices of the flagged blocks, ascending.
+    pub fn indices(&self) -> Vec<usize> {
+        let mut idx: Vec<usize> = self.outliers.iter().map(|o| o.index).collect();
+        idx.sort_unstable();
+        idx
+    }
+}
+
+/// Flags the blocks `(norm of its residual rows, number of rows)` whose norm exceeds
+/// `max(k·√d·sigma_row, 1e-6)` (module docs), `sigma_row` the fit's per-row noise estimate.
+pub fn screen_blocks(
+    blocks: &[(f64, usize)],
+    sigma_row: f64,
+    k: f64,
+) -> Result<BlockScreen, IdentifyError> {
+    check_k_sigma(k, sigma_row, "sigma_row")?;
+    let mut outliers: Vec<BlockOutlier> = blocks
+        .iter()
+        .enumerate()
+        .filter_map(|(index, &(norm, rows))| {
+            let (scale, threshold) = block_threshold(k, sigma_row, rows);
+            (norm > threshold).then(|| BlockOutlier {
+                index,
+                rows,
+                norm,
+                threshold,
+                ratio: if scale > 0.0 {
+                    norm / scale
+                } else {
+                    f64::INFINITY
+                },
+            })
+        })
+        .collect();
+    outliers.sort_by(|a, b| b.ratio.total_cmp(&a.ratio).then(a.index.cmp(&b.index)));
+    Ok(BlockScreen {
+        k,
+        sigma_row,
+        outliers,
+    })
+}
+
 /// Flags the points of `robot` (usually the identified one) on `poses_rad` (flat, radians)
 /// whose 3-D residual against `points_mm` exceeds `k · √3 · sigma_axis_mm`, with
 /// `sigma_axis_mm` the fit's per-axis noise estimate σ̂ (unweighted, mm). See the module
@@ -75,23 +181,9 @@ pub fn screen(
     sigma_axis_mm: f64,
     k: f64,
 ) -> Result<OutlierScreen, IdentifyError> {
-    if !(k.is_finite() && k > 0.0) {
-        return Err(IdentifyError::InvalidOption {
-            name: "outlier k",
-            value: format!("{k:?}"),
-            reason: "must be finite and > 0",
-        });
-    }
-    if !(sigma_axis_mm.is_finite() && sigma_axis_mm >= 0.0) {
-        return Err(IdentifyError::InvalidOption {
-            name: "sigma_axis_mm",
-            value: format!("{sigma_axis_mm:?}"),
-            reason: "must be finite and ≥ 0",
-        });
-    }
+    check_k_sigma(k, sigma_axis_mm, "sigma_axis_mm")?;
     check_poses_and_points(robot, poses_rad, points_mm)?;
-    let sigma_3d_mm = 3f64.sqrt() * sigma_axis_mm;
-    let threshold_mm = (k * sigma_3d_mm).max(MIN_THRESHOLD_MM);
+    let (sigma_3d_mm, threshold_mm) = block_threshold(k, sigma_axis_mm, 3);
     let n = robot.n_joints();
     let mut outliers: Vec<Outlier> = poses_rad
         .chunks_exact(n)
@@ -156,6 +248,17 @@ mod tests {
         assert_eq!(s.indices(), vec![17], "{s:?}");
         assert!(s.outliers[0].ratio > 3.0);
         assert!((s.threshold_mm - 3.0 * 3f64.sqrt() * fit.sigma_hat.unwrap()).abs() < 1e-15);
+        // The block rule at d = 3 is this rule to the bit.
+        let blocks: Vec<(f64, usize)> = poses
+            .chunks_exact(nominal.n_joints())
+            .zip(&points)
+            .map(|(q, p)| ((p - fit.robot.point(q)).norm(), 3))
+            .collect();
+        let b = screen_blocks(&blocks, fit.sigma_hat.unwrap(), 3.0).unwrap();
+        assert_eq!(b.indices(), s.indices());
+        assert_eq!(b.outliers[0].threshold.to_bits(), s.threshold_mm.to_bits());
+        assert_eq!(b.outliers[0].ratio.to_bits(), s.outliers[0].ratio.to_bits());
+        assert!(screen_blocks(&blocks, f64::NAN, 3.0).is_err());
         assert!(screen(&fit.robot, &poses, &points, 0.1, 0.0).is_err());
         assert!(screen(&fit.robot, &poses, &points[1..], 0.1, 3.0).is_err());
     }

@@ -253,3 +253,88 @@ fn known_truth_tool_frame_z_scores_have_unit_spread() {
     assert!(mean.abs() < 0.15, "z mean {mean}");
     assert!((sd - 1.0).abs() < 0.15, "z sd {sd} over {} values", z.len());
 }
+
+/// One rank decision: on point-only data (one unnamed target, no orientation) the frame
+/// path's free set is the point path's minimal set (`identify::analyze`), the tool point's
+/// three unknowns standing for `tool_x, tool_y, tool_z`; with orientation it holds θ6 (the
+/// tool's rotation about the flange axis takes it) and keeps the whole tool frame.
+#[test]
+fn the_free_set_is_the_identifiability_analysis_one() {
+    let nominal = kr1000(TOOL);
+    let q = poses(&nominal, 20, 21);
+    let truth = truth_model(0, 4);
+    let all: Vec<usize> = (0..nominal.n_params()).collect();
+    let layout = nominal.layout();
+    let tool: Vec<usize> = ["tool_x", "tool_y", "tool_z"]
+        .iter()
+        .map(|n| layout.index_of(n).unwrap())
+        .collect();
+    let points = measure(&truth, &q, false, 0, (0.02, 0.005), 5);
+    let start = closed_form_tool(&nominal, &points, None, &[Some(Vector3::from(TOOL))]);
+    let (free, dropped) = select_free(&start, &points, &all).unwrap();
+    let report = identify::analyze(
+        &nominal,
+        &q,
+        None,
+        &all,
+        &identify::IdentifiabilityOptions::default(),
+    )
+    .unwrap();
+    let minimal: Vec<usize> = report
+        .identifiable_indices
+        .iter()
+        .copied()
+        .filter(|k| !tool.contains(k))
+        .collect();
+    assert_eq!(free.robot, minimal);
+    let mut redundant: Vec<usize> = report
+        .redundant
+        .iter()
+        .map(|n| layout.index_of(n).unwrap())
+        .collect();
+    redundant.sort_unstable();
+    assert_eq!(dropped, redundant);
+    assert!(!free.rotation && free.n_targets == 1);
+
+    let frames = measure(&truth, &q, true, 0, (0.02, 0.005), 6);
+    let start = closed_form_tool(&nominal, &frames, None, &[None]);
+    let (free6, dropped6) = select_free(&start, &frames, &all).unwrap();
+    assert!(free6.rotation);
+    assert!(dropped6.contains(&layout.index_of("theta6").unwrap()));
+    // Orientation adds equations, never unknowns of the robot beyond the point path's.
+    assert!(free6.robot.iter().all(|k| minimal.contains(k)), "{free6:?}");
+}
+
+/// One outlier rule: a pose with a gross orientation error (2°, σ 0.005°) or one gross
+/// target point (2 mm, σ 0.02 mm) is flagged as a whole pose, and nothing else.
+#[test]
+fn a_gross_pose_is_flagged_as_a_block() {
+    let nominal = kr1000(TOOL);
+    let q = poses(&nominal, 30, 22);
+    let all: Vec<usize> = (0..nominal.n_params()).collect();
+    for (orientation, n_targets) in [(true, 0), (false, 3)] {
+        let truth = truth_model(n_targets, 7);
+        let mut data = measure(&truth, &q, orientation, n_targets, (0.02, 0.005), 8);
+        let bad_pose = 11;
+        let row = data.rows.iter().position(|r| r.pose == bad_pose).unwrap();
+        if orientation {
+            let m = data.rows[row].rotation.unwrap();
+            data.rows[row].rotation = Some(m * exp_so3(&Vector3::new(0.0, 2f64.to_radians(), 0.0)));
+        } else {
+            data.rows[row + 1].point_mm += Vector3::new(1.2, -1.0, 1.2);
+        }
+        let known: Vec<Option<Vector3<f64>>> = vec![None; data.target_names.len()];
+        let start = closed_form_tool(&truth.robot, &data, None, &known);
+        let (free, _) = select_free(&start, &data, &all).unwrap();
+        let fit = fit_frames(&start, &data, &free, &FrameFitOptions::default()).unwrap();
+        let screen = identify::frames::screen_poses(&fit, &data, 3.0)
+            .unwrap()
+            .unwrap();
+        assert_eq!(screen.indices(), vec![bad_pose], "{screen:?}");
+        let d = if orientation { 6 } else { 9 };
+        assert_eq!(screen.outliers[0].rows, d);
+        let (_, threshold) = identify::outliers::block_threshold(3.0, fit.sigma_hat, d);
+        assert_eq!(screen.outliers[0].threshold, threshold);
+        assert!(screen.outliers[0].ratio > 3.0);
+    }
+}

@@ -74,31 +74,19 @@ fn run_frames(
     inputs: calibrate::Inputs,
     out: &measurements::OutputDir,
 ) -> Result<()> {
-    let options = match args.orientation_weight.as_deref() {
-        None => calibrate::frames::FrameOptions::default(),
-        Some("sigma") => calibrate::frames::FrameOptions {
-            sigma: true,
-            ..Default::default()
-        },
-        Some(text) => {
-            let w: f64 = text.parse().ok().filter(|w: &f64| w.is_finite() && *w > 0.0).with_context(
-                || format!("--orientation-weight {text}: must be `sigma` or a finite number > 0 (mm per degree)"),
-            )?;
-            calibrate::frames::FrameOptions {
-                mm_per_deg: Some(w),
-                sigma: false,
-            }
-        }
-    };
+    let options = args::OrientationWeight::options(args.orientation_weight);
     let cal = calibrate::frames::calibrate_frames(request, inputs, &options)
         .map_err(|e| args.flagged(e))?;
     for notice in &cal.notices {
         eprintln!("note: {notice}");
     }
-    write_outputs_into(out, &report::calibration::frames::render(&cal))?;
+    let files = report::calibration::frames::render(&cal)
+        .with_context(|| format!("drawing the plots of {REPORT_HTML_FILE}"))?;
+    write_outputs_into(out, &files)?;
     print!("{}", report::calibration::frames::summary(&cal));
     println!(
-        "→ {}: {ROBOT_FILE} (the calibrated robot with its tool frame), {REPORT_FILE}",
+        "→ {}: {ROBOT_FILE} (the calibrated robot with its tool frame), {REPORT_FILE} and \
+         {REPORT_HTML_FILE} (the report, with its plots: position and orientation errors)",
         args.out.display(),
     );
     Ok(())

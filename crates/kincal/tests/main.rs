@@ -6,5 +6,6 @@ mod campaign_cli;
 mod common;
 mod docs_examples;
 mod files_cli;
+mod frames_cli;
 mod trust_cli;
 mod urdf_cli;

@@ -98,8 +98,8 @@ pub struct IdentifyArgs {
     /// With orientation data: weigh 1° of orientation residual as this many mm of position
     /// residual [default 5, the ratio of a tracker probe's σ], or `sigma`: weigh every row
     /// by the file's σ (sx,sy,sz, srx,sry,srz).
-    #[arg(long, value_name = "MM_PER_DEG|sigma")]
-    pub(crate) orientation_weight: Option<String>,
+    #[arg(long, value_name = "MM_PER_DEG|sigma", allow_hyphen_values = true)]
+    pub(crate) orientation_weight: Option<OrientationWeight>,
     /// Identify from the points only, ignoring the file's orientation columns (the
     /// point-only fit of the same poses, for comparison).
     #[arg(long)]
@@ -174,6 +174,14 @@ impl IdentifyArgs {
                 }
                 _ => None,
             },
+            CalibrateError::Read {
+                source: measurements::MeasurementError::EulerConventionMissing { .. },
+                ..
+            } => Some(
+                "the data give Euler angles rx,ry,rz: name their convention with --euler SEQ \
+                 (e.g. --euler XYZ intrinsic, --euler xyz extrinsic)"
+                    .to_string(),
+            ),
             CalibrateError::Design { .. } => self
                 .select
                 .map(|n| format!("--select {n} --criterion {}", self.criterion.as_str())),
@@ -197,6 +205,49 @@ impl IdentifyArgs {
         match flag {
             Some(flag) => e.context(flag),
             None => e,
+        }
+    }
+}
+
+/// `--orientation-weight`: a ratio in mm per degree, or `sigma` (each row by its σ).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) enum OrientationWeight {
+    /// 1° of orientation residual weighs as this many mm of position residual.
+    MmPerDeg(f64),
+    /// Each row by its own σ.
+    Sigma,
+}
+
+impl std::str::FromStr for OrientationWeight {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        if s.trim() == "sigma" {
+            return Ok(OrientationWeight::Sigma);
+        }
+        match s.trim().parse::<f64>() {
+            Ok(w) if w.is_finite() && w > 0.0 => Ok(OrientationWeight::MmPerDeg(w)),
+            _ => Err(format!(
+                "`{s}` is neither `sigma` nor a finite number > 0 (mm of position residual \
+                 per degree of orientation residual)"
+            )),
+        }
+    }
+}
+
+impl OrientationWeight {
+    /// The calibration's options for this weighting.
+    pub(crate) fn options(this: Option<Self>) -> calibrate::frames::FrameOptions {
+        match this {
+            None => calibrate::frames::FrameOptions::default(),
+            Some(OrientationWeight::Sigma) => calibrate::frames::FrameOptions {
+                sigma: true,
+                ..Default::default()
+            },
+            Some(OrientationWeight::MmPerDeg(w)) => calibrate::frames::FrameOptions {
+                mm_per_deg: Some(w),
+                sigma: false,
+            },
         }
     }
 }

@@ -6,8 +6,12 @@ use std::fmt::Write as _;
 
 use calibrate::frames::{FrameCalibration, FrameErrors};
 
-use super::{REPORT_FILE, ROBOT_FILE};
+use nalgebra::Vector3;
+
+use super::{REPORT_FILE, REPORT_HTML_FILE, ROBOT_FILE};
 use crate::fmt::fixed;
+use crate::html::{self, Picture};
+use crate::plot::{PlotError, cdf_figure, figure_svg};
 
 fn errors_line(e: &FrameErrors, orientation: bool) -> String {
     let mut s = format!(
@@ -107,18 +111,42 @@ pub fn summary(c: &FrameCalibration) -> String {
             c.held.join(", ")
         );
     }
-    if !c.outliers.is_empty() {
-        let _ = writeln!(
-            out,
-            "outliers (> {}·√3·RMS per axis): {} rows{}",
-            c.request.outlier_k,
-            c.outliers.len(),
-            if c.rejected {
-                ", their poses dropped and refitted"
-            } else {
-                " (reported only)"
-            }
+    if let Some(sc) = &c.screen {
+        let ol = c.outlier_poses();
+        let rule = format!(
+            "outliers (pose residual ‖e‖ > {}·√d·σ̂, d its rows, σ̂ {})",
+            sc.k,
+            fixed(sc.sigma_row, 3)
         );
+        if ol.is_empty() {
+            let _ = writeln!(out, "{rule}: none");
+        } else {
+            let list: Vec<String> = ol
+                .iter()
+                .take(10)
+                .map(|o| {
+                    let mut t = format!("line {} {} mm", o.line, fixed(o.position_mm, 3));
+                    if let Some(a) = o.orientation_deg {
+                        let _ = write!(t, " {}°", fixed(a, 4));
+                    }
+                    let _ = write!(t, " ({}×)", fixed(o.ratio, 1));
+                    t
+                })
+                .collect();
+            let _ = writeln!(
+                out,
+                "{rule}: {} pose{} — {}{}; {}",
+                ol.len(),
+                if ol.len() == 1 { "" } else { "s" },
+                list.join(", "),
+                if ol.len() > 10 { ", …" } else { "" },
+                if c.rejected {
+                    "dropped and refitted"
+                } else {
+                    "kept (--reject-outliers to exclude)"
+                }
+            );
+        }
     }
     if let Some((source, before, after)) = &c.validation {
         let _ = writeln!(
@@ -191,13 +219,98 @@ pub fn markdown(c: &FrameCalibration) -> String {
     out
 }
 
-/// The files of a 6-DoF calibration: `identified.json` and `report.md`.
-pub fn render(c: &FrameCalibration) -> Vec<(String, String)> {
-    vec![
+/// The position error plot's file.
+pub const POSITION_CDF_FILE: &str = "error-cdf.svg";
+/// The orientation error plot's file.
+pub const ORIENTATION_CDF_FILE: &str = "orientation-error-cdf.svg";
+
+/// The plots: distributions of the position error (mm) and, where measured, of the
+/// orientation error (degrees), start and identified model, on the validation poses (the
+/// identification poses without validation), one value per measured row.
+///
+/// # Errors
+/// A plot that cannot be drawn.
+pub fn pictures(c: &FrameCalibration) -> Result<Vec<Picture>, PlotError> {
+    let (which, d) = match &c.validation_data {
+        Some(d) => ("validation", d),
+        None => ("identification", &c.data),
+    };
+    let (before, after) = (c.start.errors(d), c.fit.model.errors(d));
+    let pos = |e: &[(Vector3<f64>, Option<Vector3<f64>>)]| -> Vec<f64> {
+        e.iter().map(|(p, _)| p.norm()).collect()
+    };
+    let ori = |e: &[(Vector3<f64>, Option<Vector3<f64>>)]| -> Vec<f64> {
+        e.iter().filter_map(|(_, o)| o.map(|o| o.norm())).collect()
+    };
+    let mut out = Vec::new();
+    let mut add = |title: String, x: String, b: Vec<f64>, a: Vec<f64>, file: &str, cap: String| {
+        cdf_figure(
+            &title,
+            &x,
+            &[
+                ("start model (registered)".to_string(), b),
+                ("identified model".to_string(), a),
+            ],
+            Vec::new(),
+        )
+        .and_then(|f| figure_svg(&f))
+        .map(|svg| {
+            out.push(Picture {
+                after_heading: None,
+                caption: cap,
+                file: file.to_string(),
+                svg,
+            })
+        })
+    };
+    add(
+        format!(
+            "{}: distribution of the position error ({which} poses)",
+            c.nominal_name
+        ),
+        format!("3-D position error on the {which} poses (mm)"),
+        pos(&before),
+        pos(&after),
+        POSITION_CDF_FILE,
+        format!("Share of the {which} points whose 3-D position error is below a value (mm)."),
+    )?;
+    if d.has_orientation() {
+        add(
+            format!(
+                "{}: distribution of the orientation error ({which} poses)",
+                c.nominal_name
+            ),
+            format!("orientation error on the {which} poses (degrees)"),
+            ori(&before),
+            ori(&after),
+            ORIENTATION_CDF_FILE,
+            format!(
+                "Share of the {which} orientations whose error (angle of R_modelᵀ·R_measured) is \
+                 below a value (degrees)."
+            ),
+        )?;
+    }
+    Ok(out)
+}
+
+/// The files of a 6-DoF calibration: `identified.json`, `report.md`, `report.html` (the
+/// report with its plots: position error in mm and orientation error in degrees, separately)
+/// and the plots as SVG files.
+///
+/// # Errors
+/// A plot that cannot be drawn.
+pub fn render(c: &FrameCalibration) -> Result<Vec<(String, String)>, PlotError> {
+    let md = markdown(c);
+    let pics = pictures(c)?;
+    let title = format!("Calibration of {} (6-DoF / multi-target)", c.nominal_name);
+    let mut files = vec![
         (
             ROBOT_FILE.to_string(),
             c.identified_robot().to_spec().to_json_string(),
         ),
-        (REPORT_FILE.to_string(), markdown(c)),
-    ]
+        (REPORT_FILE.to_string(), md.clone()),
+        (REPORT_HTML_FILE.to_string(), html::page(&title, &md, &pics)),
+    ];
+    files.extend(pics.into_iter().map(|p| (p.file, p.svg)));
+    Ok(files)
 }
