@@ -3,18 +3,20 @@
 /// Every way a design request can fail; each names what is wrong.
 #[derive(Debug, thiserror::Error)]
 pub enum DesignError {
-    /// Fewer equations than identifiable parameters: 3N < rank.
+    /// Fewer equations than identifiable parameters: rN < rank (r rows per pose).
     #[error(
         "{poses} poses give {} equations, fewer than the {rank} identifiable parameters \
          (need at least {} poses)",
-        3 * poses,
-        rank.div_ceil(3)
+        rows_per_pose * poses,
+        rank.div_ceil(*rows_per_pose)
     )]
     TooFewPoses {
         /// Poses asked for.
         poses: usize,
         /// Size of the minimal identifiable set.
         rank: usize,
+        /// Equations per pose (3 for a point, 6 for a frame, 3k for k targets).
+        rows_per_pose: usize,
     },
     /// The pool is smaller than the design.
     #[error("{candidates} candidates cannot give a design of {poses} distinct poses")]

@@ -47,6 +47,8 @@ pub mod candidates;
 pub mod comparison;
 pub mod criterion;
 mod error;
+pub mod frames;
+pub mod measure;
 pub mod model;
 pub mod select;
 
@@ -54,6 +56,7 @@ pub use candidates::Candidates;
 pub use comparison::{DesignComparison, SetFigures, compare};
 pub use criterion::{Criterion, condition_number, dense_value, observability};
 pub use error::DesignError;
+pub use measure::Measure;
 pub use model::{InfoModel, Scale};
 pub use select::{Design, DesignOptions, select};
 
