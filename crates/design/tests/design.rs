@@ -429,10 +429,10 @@ fn frame_designs_match_exhaustive_search() {
             for a in 0..12 {
                 for b in a + 1..12 {
                     for c in b + 1..12 {
-                        if let Some(v) = model.value(crit, &[a, b, c]) {
-                            if crit.utility(v) > best.1 {
-                                best = (vec![a, b, c], crit.utility(v));
-                            }
+                        if let Some(v) = model.value(crit, &[a, b, c])
+                            && crit.utility(v) > best.1
+                        {
+                            best = (vec![a, b, c], crit.utility(v));
                         }
                     }
                 }
