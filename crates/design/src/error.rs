@@ -18,6 +18,27 @@ pub enum DesignError {
         /// Equations per pose (3 for a point, 6 for a frame, 3k for k targets).
         rows_per_pose: usize,
     },
+    /// Several rigidly attached targets: enough equations, but their rank is bounded by the
+    /// motion of one rigid body per pose and the targets' fixed shape.
+    #[error(
+        "{poses} poses of {targets} rigidly attached targets determine at most {} of the {rank} \
+         unknowns ({per_pose} per pose for the tool's motion, {shape} for the targets' fixed \
+         shape): need at least {} poses",
+        per_pose * poses + shape,
+        (rank.saturating_sub(*shape)).div_ceil(*per_pose)
+    )]
+    TooFewTargetPoses {
+        /// Poses asked for.
+        poses: usize,
+        /// Targets per pose.
+        targets: usize,
+        /// Unknowns.
+        rank: usize,
+        /// Rank a pose adds: 6 (3 for one target, 5 for two).
+        per_pose: usize,
+        /// Rank of the shape, counted once: 3k − 6 (0 for one target, 1 for two).
+        shape: usize,
+    },
     /// The pool is smaller than the design.
     #[error("{candidates} candidates cannot give a design of {poses} distinct poses")]
     TooFewCandidates {

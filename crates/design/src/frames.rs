@@ -257,4 +257,26 @@ impl InfoModel {
         };
         Ok(model)
     }
+
+    /// The rank one pose adds and the rank counted once, `(d, s)`: the information matrix of
+    /// N poses has rank at most `d·N + s`. A point: (3, 0); a frame: (6, 0); k targets on
+    /// one rigid tool: each pose moves a rigid body (6, or 5 for two targets: the rotation
+    /// about their line is not seen, 3 for one) and the targets' shape (3k − 6 coordinates
+    /// beyond a rigid motion, 1 for two, 0 for one) is the same at every pose.
+    pub fn rank_per_pose(&self) -> (usize, usize) {
+        match (self.measure, self.rows / 3) {
+            (Measure::Point, _) => (3, 0),
+            (Measure::Frame, _) => (6, 0),
+            (Measure::Targets, 1) => (3, 0),
+            (Measure::Targets, 2) => (5, 1),
+            (Measure::Targets, k) => (6, 3 * k - 6),
+        }
+    }
+
+    /// The fewest poses whose information matrix can have full rank: `⌈(p − s)/d⌉` with
+    /// `(d, s)` of [`InfoModel::rank_per_pose`].
+    pub fn min_poses(&self) -> usize {
+        let (d, s) = self.rank_per_pose();
+        self.p.saturating_sub(s).div_ceil(d).max(1)
+    }
 }

@@ -762,6 +762,16 @@ pub fn select(model: &InfoModel, opts: &DesignOptions) -> Result<Design, DesignE
             rows_per_pose: rows,
         });
     }
+    let (per_pose, shape) = model.rank_per_pose();
+    if per_pose * opts.poses + shape < p {
+        return Err(DesignError::TooFewTargetPoses {
+            poses: opts.poses,
+            targets: rows / 3,
+            rank: p,
+            per_pose,
+            shape,
+        });
+    }
     if k < opts.poses {
         return Err(DesignError::TooFewCandidates {
             candidates: k,

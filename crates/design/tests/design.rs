@@ -374,6 +374,32 @@ fn target_information_is_identify_normal_matrix() {
     let all: Vec<usize> = (0..20).collect();
     let reference = identify_normal_matrix(&model, &robot, &pool, Measure::Targets);
     assert_close(&model.information(&all), &reference);
+    // Rank of N poses: 6 per pose (one rigid motion) + 3 for the triangle's shape, so
+    // 4 poses (36 equations) determine 27 of the 33 unknowns and 5 are the fewest.
+    assert_eq!(model.rank_per_pose(), (6, 3));
+    assert_eq!(model.min_poses(), 5);
+    for (n, rank) in [(3, 21), (4, 27), (5, 33)] {
+        let set: Vec<usize> = (0..n).collect();
+        assert_eq!(numerical_rank(&model.information(&set)), rank, "{n} poses");
+    }
+    let e = select(&model, &DesignOptions::new(Criterion::D, 4)).unwrap_err();
+    assert!(e.to_string().contains("need at least 5 poses"), "{e}");
+    assert_eq!(
+        select(&model, &DesignOptions::new(Criterion::D, 5))
+            .unwrap()
+            .selected
+            .len(),
+        5
+    );
+}
+
+/// Eigenvalues of the unit-diagonal matrix above 10⁻¹⁰ of the largest.
+fn numerical_rank(m: &nalgebra::DMatrix<f64>) -> usize {
+    let d: Vec<f64> = (0..m.nrows()).map(|k| m[(k, k)].sqrt()).collect();
+    let u = nalgebra::DMatrix::from_fn(m.nrows(), m.ncols(), |i, j| m[(i, j)] / (d[i] * d[j]));
+    let ev = u.symmetric_eigenvalues();
+    let max = ev.max();
+    ev.iter().filter(|&&v| v > 1e-10 * max).count()
 }
 
 /// A 6-DoF probe reaches full rank with fewer poses than a single reflector: ⌈p/6⌉ frame
@@ -388,6 +414,9 @@ fn frames_reach_full_rank_with_fewer_poses_than_points() {
         InfoModel::with_measure(&robot, &pool, None, None, &Scale::default(), Measure::Frame)
             .unwrap();
     let n_frame = frame.p.div_ceil(6);
+    assert_eq!(frame.min_poses(), n_frame);
+    let set: Vec<usize> = (0..n_frame - 1).collect();
+    assert_eq!(numerical_rank(&frame.information(&set)), 6 * (n_frame - 1));
     let n_point = point.p.div_ceil(3);
     assert!(n_frame < n_point, "{n_frame} vs {n_point}");
     let d = select(&frame, &DesignOptions::new(Criterion::D, n_frame)).unwrap();
