@@ -120,6 +120,10 @@ fn reached_point_trig(
     robot.point_trig(&sc[..n])
 }
 
+/// A reading of [`World::measure_tool`]: the points (measurement frame, mm) and, for a
+/// frame reading, the orientation (the probe's axes in measurement coordinates).
+pub type ToolReading = (Vec<Vector3<f64>>, Option<Matrix3<f64>>);
+
 /// The points [`reached_point`] gave for the sampled poses (identification, then
 /// validation) on the true robot, kept so that measuring those poses again (without drift)
 /// does not recompute them: a lookup by the joints' bits, first at the position after the
@@ -446,7 +450,7 @@ impl World {
         q_cmd_rad: &[f64],
         offsets_mm: &[Vector3<f64>],
         orientation: bool,
-    ) -> Result<(Vec<Vector3<f64>>, Option<Matrix3<f64>>), NotMeasurable> {
+    ) -> Result<ToolReading, NotMeasurable> {
         self.check_joints(q_cmd_rad)?;
         let k = self.moves;
         self.moves += 1;
