@@ -22,6 +22,7 @@ pub mod summary;
 pub mod sweep;
 pub mod sweep_run;
 pub mod trial;
+mod trial_frames;
 pub mod trial_report;
 
 pub use budget::{BudgetConfig, ResidualBudget, residual_budget};

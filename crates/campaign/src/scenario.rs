@@ -296,6 +296,70 @@ pub const MIN_REACH_MM: f64 = 20.0;
 /// 3–5 m (the KR1000 Titan 3.6 m)].
 pub const MAX_REACH_MM: f64 = 50_000.0;
 
+/// What the tracker measures at each identification pose (`measurement`).
+///
+/// `point` \[default\]: one reflector at the tool point, 3 equations per pose, the paper's
+/// measurement (every committed result). `frame`: a 6-DoF probe at the tool point, its
+/// position and orientation (`tracker.orientation_mpe_deg`), identified by
+/// `identify::frames` with the tool orientation among the unknowns, orientation rows
+/// weighted by `identify::frames::DEFAULT_MM_PER_DEG`. `targets`: the tool point and one
+/// reflector per `reflector_offsets_mm` (flange frame, from the tool point), each a reading
+/// of its own, identified by `identify::frames` with every target's point among the
+/// unknowns. Validation always measures the tool point (Table 4 stays comparable).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct MeasurementConfig {
+    /// `"point"`, `"frame"` or `"targets"` \[point\].
+    #[serde(rename = "type")]
+    pub kind: design::Measure,
+    /// Offsets of the reflectors beside the tool point, flange frame, mm (`targets` only)
+    /// \[(100, 0, 0) and (0, 100, 0): a right triangle of 100 mm legs with the tool point,
+    /// the size of a three-reflector adapter on a large robot's flange\].
+    pub reflector_offsets_mm: Vec<[f64; 3]>,
+}
+
+impl Default for MeasurementConfig {
+    fn default() -> Self {
+        MeasurementConfig {
+            kind: design::Measure::Point,
+            reflector_offsets_mm: vec![[100.0, 0.0, 0.0], [0.0, 100.0, 0.0]],
+        }
+    }
+}
+
+impl MeasurementConfig {
+    /// The default (a point): not written into summaries, so that scenarios without the
+    /// field give the same bytes as before it existed.
+    pub fn is_default(&self) -> bool {
+        *self == MeasurementConfig::default()
+    }
+
+    /// Offsets of every measured point from the tool point (flange frame): the tool point
+    /// itself, then (for `targets`) the reflectors.
+    pub fn offsets_mm(&self) -> Vec<nalgebra::Vector3<f64>> {
+        let mut v = vec![nalgebra::Vector3::zeros()];
+        if self.kind == design::Measure::Targets {
+            v.extend(
+                self.reflector_offsets_mm
+                    .iter()
+                    .map(|o| nalgebra::Vector3::from(*o)),
+            );
+        }
+        v
+    }
+
+    /// Target names of the identification (`""` for the tool point alone; `tool`, `r1`, …
+    /// with reflectors).
+    pub fn target_names(&self) -> Vec<String> {
+        match self.kind {
+            design::Measure::Targets => std::iter::once("tool".to_string())
+                .chain((1..=self.reflector_offsets_mm.len()).map(|k| format!("r{k}")))
+                .collect(),
+            _ => vec![String::new()],
+        }
+    }
+}
+
 /// A scenario file.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -350,6 +414,10 @@ pub struct Scenario {
     /// and alone (see [`crate::budget`]) \[off\].
     #[serde(default, skip_serializing_if = "BudgetConfig::is_default")]
     pub residual_budget: BudgetConfig,
+    /// What each identification pose measures: a point \[default\], a 6-DoF frame, or
+    /// several reflectors ([`MeasurementConfig`]).
+    #[serde(default, skip_serializing_if = "MeasurementConfig::is_default")]
+    pub measurement: MeasurementConfig,
 }
 
 /// A parsed scenario with its robot loaded and everything validated.
@@ -520,6 +588,44 @@ impl Scenario {
                 return Err(invalid("tool_mm", format!("{t:?} is not finite")));
             }
             nominal.set_tool_mm(t.into());
+        }
+        if self.measurement.kind != design::Measure::Point {
+            if !self.identification.extended.is_empty() {
+                return Err(invalid(
+                    "measurement.type",
+                    "frame and target measurements identify the geometric model only; leave \
+                     identification.extended out"
+                        .into(),
+                ));
+            }
+            if self.residual_budget.enabled {
+                return Err(invalid(
+                    "measurement.type",
+                    "the residual budget runs point measurements only; switch \
+                     residual_budget.enabled off"
+                        .into(),
+                ));
+            }
+        }
+        if self.measurement.kind == design::Measure::Targets {
+            let offs = &self.measurement.reflector_offsets_mm;
+            if offs.is_empty() {
+                return Err(invalid(
+                    "measurement.reflector_offsets_mm",
+                    "targets need at least one reflector beside the tool point".into(),
+                ));
+            }
+            for (k, o) in offs.iter().enumerate() {
+                let n = nalgebra::Vector3::from(*o).norm();
+                if !n.is_finite() || n < 1.0 {
+                    return Err(invalid(
+                        &format!("measurement.reflector_offsets_mm[{k}]"),
+                        format!(
+                            "{o:?}: a reflector must be finite and at least 1 mm from the tool point"
+                        ),
+                    ));
+                }
+            }
         }
         if self.iso.enabled {
             let iso = &self.iso;

@@ -9,6 +9,7 @@ use rand::seq::index::sample;
 use serde::{Deserialize, Serialize};
 
 use crate::criterion::{Criterion, condition_number, dense_value, observability};
+use crate::measure::Measure;
 use crate::model::InfoModel;
 use crate::select::Design;
 
@@ -60,6 +61,23 @@ pub struct DesignComparison {
     pub swaps: usize,
     /// The greedy design's value, before the exchange.
     pub greedy_value: f64,
+    /// What each pose measures.
+    #[serde(default)]
+    pub measure: Measure,
+    /// Equations per pose (3 point, 6 frame, 3k targets).
+    #[serde(default = "three")]
+    pub rows_per_pose: usize,
+    /// The fewest poses that can determine the unknowns ([`InfoModel::min_poses`]).
+    #[serde(default)]
+    pub min_poses: usize,
+    /// For a frame or targets: the unknowns a single reflector's identification would have
+    /// (set by [`crate::design_plan`]), for the "how many poses" comparison.
+    #[serde(default)]
+    pub point_unknowns: Option<usize>,
+}
+
+fn three() -> usize {
+    3
 }
 
 fn median(mut v: Vec<f64>) -> f64 {
@@ -110,6 +128,10 @@ pub fn compare(
         passes: design.passes,
         swaps: design.swaps,
         greedy_value: design.greedy_value,
+        measure: model.measure,
+        rows_per_pose: model.rows,
+        min_poses: model.min_poses(),
+        point_unknowns: None,
     }
 }
 
@@ -130,6 +152,34 @@ impl DesignComparison {
             self.parameters.len(),
             self.parameters.join(", ")
         );
+        if self.measure != Measure::Point {
+            let p = self.parameters.len();
+            let _ = write!(
+                s,
+                "measurement {}: {} equations per pose ({}), {p} unknowns: at least {} poses",
+                self.measure,
+                self.rows_per_pose,
+                if self.measure == Measure::Frame {
+                    format!(
+                        "3 position, 3 orientation with 1° weighing as {} mm",
+                        identify::frames::DEFAULT_MM_PER_DEG
+                    )
+                } else {
+                    format!("{} targets × 3", self.rows_per_pose / 3)
+                },
+                self.min_poses
+            );
+            match self.point_unknowns {
+                Some(q) => {
+                    let _ = writeln!(
+                        s,
+                        "; a single reflector: 3 per pose, {q} unknowns: at least {} poses",
+                        q.div_ceil(3)
+                    );
+                }
+                None => s.push('\n'),
+            }
+        }
         let _ = writeln!(
             s,
             "greedy {:.6e}, after exchange {:.6e} ({} passes, {} swaps)",

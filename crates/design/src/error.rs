@@ -3,18 +3,41 @@
 /// Every way a design request can fail; each names what is wrong.
 #[derive(Debug, thiserror::Error)]
 pub enum DesignError {
-    /// Fewer equations than identifiable parameters: 3N < rank.
+    /// Fewer equations than identifiable parameters: rN < rank (r rows per pose).
     #[error(
         "{poses} poses give {} equations, fewer than the {rank} identifiable parameters \
          (need at least {} poses)",
-        3 * poses,
-        rank.div_ceil(3)
+        rows_per_pose * poses,
+        rank.div_ceil(*rows_per_pose)
     )]
     TooFewPoses {
         /// Poses asked for.
         poses: usize,
         /// Size of the minimal identifiable set.
         rank: usize,
+        /// Equations per pose (3 for a point, 6 for a frame, 3k for k targets).
+        rows_per_pose: usize,
+    },
+    /// Several rigidly attached targets: enough equations, but their rank is bounded by the
+    /// motion of one rigid body per pose and the targets' fixed shape.
+    #[error(
+        "{poses} poses of {targets} rigidly attached targets determine at most {} of the {rank} \
+         unknowns ({per_pose} per pose for the tool's motion, {shape} for the targets' fixed \
+         shape): need at least {} poses",
+        per_pose * poses + shape,
+        (rank.saturating_sub(*shape)).div_ceil(*per_pose)
+    )]
+    TooFewTargetPoses {
+        /// Poses asked for.
+        poses: usize,
+        /// Targets per pose.
+        targets: usize,
+        /// Unknowns.
+        rank: usize,
+        /// Rank a pose adds: 6 (3 for one target, 5 for two).
+        per_pose: usize,
+        /// Rank of the shape, counted once: 3k − 6 (0 for one target, 1 for two).
+        shape: usize,
     },
     /// The pool is smaller than the design.
     #[error("{candidates} candidates cannot give a design of {poses} distinct poses")]

@@ -47,6 +47,8 @@ pub mod candidates;
 pub mod comparison;
 pub mod criterion;
 mod error;
+pub mod frames;
+pub mod measure;
 pub mod model;
 pub mod select;
 
@@ -54,6 +56,7 @@ pub use candidates::Candidates;
 pub use comparison::{DesignComparison, SetFigures, compare};
 pub use criterion::{Criterion, condition_number, dense_value, observability};
 pub use error::DesignError;
+pub use measure::Measure;
 pub use model::{InfoModel, Scale};
 pub use select::{Design, DesignOptions, select};
 
@@ -77,29 +80,52 @@ pub fn select_rows(
 }
 
 /// The design of a plan file: chooses `opts.poses` of `candidates` for the parameters
-/// `params` (names; `None`: the minimal identifiable set), with the I criterion's workspace
-/// `workspace` (`None`: the candidates), and compares with `random_sets` random sets of the
-/// same size. Returns the plan (joints-only measurement set, candidate ids kept, in pool
-/// order) and its comparison with random sets. Nothing is written.
+/// `params` (names; `None`: the minimal identifiable set), measuring `measure` at each pose
+/// ([`Measure`]: a point, a 6-DoF frame, or the robot file's targets), with the I
+/// criterion's workspace `workspace` (`None`: the candidates), and compares with
+/// `random_sets` random sets of the same size. For a frame or targets the comparison also
+/// states what a single reflector would need (its unknowns and equations per pose). Returns
+/// the plan (joints-only measurement set, candidate ids kept, in pool order) and its
+/// comparison with random sets. Nothing is written.
 pub fn design_plan(
     robot: &Robot,
     candidates: &Candidates,
     workspace: Option<&Candidates>,
     params: Option<&[String]>,
+    measure: Measure,
     opts: &DesignOptions,
     random_sets: usize,
 ) -> Result<(measurements::MeasurementSet, DesignComparison), DesignError> {
     let params = params.map(|p| robot.layout().select(p)).transpose()?;
-    let model = InfoModel::new(
+    let model = InfoModel::with_measure(
         robot,
         &candidates.q_rad,
         workspace.map(|w| w.q_rad.as_slice()),
         params.as_deref(),
         &Scale::default(),
+        measure,
     )
     .map_err(|e| with_ids(e, candidates))?;
     let d = select(&model, opts)?;
-    let rep = compare(&model, &d, random_sets, opts.seed);
+    let mut rep = compare(&model, &d, random_sets, opts.seed);
+    if measure != Measure::Point {
+        // What one reflector would need: the identification's unknowns for points.
+        let point = match params.as_deref() {
+            Some(p) => p.len(),
+            None => {
+                let generic = identify::generic_poses(robot)?;
+                identify::ParamSet::Minimal
+                    .resolve(
+                        robot,
+                        &generic,
+                        None,
+                        &identify::IdentifiabilityOptions::default(),
+                    )?
+                    .len()
+            }
+        };
+        rep.point_unknowns = Some(point);
+    }
     Ok((candidates.plan(&d.selected, &candidates.source), rep))
 }
 

@@ -8,6 +8,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::criterion::{Criterion, dense_value};
 use crate::error::DesignError;
+use crate::measure::Measure;
 
 /// The physical scale `s_k` that multiplies column k of every block, so that mm and rad are
 /// comparable: the expected size of parameter k's error. A scaled column is "mm of point
@@ -156,13 +157,21 @@ pub struct InfoModel {
     pub p: usize,
     /// Number of candidates K.
     pub n_candidates: usize,
-    /// Blocks, candidate-major: candidate i, row r, column k at `(3i + r)·p + k`.
+    /// What one pose measures.
+    pub measure: Measure,
+    /// Rows per candidate's block r: 3 (point), 6 (frame), 3k (k targets).
+    pub rows: usize,
+    /// Blocks, candidate-major: candidate i, row r, column k at `(rows·i + r)·p + k`.
     pub(crate) blocks: Vec<f64>,
     /// The workspace matrix W (p × p).
     pub workspace: DMatrix<f64>,
 }
 
-fn check_poses(robot: &Robot, poses_rad: &[f64], what: &'static str) -> Result<(), DesignError> {
+pub(crate) fn check_poses(
+    robot: &Robot,
+    poses_rad: &[f64],
+    what: &'static str,
+) -> Result<(), DesignError> {
     let n = robot.n_joints();
     if n == 0 || !poses_rad.len().is_multiple_of(n) {
         return Err(DesignError::BadPose {
@@ -293,6 +302,8 @@ impl InfoModel {
             scale,
             p,
             n_candidates: k_count,
+            measure: Measure::Point,
+            rows: 3,
             blocks,
             workspace: DMatrix::zeros(p, p),
         };
@@ -337,7 +348,7 @@ impl InfoModel {
                 let nw = w.len() / n;
                 let mut acc = DMatrix::zeros(p, p);
                 for blk in wb.chunks_exact(3 * p) {
-                    add_outer(&mut acc, blk, p, 1.0);
+                    add_outer(&mut acc, blk, 3, p, 1.0);
                 }
                 acc / nw as f64
             }
@@ -345,16 +356,17 @@ impl InfoModel {
         Ok(model)
     }
 
-    /// The scaled block of candidate `i` (3 × p, row-major).
+    /// The scaled block of candidate `i` (`rows` × p, row-major).
     pub fn block(&self, i: usize) -> &[f64] {
-        &self.blocks[3 * i * self.p..3 * (i + 1) * self.p]
+        let r = self.rows;
+        &self.blocks[r * i * self.p..r * (i + 1) * self.p]
     }
 
     /// `M = Σ_{i∈set} B_iᵀ B_i`, summed densely in the order of `set`.
     pub fn information(&self, set: &[usize]) -> DMatrix<f64> {
         let mut m = DMatrix::zeros(self.p, self.p);
         for &i in set {
-            add_outer(&mut m, self.block(i), self.p, 1.0);
+            add_outer(&mut m, self.block(i), self.rows, self.p, 1.0);
         }
         m
     }
@@ -371,12 +383,26 @@ impl InfoModel {
     }
 }
 
-/// `m += sign · Bᵀ B` for a 3 × p row-major block.
+/// `m += sign · Bᵀ B` for a `rows` × p row-major block. Each entry adds one sum over the
+/// rows in order, started at zero (for 3 rows the same bits as the unrolled form).
 ///
-/// On the column-major storage directly (the hot loop of the E and O3 exchanges): the same
-/// operations in the same order as an element-wise loop over `m[(i, j)]`.
-pub(crate) fn add_outer(m: &mut DMatrix<f64>, b: &[f64], p: usize, sign: f64) {
+/// Three rows (a point), the hot loop of the E and O3 exchanges, work on the column-major
+/// storage directly: the same operations in the same order as an element-wise loop over
+/// `m[(i, j)]`.
+pub(crate) fn add_outer(m: &mut DMatrix<f64>, b: &[f64], rows: usize, p: usize, sign: f64) {
     assert_eq!(m.shape(), (p, p), "a p × p matrix");
+    if rows != 3 {
+        for j in 0..p {
+            for i in 0..p {
+                let mut s = 0.0;
+                for r in 0..rows {
+                    s += sign * b[r * p + j] * b[r * p + i];
+                }
+                m[(i, j)] += s;
+            }
+        }
+        return;
+    }
     let (r0, r1, r2) = (&b[..p], &b[p..2 * p], &b[2 * p..3 * p]);
     for (j, col) in m.as_mut_slice().chunks_exact_mut(p).enumerate() {
         let (a0, a1, a2) = (sign * r0[j], sign * r1[j], sign * r2[j]);
@@ -387,7 +413,7 @@ pub(crate) fn add_outer(m: &mut DMatrix<f64>, b: &[f64], p: usize, sign: f64) {
 }
 
 /// The pool's unit-diagonal information matrix is comfortably non-singular.
-fn pool_full_rank(m: &DMatrix<f64>) -> bool {
+pub(crate) fn pool_full_rank(m: &DMatrix<f64>) -> bool {
     match crate::criterion::unit_scaled_eigenvalues(m) {
         Some(ev) => {
             let (hi, lo) = (ev[0], ev[ev.len() - 1]);

@@ -309,6 +309,12 @@ impl<'a> State<'a> {
         }
     }
 
+    /// Whether the scores come from the rank-3 updates: a fast criterion on 3-row blocks
+    /// (points). Blocks of 6 or 3k rows are scored densely, every criterion.
+    fn fast(&self) -> bool {
+        self.model.rows == 3 && self.active().is_fast()
+    }
+
     fn uses_h(&self) -> bool {
         matches!(self.active(), Criterion::A | Criterion::I)
     }
@@ -344,7 +350,7 @@ impl<'a> State<'a> {
     /// G (and H) of every candidate from scratch.
     fn refresh(&mut self) {
         let (p, k) = (self.p, self.model.n_candidates);
-        if !self.active().is_fast() {
+        if !self.fast() {
             return;
         }
         let uses_h = self.uses_h();
@@ -402,7 +408,7 @@ impl<'a> State<'a> {
             Criterion::O1 => {
                 (self.logdet - self.diag_term(None, 0.0, None)) / (2.0 * self.p as f64)
             }
-            c => slow_utility(c, &self.ridged(), self.set.len(), f64::NEG_INFINITY)
+            c => slow_utility(c, &self.ridged(), None, self.set.len(), f64::NEG_INFINITY)
                 .unwrap_or(f64::NEG_INFINITY),
         }
     }
@@ -428,7 +434,7 @@ impl<'a> State<'a> {
     fn apply(&mut self, s: usize, sign: f64) -> Result<(), DesignError> {
         let p = self.p;
         let b = self.model.block(s);
-        if self.active().is_fast() && !self.g.is_empty() {
+        if self.fast() && !self.g.is_empty() {
             let minv_t = self.minv.transpose();
             let u = mul_mbt(&minv_t, b, p);
             let sm = M3::identity() * sign + mul_bu(b, &u, p);
@@ -462,7 +468,7 @@ impl<'a> State<'a> {
             }
             self.update_s_cache();
         }
-        add_outer(&mut self.m, b, p, sign);
+        add_outer(&mut self.m, b, self.model.rows, p, sign);
         if sign > 0.0 {
             self.set.push(s);
             self.in_set[s] = true;
@@ -477,9 +483,9 @@ impl<'a> State<'a> {
     /// The best candidate to add: (index, utility); ties to the lowest index.
     fn best_addition(&self) -> Option<(usize, f64)> {
         let mut best: Option<(usize, f64)> = None;
-        let fast = self.active().is_fast();
+        let fast = self.fast();
         let base = if fast { None } else { Some(self.ridged()) };
-        let bound = base.as_ref().and_then(|b| EBound::new(self.crit, b));
+        let bound = base.as_ref().and_then(|b| EBound::new(self.active(), b));
         for i in 0..self.model.n_candidates {
             if self.in_set[i] {
                 continue;
@@ -494,8 +500,8 @@ impl<'a> State<'a> {
                 Some(self.add_utility(i))
             } else {
                 let mut m = base.clone().expect("dense base");
-                add_outer(&mut m, self.model.block(i), self.p, 1.0);
-                slow_utility(self.crit, &m, self.set.len() + 1, t)
+                add_outer(&mut m, self.model.block(i), self.model.rows, self.p, 1.0);
+                slow_utility(self.active(), &m, self.w.as_ref(), self.set.len() + 1, t)
             };
             if let Some(u) = u
                 && u.is_finite()
@@ -512,10 +518,11 @@ impl<'a> State<'a> {
         let p = self.p;
         let mut best: Option<(usize, f64)> = None;
         let bj = self.model.block(j);
-        if !self.active().is_fast() {
+        if !self.fast() {
+            let rows = self.model.rows;
             let mut base = self.ridged();
-            add_outer(&mut base, bj, p, -1.0);
-            let bound = EBound::new(self.crit, &base);
+            add_outer(&mut base, bj, rows, p, -1.0);
+            let bound = EBound::new(self.active(), &base);
             let mut m = base.clone();
             for i in 0..self.model.n_candidates {
                 if self.in_set[i] {
@@ -528,8 +535,8 @@ impl<'a> State<'a> {
                     continue;
                 }
                 m.copy_from(&base);
-                add_outer(&mut m, self.model.block(i), p, 1.0);
-                if let Some(u) = slow_utility(self.crit, &m, self.set.len(), t)
+                add_outer(&mut m, self.model.block(i), rows, p, 1.0);
+                if let Some(u) = slow_utility(self.active(), &m, self.w.as_ref(), self.set.len(), t)
                     && u > t
                 {
                     best = Some((i, u));
@@ -600,7 +607,7 @@ impl<'a> State<'a> {
     }
 
     fn full_rank(&self) -> bool {
-        if 3 * self.set.len() < self.p {
+        if self.model.rows * self.set.len() < self.p {
             return false;
         }
         match crate::criterion::unit_scaled_eigenvalues(&self.m) {
@@ -643,7 +650,7 @@ impl EBound {
         Some(EBound { u, r_base, uu })
     }
 
-    /// Whether candidate block `b` (3 × p, row-major) certainly cannot beat `t`.
+    /// Whether candidate block `b` (rows × p, row-major) certainly cannot beat `t`.
     fn cannot_exceed(&self, b: &[f64], t: f64) -> bool {
         if !t.is_finite() {
             return false;
@@ -660,9 +667,16 @@ impl EBound {
     }
 }
 
-/// The utility of a slow criterion on `m` if it exceeds `t` (`None` otherwise or when
-/// singular); E and O3 decide by a shifted Cholesky factorisation first.
-fn slow_utility(crit: Criterion, m: &DMatrix<f64>, n_poses: usize, t: f64) -> Option<f64> {
+/// The utility of a criterion scored densely on `m` if it exceeds `t` (`None` otherwise or
+/// when singular); E and O3 decide by a shifted Cholesky factorisation first. `w`: the
+/// workspace matrix of I.
+fn slow_utility(
+    crit: Criterion,
+    m: &DMatrix<f64>,
+    w: Option<&DMatrix<f64>>,
+    n_poses: usize,
+    t: f64,
+) -> Option<f64> {
     let p = m.nrows();
     match crit {
         Criterion::E => {
@@ -684,6 +698,22 @@ fn slow_utility(crit: Criterion, m: &DMatrix<f64>, n_poses: usize, t: f64) -> Op
                 s.cholesky()?;
             }
             dense_value(crit, m, None, n_poses)
+        }
+        // The fast criteria on the utility scale of `State::utility` (blocks of more than
+        // 3 rows score them densely).
+        Criterion::A | Criterion::I => {
+            let w = if crit == Criterion::I { w } else { None };
+            let inv = m.clone().cholesky()?.inverse();
+            let tr = match w {
+                Some(w) => (inv * w).trace(),
+                None => inv.trace(),
+            };
+            Some(-tr).filter(|&u| u > t || !t.is_finite())
+        }
+        Criterion::O1 => {
+            let ld = dense_value(Criterion::D, m, None, n_poses)?;
+            let diag: f64 = (0..p).map(|k| m[(k, k)].ln()).sum();
+            Some((ld - diag) / (2.0 * p as f64)).filter(|&u| u > t || !t.is_finite())
         }
         _ => dense_value(crit, m, None, n_poses).filter(|&u| u > t || !t.is_finite()),
     }
@@ -722,7 +752,7 @@ fn run(
         }
         Some(set) => {
             for i in set {
-                add_outer(&mut st.m, model.block(i), model.p, 1.0);
+                add_outer(&mut st.m, model.block(i), model.rows, model.p, 1.0);
                 st.set.push(i);
                 st.in_set[i] = true;
             }
@@ -789,10 +819,22 @@ fn run(
 /// Chooses `opts.poses` of the model's candidates (see the module docs).
 pub fn select(model: &InfoModel, opts: &DesignOptions) -> Result<Design, DesignError> {
     let (p, k) = (model.p, model.n_candidates);
-    if opts.poses == 0 || 3 * opts.poses < p {
+    let rows = model.rows;
+    if opts.poses == 0 || rows * opts.poses < p {
         return Err(DesignError::TooFewPoses {
             poses: opts.poses,
             rank: p,
+            rows_per_pose: rows,
+        });
+    }
+    let (per_pose, shape) = model.rank_per_pose();
+    if per_pose * opts.poses + shape < p {
+        return Err(DesignError::TooFewTargetPoses {
+            poses: opts.poses,
+            targets: rows / 3,
+            rank: p,
+            per_pose,
+            shape,
         });
     }
     if k < opts.poses {
@@ -812,7 +854,12 @@ pub fn select(model: &InfoModel, opts: &DesignOptions) -> Result<Design, DesignE
     for i in 0..k {
         let b = model.block(i);
         for c in 0..p {
-            let s = b[c] * b[c] + b[p + c] * b[p + c] + b[2 * p + c] * b[2 * p + c];
+            // Started at zero and summed in row order: for 3 rows the bits of
+            // `b0² + b1² + b2²`.
+            let mut s = 0.0;
+            for r in 0..rows {
+                s += b[r * p + c] * b[r * p + c];
+            }
             colsq[i * p + c] = s;
             tr_sum += s;
         }
@@ -899,7 +946,7 @@ mod tests {
         let (mut skipped, mut tried) = (0, 0);
         for i in 14..m.n_candidates {
             let mut mi = base.clone();
-            add_outer(&mut mi, m.block(i), m.p, 1.0);
+            add_outer(&mut mi, m.block(i), 3, m.p, 1.0);
             let lmin = mi.clone().symmetric_eigenvalues().min();
             let current = m.information(&set).symmetric_eigenvalues().min();
             for t in [
@@ -977,7 +1024,7 @@ mod tests {
             // A full-rank start (as after the rank-building phase), then a chain of
             // rank-3 updates without a refresh.
             for i in (0..40).step_by(3) {
-                add_outer(&mut st.m, model.block(i), model.p, 1.0);
+                add_outer(&mut st.m, model.block(i), 3, model.p, 1.0);
                 st.set.push(i);
                 st.in_set[i] = true;
             }
@@ -1029,9 +1076,9 @@ mod tests {
         let m = model.information(&set);
         for crit in [Criterion::E, Criterion::O3, Criterion::O5] {
             let v = dense_value(crit, &m, None, 20).unwrap();
-            assert_eq!(slow_utility(crit, &m, 20, f64::NEG_INFINITY), Some(v));
-            assert_eq!(slow_utility(crit, &m, 20, v * (1.0 - 1e-6)), Some(v));
-            assert_eq!(slow_utility(crit, &m, 20, v * (1.0 + 1e-6)), None);
+            assert_eq!(slow_utility(crit, &m, None, 20, f64::NEG_INFINITY), Some(v));
+            assert_eq!(slow_utility(crit, &m, None, 20, v * (1.0 - 1e-6)), Some(v));
+            assert_eq!(slow_utility(crit, &m, None, 20, v * (1.0 + 1e-6)), None);
         }
     }
 }

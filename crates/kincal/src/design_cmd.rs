@@ -4,7 +4,7 @@ use std::path::PathBuf;
 
 use anyhow::{Context, Result, bail};
 use clap::{ArgGroup, Args};
-use design::{Candidates, Criterion, DesignOptions, design_plan};
+use design::{Candidates, Criterion, DesignOptions, Measure, design_plan};
 use identify::ParamSpec;
 use kinematics::Robot;
 use virtual_robot::World;
@@ -20,6 +20,8 @@ use virtual_robot::World;
   kincal design --robot scenarios/robots/kr1000-titan.json \\
       --scenario scenarios/paper-kr1000.json --random 500 --poses 30 \\
       --params minimal+compliance+gears --criterion i --out plan-extended.csv
+  kincal design --robot scenarios/robots/kr1000-titan.json \\
+      --scenario scenarios/paper-kr1000.json --random 500 --poses 8 --measure frame
   Writes the plan (joints-only measurement file, candidate ids kept) and prints the criterion,
   condition number and O1–O5 beside the median of 100 random sets of the same size.")]
 #[command(group(ArgGroup::new("pool").required(true).args(["candidates", "scenario"])))]
@@ -52,6 +54,12 @@ pub struct DesignArgs {
     /// (docs/extended-model.md), e.g. `minimal+compliance+gears`.
     #[arg(long, default_value = "minimal")]
     params: ParamSpec,
+    /// What each pose measures: `point` (one reflector, 3 equations), `frame` (a 6-DoF
+    /// probe: position and orientation, 6 equations, orientation weighted as identify does
+    /// without σ) or `targets` (every target of the robot file's `targets`, 3 equations
+    /// each) [point: the paper's measurement].
+    #[arg(long, default_value = "point")]
+    measure: String,
     /// Output plan (joints-only measurement file, candidate ids kept) [plan.csv]; `-`
     /// writes it to stdout (the report then goes to stderr).
     #[arg(long, default_value = "plan.csv")]
@@ -79,6 +87,11 @@ pub fn run(args: &DesignArgs) -> Result<()> {
         .criterion
         .parse()
         .map_err(|e: String| anyhow::anyhow!(e))?;
+    let measure: Measure = args
+        .measure
+        .parse()
+        .map_err(|e: String| anyhow::anyhow!(e))
+        .context("--measure")?;
     let pool = match (&args.candidates, &args.scenario, args.random) {
         (Some(path), _, _) => Candidates::from_file(&robot, path)?,
         (None, Some(path), Some(n)) => {
@@ -118,9 +131,14 @@ pub fn run(args: &DesignArgs) -> Result<()> {
         &pool,
         workspace.as_ref(),
         params.as_deref(),
+        measure,
         &opts,
         100,
-    )?;
+    )
+    .map_err(|e| match measure {
+        Measure::Point => anyhow::Error::from(e),
+        _ => anyhow::Error::from(e).context(format!("--measure {measure}")),
+    })?;
     let csv = measurements::to_csv_string(&plan, Some("kincal design plan"))
         .with_context(|| format!("writing {}", crate::out_name(&args.out)))?;
     crate::write_file_out(&args.out, csv.as_bytes())?;

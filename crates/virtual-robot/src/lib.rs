@@ -159,4 +159,4 @@ pub use unmodelled::{
     KR1000_COUNTERBALANCE_FRACTION, KR1000_LINKS, KR1000_STIFFNESS_NM_PER_RAD, LinkMass,
     RepeatabilityConfig, Unmodelled, UnmodelledConfig,
 };
-pub use world::{Setup, TrueParameter, Truth, World};
+pub use world::{Setup, ToolReading, TrueParameter, Truth, World};

@@ -11,6 +11,16 @@
 //! - `isotropic`: `σ = f·U` along every axis.
 //! - Every σ is multiplied by `noise_scale`; `noise: false` switches noise off (no draws).
 //!
+//! - Orientation (a 6-DoF probe on the flange, scenario `measurement.type: "frame"`): the
+//!   measured rotation is `R_meas = R_res · R · exp([n]×)`, `n` three independent normal
+//!   draws (rad, probe axes) of σ = `f·orientation_mpe_deg` per axis (`noise_scale` and
+//!   `noise` apply too). Default `orientation_mpe_deg` = 0.01°: the rotation accuracy Leica
+//!   states for the AT960 with the T-Mac 6-DoF probe (±0.01°), so σ = 0.005° at `f` = ½.
+//!   The draws follow the position draws of the same reading, from the same stream, and are
+//!   made only for frame readings: point readings draw exactly as before.
+//! - Several reflectors on the tool (scenario `measurement.type: "targets"`): each is a
+//!   reading of its own (visibility and three position draws each, in target order).
+//!
 //! Visibility: a target is measurable if its elevation seen from the head,
 //! `atan2(Δz, ‖(Δx, Δy)‖)` in the robot base frame (z up), is within
 //! ±`elevation_limit_deg` and its range within `range_m`. Anything else is
@@ -35,7 +45,7 @@
 //! ```
 
 use kinematics::{BaseSpec, Frame, Robot};
-use nalgebra::Vector3;
+use nalgebra::{Matrix3, Rotation3, Vector3};
 use rand::{Rng, RngExt};
 use rand_distr::StandardNormal;
 use serde::{Deserialize, Serialize};
@@ -88,6 +98,19 @@ pub struct TrackerConfig {
     /// out are zero).
     #[serde(deserialize_with = "BaseSpec::deserialize_omitted_zero")]
     pub base_residual: BaseSpec,
+    /// Orientation error bound of the 6-DoF probe, degrees per axis (used by frame readings
+    /// only). Default 0.01°: Leica AT960 with T-Mac, rotation accuracy ±0.01° (datasheet);
+    /// σ = `sigma_fraction` × this. Left out of serialized configurations at its default,
+    /// so truths written before it keep their bytes.
+    #[serde(skip_serializing_if = "is_default_orientation_mpe")]
+    pub orientation_mpe_deg: f64,
+}
+
+/// The T-Mac's ±0.01° (see [`TrackerConfig::orientation_mpe_deg`]).
+pub const DEFAULT_ORIENTATION_MPE_DEG: f64 = 0.01;
+
+fn is_default_orientation_mpe(v: &f64) -> bool {
+    *v == DEFAULT_ORIENTATION_MPE_DEG
 }
 
 impl Default for TrackerConfig {
@@ -106,6 +129,7 @@ impl Default for TrackerConfig {
             elevation_limit_deg: 45.0,
             range_m: [0.8, 20.0],
             base_residual: BaseSpec::default(),
+            orientation_mpe_deg: DEFAULT_ORIENTATION_MPE_DEG,
         }
     }
 }
@@ -165,6 +189,7 @@ impl TrackerConfig {
                 format!("need 0 ≤ min < max, got [{lo}, {hi}]"),
             ));
         }
+        non_negative("tracker.orientation_mpe_deg", self.orientation_mpe_deg)?;
         if let Some((name, v)) = self.base_residual.first_non_finite() {
             finite(&format!("tracker.base_residual.{name}"), v)?;
         }
@@ -186,6 +211,8 @@ pub struct Tracker {
     tan_limit: f64,
     range_mm: [f64; 2],
     residual: Option<Frame>,
+    /// σ of each orientation axis of a frame reading, rad.
+    rot_sigma_rad: f64,
 }
 
 impl Tracker {
@@ -209,6 +236,9 @@ impl Tracker {
             tan_limit: cfg.elevation_limit_deg.to_radians().tan(),
             range_mm: [cfg.range_m[0] * 1e3, cfg.range_m[1] * 1e3],
             residual: (!cfg.base_residual.is_zero()).then(|| cfg.base_residual.frame()),
+            rot_sigma_rad: (if cfg.noise { cfg.noise_scale } else { 0.0 })
+                * cfg.sigma_fraction
+                * cfg.orientation_mpe_deg.to_radians(),
         })
     }
 
@@ -309,6 +339,40 @@ impl Tracker {
             Some(f) => f.transform_point(&p),
             None => p,
         })
+    }
+}
+
+impl Tracker {
+    /// σ of each orientation axis of a frame reading, degrees (zero with noise off).
+    pub fn orientation_sigma_deg(&self) -> f64 {
+        self.rot_sigma_rad.to_degrees()
+    }
+
+    /// One 6-DoF reading of the probe frame (`p_mm`, `rot`: its position and axes in the
+    /// robot base frame): the position as [`Tracker::observe`], then the orientation
+    /// `R_res · rot · exp([n]×)` (three more draws, none with noise off; module docs).
+    pub fn observe_frame<R: Rng + ?Sized>(
+        &self,
+        p_mm: &Vector3<f64>,
+        rot: &Matrix3<f64>,
+        rng: &mut R,
+    ) -> Result<(Vector3<f64>, Matrix3<f64>), NotMeasurable> {
+        let p = self.observe(p_mm, rng)?;
+        let mut r = *rot;
+        if self.rot_sigma_rad > 0.0 {
+            let n0: f64 = rng.sample(StandardNormal);
+            let n1: f64 = rng.sample(StandardNormal);
+            let n2: f64 = rng.sample(StandardNormal);
+            let n = Vector3::new(n0, n1, n2) * self.rot_sigma_rad;
+            r *= Rotation3::new(n).into_inner();
+        }
+        Ok((
+            p,
+            match &self.residual {
+                Some(f) => f.rot * r,
+                None => r,
+            },
+        ))
     }
 }
 

@@ -3,7 +3,7 @@
 use std::sync::Arc;
 
 use kinematics::{Frame, MAX_JOINTS, ModelError, PoseTrig, Robot, RobotSpec};
-use nalgebra::{Rotation3, Vector3};
+use nalgebra::{Matrix3, Rotation3, Vector3};
 use rand::RngExt;
 use rand::rngs::ChaCha8Rng;
 use rand_distr::StandardNormal;
@@ -119,6 +119,10 @@ fn reached_point_trig(
     crate::sincos::joint_trig(&q[..n], &mut sc);
     robot.point_trig(&sc[..n])
 }
+
+/// A reading of [`World::measure_tool`]: the points (measurement frame, mm) and, for a
+/// frame reading, the orientation (the probe's axes in measurement coordinates).
+pub type ToolReading = (Vec<Vector3<f64>>, Option<Matrix3<f64>>);
 
 /// The points [`reached_point`] gave for the sampled poses (identification, then
 /// validation) on the true robot, kept so that measuring those poses again (without drift)
@@ -431,6 +435,70 @@ impl World {
             p += Vector3::new(e0, e1, e2) * sigma;
         }
         self.tracker.observe(&p, &mut self.tracker_rng)
+    }
+
+    /// Measures several things on the tool at commanded joints `q_cmd_rad` (one move): the
+    /// points at `offsets_mm` from the tool point (flange frame; offset zero is the tool
+    /// point itself), each a tracker reading of its own in order, and with `orientation`
+    /// the probe frame's orientation (the true robot's tool orientation) read with the
+    /// first point ([`Tracker::observe_frame`]). The true robot, drift, compliance and
+    /// gears as [`World::measure`]; the repeatability scatter moves the whole tool (one
+    /// draw of three for the move). The reflectors are rigidly mounted on the true tool:
+    /// they carry the tool point's error.
+    pub fn measure_tool(
+        &mut self,
+        q_cmd_rad: &[f64],
+        offsets_mm: &[Vector3<f64>],
+        orientation: bool,
+    ) -> Result<ToolReading, NotMeasurable> {
+        self.check_joints(q_cmd_rad)?;
+        let k = self.moves;
+        self.moves += 1;
+        let robot = match self.unmodelled.drift_per_move() {
+            Some(rates) => {
+                let kf = k as f64;
+                for ((d, p), r) in self
+                    .drift_params
+                    .iter_mut()
+                    .zip(&self.true_params)
+                    .zip(rates)
+                {
+                    *d = p + kf * r;
+                }
+                let _ = self.drift_robot.set_params(&self.drift_params);
+                &self.drift_robot
+            }
+            None => &self.true_robot,
+        };
+        let n = q_cmd_rad.len();
+        let mut q = [0.0; MAX_JOINTS];
+        self.unmodelled.actual_joints(robot, q_cmd_rad, &mut q[..n]);
+        let flange = robot.flange(&q[..n]);
+        let rot = flange.rot * robot.tool_rotation();
+        let tool = robot.tool_mm();
+        let mut shift = Vector3::zeros();
+        let sigma = self.unmodelled.scatter_sigma_mm();
+        if sigma > 0.0 {
+            let e0: f64 = self.scatter_rng.sample(StandardNormal);
+            let e1: f64 = self.scatter_rng.sample(StandardNormal);
+            let e2: f64 = self.scatter_rng.sample(StandardNormal);
+            shift = Vector3::new(e0, e1, e2) * sigma;
+        }
+        let mut points = Vec::with_capacity(offsets_mm.len());
+        let mut measured_rot = None;
+        for (i, off) in offsets_mm.iter().enumerate() {
+            let p = flange.rot * (tool + off) + flange.pos_mm + shift;
+            if orientation && i == 0 {
+                let (pm, rm) = self
+                    .tracker
+                    .observe_frame(&p, &rot, &mut self.tracker_rng)?;
+                points.push(pm);
+                measured_rot = Some(rm);
+            } else {
+                points.push(self.tracker.observe(&p, &mut self.tracker_rng)?);
+            }
+        }
+        Ok((points, measured_rot))
     }
 
     /// Where the true robot puts the point at commanded joints `q_cmd_rad`, in the
