@@ -398,20 +398,28 @@ fn split_poses(
                 }
                 .into());
             }
-            // The design works on the poses' joints (one joint vector per pose, the point
-            // information matrix of the nominal's minimal set), as for point data.
+            // The design scores each pose by what it measures: a 6-DoF frame's rows when the
+            // data carry orientations, the robot file's targets when the data name several
+            // targets and the robot file gives their points, else the tool point's rows (the
+            // targets' points are then unknown before the fit).
+            let measure = if all.has_orientation() {
+                design::Measure::Frame
+            } else if all.target_names.len() > 1 && robot.targets().is_some_and(|t| !t.is_empty()) {
+                design::Measure::Targets
+            } else {
+                design::Measure::Point
+            };
             let q_deg: Vec<f64> = all.poses_rad.iter().map(|q| q.to_degrees()).collect();
             let chosen =
-                design::select_rows(robot, &q_deg, poses, criterion, None).map_err(|source| {
-                    CalibrateError::Design {
+                design::select_rows_measuring(robot, &q_deg, poses, criterion, None, measure)
+                    .map_err(|source| CalibrateError::Design {
                         context: format!(
                             "choosing {poses} poses of {} by the {} criterion",
                             data.source,
                             criterion.as_str()
                         ),
                         source: Box::new(source),
-                    }
-                })?;
+                    })?;
             let rest: Vec<usize> = (0..m)
                 .filter(|i| chosen.binary_search(i).is_err())
                 .collect();
@@ -421,10 +429,11 @@ fn split_poses(
                 .map(|&j| lines[j].to_string())
                 .collect();
             let text = format!(
-                "{} of {m} poses chosen by the {} criterion on their joints (lines {}, …; {} \
-                 rows)",
+                "{} of {m} poses chosen by the {} criterion on their {} information (lines {}, \
+                 …; {} rows)",
                 chosen.len(),
                 criterion.as_str().to_uppercase(),
+                measure,
                 first.join(", "),
                 rows_of(&chosen)
             );

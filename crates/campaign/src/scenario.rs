@@ -374,7 +374,7 @@ pub struct Scenario {
     /// Measured point (ball) in the flange frame, mm; overrides the model file's `tool_mm`.
     #[serde(default)]
     pub tool_mm: Option<[f64; 3]>,
-    /// Checks of the scenario passed over [none]: `length-units` accepts a robot file whose
+    /// Checks of the scenario passed over \[none\]: `length-units` accepts a robot file whose
     /// reach is outside [`MIN_REACH_MM`] … [`MAX_REACH_MM`].
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub allow: Vec<String>,

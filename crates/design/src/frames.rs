@@ -19,7 +19,7 @@ use nalgebra::DMatrix;
 
 use crate::error::DesignError;
 use crate::measure::Measure;
-use crate::model::{InfoModel, Scale, add_outer, check_poses, pool_full_rank};
+use crate::model::{InfoModel, Scale, add_outer, check_candidates, pool_full_rank};
 
 /// The frame model a `measure` identifies on `robot`: its tool orientation (identity when
 /// the file gives none) and its targets (`frame`: the tool point, unnamed; `targets`: the
@@ -173,23 +173,7 @@ impl InfoModel {
             return InfoModel::new(robot, candidates_rad, workspace_rad, params, scale);
         }
         let n = robot.n_joints();
-        check_poses(robot, candidates_rad, "candidate")?;
-        if let Some(w) = workspace_rad {
-            check_poses(robot, w, "workspace pose")?;
-            if w.is_empty() {
-                return Err(DesignError::InvalidOption {
-                    name: "workspace",
-                    message: "no workspace poses".into(),
-                });
-            }
-        }
-        let k_count = candidates_rad.len() / n;
-        if k_count == 0 {
-            return Err(DesignError::TooFewCandidates {
-                candidates: 0,
-                poses: 1,
-            });
-        }
+        let k_count = check_candidates(robot, candidates_rad, workspace_rad)?;
         let (fm, names) = frame_model(robot, measure)?;
         let candidates: Vec<usize> = match params {
             Some(p) => {

@@ -74,8 +74,21 @@ pub fn select_rows(
     criterion: Criterion,
     params: Option<&[usize]>,
 ) -> Result<Vec<usize>, DesignError> {
+    select_rows_measuring(robot, q_deg, n, criterion, params, Measure::Point)
+}
+
+/// [`select_rows`] for poses that each measure `measure` (a 6-DoF frame, or the robot file's
+/// targets): the information matrix of those rows ([`InfoModel::with_measure`]).
+pub fn select_rows_measuring(
+    robot: &Robot,
+    q_deg: &[f64],
+    n: usize,
+    criterion: Criterion,
+    params: Option<&[usize]>,
+    measure: Measure,
+) -> Result<Vec<usize>, DesignError> {
     let q_rad: Vec<f64> = q_deg.iter().map(|d| d.to_radians()).collect();
-    let model = InfoModel::new(robot, &q_rad, None, params, &Scale::default())?;
+    let model = InfoModel::with_measure(robot, &q_rad, None, params, &Scale::default(), measure)?;
     Ok(select(&model, &DesignOptions::new(criterion, n))?.selected)
 }
 

@@ -251,23 +251,7 @@ impl InfoModel {
         scale: &Scale,
     ) -> Result<InfoModel, DesignError> {
         let n = robot.n_joints();
-        check_poses(robot, candidates_rad, "candidate")?;
-        if let Some(w) = workspace_rad {
-            check_poses(robot, w, "workspace pose")?;
-            if w.is_empty() {
-                return Err(DesignError::InvalidOption {
-                    name: "workspace",
-                    message: "no workspace poses".into(),
-                });
-            }
-        }
-        let k_count = candidates_rad.len() / n;
-        if k_count == 0 {
-            return Err(DesignError::TooFewCandidates {
-                candidates: 0,
-                poses: 1,
-            });
-        }
+        let k_count = check_candidates(robot, candidates_rad, workspace_rad)?;
         let id_opts = IdentifiabilityOptions::default();
         let params: Vec<usize> = match params {
             Some(p) => {
@@ -410,6 +394,33 @@ pub(crate) fn add_outer(m: &mut DMatrix<f64>, b: &[f64], rows: usize, p: usize, 
             *v += a0 * x0 + a1 * x1 + a2 * x2;
         }
     }
+}
+
+/// Checks the candidate and workspace poses (finite, within the limits, whole poses; a
+/// workspace given is not empty) and returns the number of candidates (at least one).
+pub(crate) fn check_candidates(
+    robot: &Robot,
+    candidates_rad: &[f64],
+    workspace_rad: Option<&[f64]>,
+) -> Result<usize, DesignError> {
+    check_poses(robot, candidates_rad, "candidate")?;
+    if let Some(w) = workspace_rad {
+        check_poses(robot, w, "workspace pose")?;
+        if w.is_empty() {
+            return Err(DesignError::InvalidOption {
+                name: "workspace",
+                message: "no workspace poses".into(),
+            });
+        }
+    }
+    let k_count = candidates_rad.len() / robot.n_joints();
+    if k_count == 0 {
+        return Err(DesignError::TooFewCandidates {
+            candidates: 0,
+            poses: 1,
+        });
+    }
+    Ok(k_count)
 }
 
 /// The pool's unit-diagonal information matrix is comfortably non-singular.

@@ -2,19 +2,13 @@
 //! trip, malformed inputs, file-format variants, outliers, unreachable targets and the real
 //! UR10 data.
 
-use crate::common::{kincal, ok, root, s, stderr};
+use crate::common::{kincal, kr1000, ok, root, s, sim, stderr};
 use std::collections::BTreeMap;
-use std::path::{Path, PathBuf};
-use std::sync::OnceLock;
+use std::path::Path;
 
 use kinematics::{Robot, RobotSpec};
 use measurements::{ReadOptions, read_file};
 use nalgebra::Vector3;
-
-fn kr1000() -> &'static Path {
-    static P: OnceLock<PathBuf> = OnceLock::new();
-    P.get_or_init(|| root().join("scenarios/robots/kr1000-titan.json"))
-}
 
 /// The number after `key` in `text` (up to the next space or comma).
 fn number_after(text: &str, key: &str) -> f64 {
@@ -51,22 +45,6 @@ fn compare(a: &BTreeMap<String, Vector3<f64>>, b: &BTreeMap<String, Vector3<f64>
         e.iter().sum::<f64>() / e.len() as f64,
         e.iter().copied().fold(0.0, f64::max),
     )
-}
-
-/// One simulation of the noise-floor scenario, shared by the tests of this binary.
-fn sim() -> &'static Path {
-    static DIR: OnceLock<PathBuf> = OnceLock::new();
-    DIR.get_or_init(|| {
-        let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("calibrate-cli-sim");
-        let _ = std::fs::remove_dir_all(&dir);
-        ok(&kincal(&[
-            "simulate",
-            "scenarios/noise-floor.json",
-            "--out",
-            s(&dir),
-        ]));
-        dir
-    })
 }
 
 #[test]

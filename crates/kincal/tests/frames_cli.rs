@@ -172,8 +172,8 @@ fn euler_columns_and_their_errors() {
     fails_naming(&bad_value, &dir, &["euler.csv:4", "rz", "abc"]);
 }
 
-/// `--select` chooses poses of 6-DoF data (by their joints) and validates on the others;
-/// the identified robot carries the tool frame.
+/// `--select` chooses poses of 6-DoF data by their frame information (6 rows per pose) and
+/// validates on the others; the identified robot carries the tool frame.
 #[test]
 fn select_works_with_six_dof_data() {
     let tmp = tempfile::tempdir().unwrap();
@@ -183,7 +183,7 @@ fn select_works_with_six_dof_data() {
         &["--select", "20", "--criterion", "i"],
     ));
     assert!(
-        out.contains("20 of 1495 poses chosen by the I criterion on their joints"),
+        out.contains("20 of 1495 poses chosen by the I criterion on their frame information"),
         "{out}"
     );
     assert!(out.contains("(the 1475 other poses)"), "{out}");

@@ -5,34 +5,9 @@
 //! outputs, a URDF in millimetres, a robot file in metres (identify and scenario), and a
 //! campaign of another robot than the paper's (its masses, its pose counts, no paper column).
 
-use crate::common::{kincal, ok, root, s};
-use std::path::{Path, PathBuf};
+use crate::common::{kincal, kr1000, ok, root, s, sim, stderr};
+use std::path::Path;
 use std::process::Output;
-use std::sync::OnceLock;
-
-fn stderr(out: &Output) -> String {
-    String::from_utf8_lossy(&out.stderr).into_owned()
-}
-
-fn kr1000() -> PathBuf {
-    root().join("scenarios/robots/kr1000-titan.json")
-}
-
-/// One simulation of the noise-floor scenario (KR1000, 50 + 50 poses in the base frame).
-fn sim() -> &'static Path {
-    static DIR: OnceLock<PathBuf> = OnceLock::new();
-    DIR.get_or_init(|| {
-        let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("trust-cli-sim");
-        let _ = std::fs::remove_dir_all(&dir);
-        ok(&kincal(&[
-            "simulate",
-            "scenarios/noise-floor.json",
-            "--out",
-            s(&dir),
-        ]));
-        dir
-    })
-}
 
 /// `file` with every data row passed through `f` (fields split at commas; the comment lines
 /// and the header kept).
@@ -61,7 +36,7 @@ fn identify(data: &Path, extra: &[&str], dir: &Path) -> Output {
     let mut args = vec![
         "identify",
         "--robot",
-        s(&robot),
+        s(robot),
         "--data",
         s(data),
         "--validate",

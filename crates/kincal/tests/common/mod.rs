@@ -60,3 +60,28 @@ pub fn ok(out: &Output) -> String {
     );
     stdout
 }
+
+/// The KR1000 Titan's robot file.
+#[allow(dead_code)] // not every test binary uses it
+pub fn kr1000() -> &'static Path {
+    static P: std::sync::OnceLock<PathBuf> = std::sync::OnceLock::new();
+    P.get_or_init(|| root().join("scenarios/robots/kr1000-titan.json"))
+}
+
+/// One simulation of the noise-floor scenario (KR1000, 50 + 50 poses in the base frame),
+/// made once and shared, read only, by the tests of this binary.
+#[allow(dead_code)] // not every test binary uses it
+pub fn sim() -> &'static Path {
+    static DIR: std::sync::OnceLock<PathBuf> = std::sync::OnceLock::new();
+    DIR.get_or_init(|| {
+        let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("kincal-cli-sim");
+        let _ = std::fs::remove_dir_all(&dir);
+        ok(&kincal(&[
+            "simulate",
+            "scenarios/noise-floor.json",
+            "--out",
+            s(&dir),
+        ]));
+        dir
+    })
+}
