@@ -400,28 +400,16 @@ impl World {
     /// allocation.
     pub fn measure(&mut self, q_cmd_rad: &[f64]) -> Result<Vector3<f64>, NotMeasurable> {
         self.check_joints(q_cmd_rad)?;
-        let k = self.moves;
-        self.moves += 1;
-        let cached = match self.unmodelled.drift_per_move() {
-            Some(_) => None,
-            None => self.cached_point(q_cmd_rad),
+        let drifting = self.next_move();
+        let cached = if drifting {
+            None
+        } else {
+            self.cached_point(q_cmd_rad)
         };
-        let robot = match self.unmodelled.drift_per_move() {
-            Some(rates) => {
-                let kf = k as f64;
-                for ((d, p), r) in self
-                    .drift_params
-                    .iter_mut()
-                    .zip(&self.true_params)
-                    .zip(rates)
-                {
-                    *d = p + kf * r;
-                }
-                // The parameter vector has the layout's length by construction.
-                let _ = self.drift_robot.set_params(&self.drift_params);
-                &self.drift_robot
-            }
-            None => &self.true_robot,
+        let robot = if drifting {
+            &self.drift_robot
+        } else {
+            &self.true_robot
         };
         let mut p = match cached {
             Some(p) => p,
@@ -435,6 +423,29 @@ impl World {
             p += Vector3::new(e0, e1, e2) * sigma;
         }
         self.tracker.observe(&p, &mut self.tracker_rng)
+    }
+
+    /// Counts one move and, when the robot drifts, sets the drifting robot's parameters to
+    /// those of this move (`p + k·rate`, k the moves before it); returns whether it drifts
+    /// (then the move is made by `drift_robot`, else by `true_robot`).
+    fn next_move(&mut self) -> bool {
+        let k = self.moves;
+        self.moves += 1;
+        let Some(rates) = self.unmodelled.drift_per_move() else {
+            return false;
+        };
+        let kf = k as f64;
+        for ((d, p), r) in self
+            .drift_params
+            .iter_mut()
+            .zip(&self.true_params)
+            .zip(rates)
+        {
+            *d = p + kf * r;
+        }
+        // The parameter vector has the layout's length by construction.
+        let _ = self.drift_robot.set_params(&self.drift_params);
+        true
     }
 
     /// Measures several things on the tool at commanded joints `q_cmd_rad` (one move): the
@@ -452,23 +463,10 @@ impl World {
         orientation: bool,
     ) -> Result<ToolReading, NotMeasurable> {
         self.check_joints(q_cmd_rad)?;
-        let k = self.moves;
-        self.moves += 1;
-        let robot = match self.unmodelled.drift_per_move() {
-            Some(rates) => {
-                let kf = k as f64;
-                for ((d, p), r) in self
-                    .drift_params
-                    .iter_mut()
-                    .zip(&self.true_params)
-                    .zip(rates)
-                {
-                    *d = p + kf * r;
-                }
-                let _ = self.drift_robot.set_params(&self.drift_params);
-                &self.drift_robot
-            }
-            None => &self.true_robot,
+        let robot = if self.next_move() {
+            &self.drift_robot
+        } else {
+            &self.true_robot
         };
         let n = q_cmd_rad.len();
         let mut q = [0.0; MAX_JOINTS];
