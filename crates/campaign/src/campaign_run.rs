@@ -49,7 +49,7 @@ impl Checkpointing {
     pub(crate) fn config(self, path: PathBuf) -> CheckpointConfig {
         let mut cfg = CheckpointConfig::new(path, self.resume, code_version());
         if let Some(k) = self.every_trials {
-            cfg.every_trials = k.max(1);
+            cfg.every_trials = Some(k.max(1));
         }
         cfg
     }

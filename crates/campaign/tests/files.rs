@@ -204,3 +204,54 @@ fn a_missing_robot_file_is_named_as_relative_to_the_scenario() {
     );
     assert!(e.contains("robots/kr1000-titan.json"), "{e}");
 }
+
+/// The default checkpoint cadence is by time: a run shorter than `every` writes no
+/// checkpoint between its chunks (it wrote one after every chunk of 64 trials per thread,
+/// a third of a campaign's time), and `every_trials = k` writes one every k trials. The
+/// aggregate does not depend on the chunking.
+#[test]
+fn checkpoints_follow_their_cadence_and_leave_the_aggregate_alone() {
+    use campaign::{CheckpointConfig, Context, checkpoint::run_chunks};
+    let file = scenarios().join("paper-kr1000.json");
+    let mut loaded = Scenario::from_file(&file).unwrap();
+    loaded.scenario.iso.enabled = false;
+    loaded.scenario.residual_budget.enabled = false;
+    let ctx = Context::new(loaded).unwrap();
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(2)
+        .build()
+        .unwrap();
+    let whole = pool.install(|| campaign::run_range(&ctx, 0..40, &|_| {}));
+    let saves = |cfg: &CheckpointConfig| {
+        let mut at = Vec::new();
+        let agg = pool.install(|| {
+            run_chunks(
+                &ctx,
+                0,
+                40,
+                campaign::Aggregate::default(),
+                cfg,
+                &|_| {},
+                &mut |n, _| {
+                    at.push(n);
+                    Ok(())
+                },
+            )
+            .unwrap()
+        });
+        assert_eq!(agg, whole, "{cfg:?}");
+        at
+    };
+    let tmp = tempfile::tempdir().unwrap();
+    let mut cfg = pool.install(|| {
+        CheckpointConfig::new(tmp.path().join("checkpoint.json"), false, "test".into())
+    });
+    assert_eq!((cfg.chunk_trials, cfg.every_trials), (128, None));
+    cfg.chunk_trials = 8;
+    assert_eq!(saves(&cfg), Vec::<u64>::new());
+    cfg.every_trials = Some(16);
+    assert_eq!(saves(&cfg), vec![16, 32]);
+    cfg.every_trials = None;
+    cfg.every = std::time::Duration::ZERO;
+    assert_eq!(saves(&cfg), vec![8, 16, 24, 32]);
+}
