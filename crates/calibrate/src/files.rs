@@ -83,17 +83,7 @@ impl LoadedRobot {
         (deg_per_unit, mm_per_unit): (f64, f64),
         euler: Option<measurements::EulerConvention>,
     ) -> Result<MeasurementSet> {
-        let limits: Vec<[f64; 2]> = self
-            .limits_deg()
-            .iter()
-            .map(|l| {
-                if deg_per_unit == 1.0 {
-                    *l
-                } else {
-                    [l[0] / deg_per_unit, l[1] / deg_per_unit]
-                }
-            })
-            .collect();
+        let limits = self.limits_in(deg_per_unit);
         let mut opts = ReadOptions::new(self.robot.n_joints())
             .with_limits_deg(limits)
             .with_min_rows(min_rows);
@@ -119,20 +109,47 @@ impl LoadedRobot {
                 _ => err,
             }
         })?;
-        if deg_per_unit != 1.0 || mm_per_unit != 1.0 {
-            for r in &mut set.rows {
-                r.q_deg.iter_mut().for_each(|q| *q *= deg_per_unit);
-                if let Some(p) = &mut r.point_mm {
-                    p.iter_mut().for_each(|v| *v *= mm_per_unit);
-                }
-                if let Some(s) = &mut r.sigma_mm {
-                    s.iter_mut().for_each(|v| *v *= mm_per_unit);
-                }
-            }
-        } else if let Some(note) = radians_notice(&set, &self.limits_deg()) {
-            set.notices.push(note);
-        }
+        to_degrees_and_mm(&mut set, (deg_per_unit, mm_per_unit), &self.limits_deg());
         Ok(set)
+    }
+
+    /// The joint limits in units of `deg_per_unit` degrees (the limits a file in those units
+    /// is checked against).
+    pub(crate) fn limits_in(&self, deg_per_unit: f64) -> Vec<[f64; 2]> {
+        self.limits_deg()
+            .iter()
+            .map(|l| {
+                if deg_per_unit == 1.0 {
+                    *l
+                } else {
+                    [l[0] / deg_per_unit, l[1] / deg_per_unit]
+                }
+            })
+            .collect()
+    }
+}
+
+/// Converts the rows of `set`, checked in units of `deg_per_unit` degrees and `mm_per_unit`
+/// millimetres, to degrees and millimetres (points and their σ). Rows already in degrees
+/// and millimetres get the radians notice instead ([`radians_notice`] against
+/// `limits_deg`): declared units are not second-guessed.
+pub(crate) fn to_degrees_and_mm(
+    set: &mut MeasurementSet,
+    (deg_per_unit, mm_per_unit): (f64, f64),
+    limits_deg: &[[f64; 2]],
+) {
+    if deg_per_unit != 1.0 || mm_per_unit != 1.0 {
+        for r in &mut set.rows {
+            r.q_deg.iter_mut().for_each(|q| *q *= deg_per_unit);
+            if let Some(p) = &mut r.point_mm {
+                p.iter_mut().for_each(|v| *v *= mm_per_unit);
+            }
+            if let Some(s) = &mut r.sigma_mm {
+                s.iter_mut().for_each(|v| *v *= mm_per_unit);
+            }
+        }
+    } else if let Some(note) = radians_notice(set, limits_deg) {
+        set.notices.push(note);
     }
 }
 

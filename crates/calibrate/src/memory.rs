@@ -14,7 +14,8 @@ use kinematics::{Robot, RobotSpec};
 use measurements::{MeasurementError, MeasurementSet};
 
 use crate::error::{CalibrateError, Result};
-use crate::files::{LoadedRobot, radians_notice};
+use crate::files::{LoadedRobot, to_degrees_and_mm};
+use crate::{Check, IdentifyRequest, Inputs, Refusal};
 
 impl LoadedRobot {
     /// A robot not read from a file: `spec` validated into a model; `label` stands where a
@@ -49,12 +50,29 @@ impl LoadedRobot {
     /// [`CalibrateError::Read`] naming the set, the row and the column.
     pub fn check_set(
         &self,
-        mut set: MeasurementSet,
+        set: MeasurementSet,
         require_points: bool,
         what: &str,
     ) -> Result<MeasurementSet> {
+        self.check_set_in(set, require_points, what, (1.0, 1.0))
+    }
+
+    /// [`LoadedRobot::check_set`] of rows whose joints are in units of `deg_per_unit`
+    /// degrees and points in units of `mm_per_unit` millimetres, as
+    /// [`LoadedRobot::read_set_in`] reads a file in those units: the joint limits are checked
+    /// in the rows' units, and the rows are returned in degrees and millimetres.
+    ///
+    /// # Errors
+    /// As [`LoadedRobot::check_set`].
+    pub fn check_set_in(
+        &self,
+        mut set: MeasurementSet,
+        require_points: bool,
+        what: &str,
+        (deg_per_unit, mm_per_unit): (f64, f64),
+    ) -> Result<MeasurementSet> {
         let n = self.robot.n_joints();
-        let limits = self.limits_deg();
+        let limits = self.limits_in(deg_per_unit);
         let source = set.source.clone();
         let err = |source_err: MeasurementError| CalibrateError::Read {
             context: format!(
@@ -130,10 +148,70 @@ impl LoadedRobot {
                 }
             }
         }
-        if let Some(note) = radians_notice(&set, &limits) {
-            set.notices.push(note);
-        }
+        to_degrees_and_mm(&mut set, (deg_per_unit, mm_per_unit), &self.limits_deg());
         Ok(set)
+    }
+}
+
+impl Inputs {
+    /// The inputs of `request` from sets built in memory, as [`Inputs::load`] reads them from
+    /// the request's files: each set is checked by [`LoadedRobot::check_set_in`] in the
+    /// request's `joint_units` and `length_units` and converted to degrees and millimetres.
+    /// Rows declared radians that are degrees are refused with the evidence of the
+    /// `joint-units` check (unless the request allows it), as a file is. `request.data` and
+    /// `request.validate` only name the sets; the row count is checked by [`crate::calibrate`].
+    ///
+    /// # Errors
+    /// As [`LoadedRobot::check_set`]; [`Refusal::NoDataRows`] for an empty validation set;
+    /// the `joint-units` refusal.
+    pub fn from_sets(
+        request: &IdentifyRequest,
+        nominal: LoadedRobot,
+        data: MeasurementSet,
+        validate: Option<MeasurementSet>,
+    ) -> Result<Inputs> {
+        let units = (
+            request.joint_units.deg_per_unit(),
+            request.length_units.mm_per_unit(),
+        );
+        let checked = |set: MeasurementSet, what: &str| {
+            let as_degrees = (request.joint_units == crate::JointUnits::Rad
+                && !request.allows(Check::JointUnits))
+            .then(|| set.clone());
+            nominal
+                .check_set_in(set, true, what, units)
+                .map_err(|err| match as_degrees {
+                    // Read as degrees, the rows pass the limits: the declared radians are
+                    // degrees if some |q| is beyond a turn.
+                    Some(deg) => match nominal.check_set_in(deg, true, what, (1.0, units.1)) {
+                        Ok(deg) => match crate::checks::declared_radians(&deg.source, &deg.rows) {
+                            Err(refusal) => refusal.into(),
+                            Ok(()) => err,
+                        },
+                        Err(_) => err,
+                    },
+                    None => err,
+                })
+        };
+        let data = checked(data, "identification data")?;
+        let validate = validate
+            .map(|v| -> Result<MeasurementSet> {
+                let v = checked(v, "validation data")?;
+                if v.rows.is_empty() {
+                    return Err(Refusal::NoDataRows {
+                        what: "validation",
+                        file: v.source,
+                    }
+                    .into());
+                }
+                Ok(v)
+            })
+            .transpose()?;
+        Ok(Inputs {
+            nominal,
+            data,
+            validate,
+        })
     }
 }
 
@@ -228,6 +306,54 @@ mod tests {
             .collect();
         let checked = mem.check_set(set(rows), true, "data").unwrap();
         assert_eq!(checked.notices.len(), 1, "{:?}", checked.notices);
+    }
+
+    /// Declared units are converted as a file's are; degrees declared radians are refused
+    /// with the joint-units check's evidence, or pass (and fail on a limit) when allowed.
+    #[test]
+    fn inputs_from_sets_take_the_requests_units() {
+        let r = ur10();
+        let q_deg = [
+            [10.0, -80.0, 70.0, -30.0, 60.0, 20.0],
+            [-45.0, -100.0, 30.0, 10.0, -60.0, 5.0],
+        ];
+        let rows = |scale: f64, mm: f64| {
+            let rows = q_deg
+                .iter()
+                .map(|q| {
+                    let q: Vec<f64> = q.iter().map(|v| v * scale).collect();
+                    Measurement::new(q, Some([100.0 * mm, 200.0 * mm, 300.0 * mm]))
+                })
+                .collect();
+            set(rows)
+        };
+        let mut request = IdentifyRequest::new("robot.json", "arrays");
+        request.joint_units = crate::JointUnits::Rad;
+        request.length_units = crate::LengthUnits::M;
+        let to_rad = 1.0 / request.joint_units.deg_per_unit();
+        let inputs = Inputs::from_sets(
+            &request,
+            r.clone(),
+            rows(to_rad, 1e-3),
+            Some(rows(to_rad, 1e-3)),
+        )
+        .unwrap();
+        for (got, want) in inputs.data.rows.iter().zip(&q_deg) {
+            for (g, w) in got.q_deg.iter().zip(want) {
+                assert!((g - w).abs() < 1e-12, "{g} vs {w}");
+            }
+            let p = got.point_mm.unwrap();
+            assert!((p[2] - 300.0).abs() < 1e-12, "{p:?}");
+        }
+        assert_eq!(inputs.validate.unwrap().rows.len(), 2);
+        let e = Inputs::from_sets(&request, r.clone(), rows(1.0, 1e-3), None).unwrap_err();
+        assert!(e.to_string().contains("declared radians"), "{e}");
+        request.allow = vec![Check::JointUnits];
+        let e = Inputs::from_sets(&request, r.clone(), rows(1.0, 1e-3), None).unwrap_err();
+        let text = format!("{e}: {}", std::error::Error::source(&e).unwrap());
+        assert!(text.contains("outside"), "{text}");
+        let e = Inputs::from_sets(&request, r, rows(to_rad, 1e-3), Some(set(vec![]))).unwrap_err();
+        assert!(e.to_string().contains("no data rows"), "{e}");
     }
 
     #[test]

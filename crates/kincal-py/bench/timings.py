@@ -1,6 +1,6 @@
 """Timings of the Python package against the Rust library and the CLI (docs/python.md).
 
-    python crates/kincal-py/bench/timings.py [--repeat 30] [--trials 200] [--threads 2]
+    python crates/kincal-py/bench/timings.py [--repeat 30] [--trials 4000] [--rounds 4] [--threads 2]
 
 Run with a release build of the package (`pip install ./crates/kincal-py`) and of the CLI
 (`cargo build --release -p kincal`, found as $KINCAL_BIN or target/release/kincal).
@@ -12,7 +12,7 @@ Run with a release build of the package (`pip install ./crates/kincal-py`) and o
    (array conversion, the rows' checks, building the result).
 2. A campaign (scenarios/paper-kr1000.json, ISO test and residual budget off): trials/s of
    `kincal.campaign` against `kincal campaign` (its timing.json, and its process wall
-   time), on the same thread count.
+   time), on the same thread count, in alternating order.
 """
 
 import argparse
@@ -54,7 +54,8 @@ def cli():
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--repeat", type=int, default=30)
-    ap.add_argument("--trials", type=int, default=200)
+    ap.add_argument("--trials", type=int, default=4000)
+    ap.add_argument("--rounds", type=int, default=4)
     ap.add_argument("--threads", type=int, default=2)
     args = ap.parse_args()
     print(f"machine: {platform.machine()}, {os.cpu_count()} cores, load average "
@@ -76,24 +77,33 @@ def main():
           f"library call {l:.2f} ms, overhead {w - l:.2f} ms ({100 * (w - l) / l:.1f} %)")
 
     exe = cli()
-    with tempfile.TemporaryDirectory() as tmp:
-        t = time.perf_counter()
-        subprocess.run([exe, "campaign", str(SCENARIO), "--trials", str(args.trials),
-                        "--threads", str(args.threads), "--no-iso", "--no-budget", "--quiet",
-                        "--out", f"{tmp}/c"], check=True, capture_output=True)
-        cli_wall = time.perf_counter() - t
-        cli_lib = json.loads(Path(f"{tmp}/c/timing.json").read_text())
-        cli_summary = json.loads(Path(f"{tmp}/c/summary.json").read_text())
-    t = time.perf_counter()
-    summary = kincal.campaign(SCENARIO, trials=args.trials, threads=args.threads, iso=False,
-                              budget=False)
-    py_wall = time.perf_counter() - t
-    assert summary == cli_summary, "the summaries differ"
+    py_rate, cli_rate, cli_lib_rate = [], [], []
+    for round_ in range(args.rounds):
+        # Alternate the order, so that neither side always runs on a cold cache.
+        for side in (("cli", "py") if round_ % 2 == 0 else ("py", "cli")):
+            if side == "cli":
+                with tempfile.TemporaryDirectory() as tmp:
+                    t = time.perf_counter()
+                    subprocess.run([exe, "campaign", str(SCENARIO), "--trials", str(args.trials),
+                                    "--threads", str(args.threads), "--no-iso", "--no-budget",
+                                    "--quiet", "--out", f"{tmp}/c"], check=True, capture_output=True)
+                    cli_wall = time.perf_counter() - t
+                    cli_lib = json.loads(Path(f"{tmp}/c/timing.json").read_text())
+                    cli_summary = json.loads(Path(f"{tmp}/c/summary.json").read_text())
+                cli_rate.append(args.trials / cli_wall)
+                cli_lib_rate.append(cli_lib["trials_per_second"])
+            else:
+                t = time.perf_counter()
+                summary = kincal.campaign(SCENARIO, trials=args.trials, threads=args.threads,
+                                          iso=False, budget=False)
+                py_rate.append(args.trials / (time.perf_counter() - t))
+        assert summary == cli_summary, "the summaries differ"
+    fmt = lambda xs: " / ".join(f"{x:.0f}" for x in xs)
     print(f"campaign (paper-kr1000, {args.trials} trials, {args.threads} threads, no ISO, no "
-          f"budget; the same summary): Python {args.trials / py_wall:.1f} trials/s "
-          f"({py_wall:.2f} s); CLI {args.trials / cli_wall:.1f} trials/s ({cli_wall:.2f} s "
-          f"process wall time; timing.json: {json.dumps(cli_lib)})")
-
+          f"budget; the same summary), trials/s in {args.rounds} rounds: Python {fmt(py_rate)} "
+          f"(median {statistics.median(py_rate):.0f}); CLI process {fmt(cli_rate)} (median "
+          f"{statistics.median(cli_rate):.0f}); CLI timing.json {fmt(cli_lib_rate)} (median "
+          f"{statistics.median(cli_lib_rate):.0f})")
 
 if __name__ == "__main__":
     main()

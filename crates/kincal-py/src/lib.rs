@@ -580,12 +580,17 @@ fn params_arg(params: &Bound<'_, PyAny>) -> PyResult<identify::ParamSpec> {
 }
 
 /// Identifies the robot's parameters from measured points `(n, 3)` (mm) at joints `(n, N)`
-/// (degrees), as `kincal identify` does on a file with the same rows.
+/// (degrees), as `kincal identify` does on a file with the same rows. `joint_units` ("deg",
+/// "rad") and `length_units` ("mm", "m", "in") declare other units. The plausibility checks
+/// (radians, metres, a mirrored frame, outliers, far parameters, worse validation) refuse
+/// with KincalError; `allow` (a check's name or a list of names) overrides them, as
+/// `--allow` does.
 #[pyfunction(name = "identify")]
 #[pyo3(signature = (
     robot, q_deg, points_mm, *, params = None, validate = None, reject_outliers = false,
     every = None, offset = 0, select = None, criterion = "d", schedule = "levenberg",
-    redundant = "hold", registration = "auto", outlier_k = 3.0, worst = 10
+    redundant = "hold", registration = "auto", outlier_k = 3.0, worst = 10,
+    joint_units = "deg", length_units = "mm", allow = None
 ))]
 #[allow(clippy::too_many_arguments)]
 fn py_identify<'py>(
@@ -608,6 +613,9 @@ fn py_identify<'py>(
     registration: &str,
     outlier_k: f64,
     worst: usize,
+    joint_units: &str,
+    length_units: &str,
+    allow: Option<Bound<'py, PyAny>>,
 ) -> PyResult<PyCalibration> {
     let nominal = robot.loaded.clone();
     let n = nominal.robot.n_joints();
@@ -661,6 +669,32 @@ fn py_identify<'py>(
         Some(p) => params_arg(p)?,
         None => identify::ParamSpec::default(),
     };
+    let joint_units = [calibrate::JointUnits::Deg, calibrate::JointUnits::Rad]
+        .into_iter()
+        .find(|u| u.name() == joint_units)
+        .ok_or_else(|| refuse("joint_units", joint_units, "deg, rad"))?;
+    let length_units = [
+        calibrate::LengthUnits::Mm,
+        calibrate::LengthUnits::M,
+        calibrate::LengthUnits::In,
+    ]
+    .into_iter()
+    .find(|u| u.name() == length_units)
+    .ok_or_else(|| refuse("length_units", length_units, "mm, m, in"))?;
+    let allow = match &allow {
+        None => Vec::new(),
+        Some(a) => a
+            .extract::<String>()
+            .map(|s| vec![s])
+            .or_else(|_| a.extract::<Vec<String>>())
+            .map_err(|_| KincalError::new_err("allow: expected a check's name or a list of names"))?
+            .iter()
+            .map(|name| {
+                name.parse::<calibrate::Check>()
+                    .map_err(|e| KincalError::new_err(format!("allow: {e}")))
+            })
+            .collect::<PyResult<Vec<_>>>()?,
+    };
     let request = calibrate::IdentifyRequest {
         validate: validate.as_ref().map(|v| PathBuf::from(&v.source)),
         split,
@@ -671,21 +705,15 @@ fn py_identify<'py>(
         reject_outliers,
         outlier_k,
         worst,
+        joint_units,
+        length_units,
+        allow,
         ..calibrate::IdentifyRequest::new(&nominal.path, &data.source)
     };
     py.detach(|| {
         let err = |e: calibrate::CalibrateError| kincal_error(&e);
-        let data = nominal
-            .check_set(data, true, "identification data")
-            .map_err(err)?;
-        let validate = validate
-            .map(|v| nominal.check_set(v, true, "validation data").map_err(err))
-            .transpose()?;
-        let inputs = calibrate::Inputs {
-            nominal,
-            data,
-            validate,
-        };
+        let inputs =
+            calibrate::Inputs::from_sets(&request, nominal, data, validate).map_err(err)?;
         let started = std::time::Instant::now();
         let cal = calibrate::calibrate(&request, inputs).map_err(err)?;
         let library_ms = started.elapsed().as_secs_f64() * 1e3;

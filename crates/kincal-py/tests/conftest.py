@@ -28,9 +28,14 @@ def _binary(env_var, name):
     return ["cargo", "run", "--quiet", "--package", name, "--"]
 
 
+def cli_command(binary="kincal"):
+    """The command that runs the kincal CLI (or `xtask`), as a list."""
+    return _binary("KINCAL_BIN" if binary == "kincal" else "KINCAL_XTASK_BIN", binary)
+
+
 def run_cli(*args, binary="kincal"):
     """Runs the kincal CLI (or `xtask`) from the repository root; returns its stdout."""
-    cmd = _binary("KINCAL_BIN" if binary == "kincal" else "KINCAL_XTASK_BIN", binary)
+    cmd = cli_command(binary)
     out = subprocess.run(
         cmd + [str(a) for a in args], cwd=REPO, capture_output=True, text=True
     )

@@ -3,12 +3,13 @@ same data: identical numbers, errors as exceptions, determinism."""
 
 import json
 import re
+import subprocess
 
 import numpy as np
 import pytest
 
 import kincal
-from conftest import REPO, ROBOTS, UR10_DATA, read_csv, run_cli
+from conftest import REPO, ROBOTS, UR10_DATA, cli_command, read_csv, run_cli
 
 SCENARIO = REPO / "scenarios" / "paper-kr1000.json"
 
@@ -249,6 +250,65 @@ def test_errors_are_kincal_errors_with_the_librarys_message():
     assert "no-such.json" in message(e)
     with pytest.raises(ValueError):  # KincalError is a ValueError
         kincal.simulate(REPO / "no-such.json")
+
+
+def test_units_and_plausibility_checks_as_the_cli(readme_example, tmp_path):
+    """Radians, metres and a mirrored frame are refused as the CLI refuses them, naming the
+    override; declared units give the CLI's numbers to the bit."""
+    _, out, cal = readme_example
+    robot = kincal.Robot.load(ROBOTS / "ur10.json")
+    q, p = ur10_data()
+    # The radians file the CLI reads holds shortest round-trip numbers: the same bits.
+    q_rad = np.radians(q)
+    data = tmp_path / "radians.csv"
+    data.write_text("q1,q2,q3,q4,q5,q6,x,y,z\n" + "".join(
+        ",".join(repr(float(v)) for v in (*qr, *pr)) + "\n" for qr, pr in zip(q_rad, p)))
+    cli_out = tmp_path / "rad"
+    run_cli("identify", "--robot", ROBOTS / "ur10.json", "--data", data, "--every", 15,
+            "--joint-units", "rad", "--out", cli_out)
+    table = json.loads((cli_out / "parameters.json").read_text())
+    declared = kincal.identify(robot, q_rad, p, every=15, joint_units="rad")
+    keys = ["name", "unit", "free", "nominal", "start", "identified", "std_error", "identifiable"]
+    assert [{k: r[k] for k in keys} for r in table["parameters"]] == declared.parameters
+    assert f"{declared.validation['after_mean_mm']:.3f}" == "0.452"
+    # Undeclared radians: the CLI's refusal and the API's give the same evidence.
+    refused = subprocess.run(
+        cli_command() + ["identify", "--robot", str(ROBOTS / "ur10.json"), "--data", str(data),
+                         "--every", "15", "--out", str(tmp_path / "no")],
+        cwd=REPO, capture_output=True, text=True)
+    assert refused.returncode != 0 and not (tmp_path / "no").exists()
+    evidence = re.search(r"every joint value is within ±2π \(largest \|q\| = [0-9.]+\)",
+                         refused.stderr).group(0)
+    with pytest.raises(kincal.KincalError) as e:
+        kincal.identify(robot, q_rad, p, every=15)
+    assert evidence in message(e) and "allow joint-units" in message(e)
+    # Degrees declared radians.
+    with pytest.raises(kincal.KincalError) as e:
+        kincal.identify(robot, q, p, every=15, joint_units="rad")
+    assert "declared radians" in message(e) and "beyond one turn" in message(e)
+    # Metres: refused, or declared and equal to millimetres.
+    with pytest.raises(kincal.KincalError) as e:
+        kincal.identify(robot, q, p / 1000, every=15)
+    assert "look like metres" in message(e) and "allow length-units" in message(e)
+    metres = kincal.identify(robot, q, p / 1000, every=15, length_units="m")
+    assert metres.validation["after_mean_mm"] == pytest.approx(
+        cal.validation["after_mean_mm"], rel=1e-9)
+    # A mirrored frame: refused naming `allow mirror`; allowed, the fit is refused anyway
+    # (no rotation maps a reflection: the parameters go far from the nominal).
+    mirrored = p[:, [1, 0, 2]]
+    with pytest.raises(kincal.KincalError) as e:
+        kincal.identify(robot, q, mirrored, every=15)
+    assert "left-handed" in message(e) and "allow mirror" in message(e)
+    with pytest.raises(kincal.KincalError) as e:
+        kincal.identify(robot, q, mirrored, every=15, allow=["mirror"])
+    assert "far beyond manufacturing errors" in message(e)
+    for kw, text in [({"allow": "nope"}, "unknown check `nope`"),
+                     ({"allow": 3}, "allow: expected"),
+                     ({"joint_units": "grad"}, 'joint_units: unknown value "grad"'),
+                     ({"length_units": "cm"}, 'length_units: unknown value "cm"')]:
+        with pytest.raises(kincal.KincalError) as e:
+            kincal.identify(robot, q, p, every=15, **kw)
+        assert text in message(e), kw
 
 
 def test_identify_releases_the_gil_and_is_deterministic_across_threads():

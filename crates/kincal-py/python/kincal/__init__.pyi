@@ -9,7 +9,7 @@ mypy's stubtest checks it against the compiled module.
 
 from collections.abc import Callable, Mapping, Sequence
 from os import PathLike
-from typing import Any, TypedDict, Union, final
+from typing import Any, Literal, TypedDict, Union, final
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -253,6 +253,9 @@ def identify(
     registration: str = "auto",
     outlier_k: float = 3.0,
     worst: int = 10,
+    joint_units: Literal["deg", "rad"] = "deg",
+    length_units: Literal["mm", "m", "in"] = "mm",
+    allow: str | Sequence[str] | None = None,
 ) -> Calibration:
     """Identifies the robot's parameters from measured points ``(n, 3)`` (mm) at joints
     ``(n, N)`` (degrees), as ``kincal identify`` does on a file with the same rows; the
@@ -262,9 +265,19 @@ def identify(
     (levenberg, marquardt, nielsen), ``redundant`` (hold, damp), ``registration`` (auto,
     always, never), ``reject_outliers``, ``outlier_k``, ``worst``.
 
+    ``joint_units`` and ``length_units`` declare the arrays' units (``--joint-units``,
+    ``--length-units``: converted to degrees and millimetres, the joint limits checked in
+    the arrays' units).
+
     The rows get the checks of a file: joint count, joint limits of the robot file, finite
-    values (errors name ``identification arrays:ROW``, rows counted from 1). Raises
-    KincalError with the library's message. The GIL is released during the work.
+    values (errors name ``identification arrays:ROW``, rows counted from 1). Then the
+    plausibility checks of ``kincal identify``: joints that look like radians, points that
+    look like metres or inches, a mirrored measurement frame, outliers, identified
+    parameters far from the nominal, validation worse than before. Each refuses with
+    KincalError, saying why and naming its override: ``allow="mirror"`` (or a list of
+    check names: ``joint-units``, ``length-units``, ``mirror``, ``outliers``,
+    ``parameters``, ``validation``) is ``--allow``. Raises KincalError with the library's
+    message. The GIL is released during the work.
     """
 
 def compensate(calibration: Calibration, q_deg: ArrayLike) -> NDArray[np.float64]:
