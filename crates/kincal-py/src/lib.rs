@@ -90,11 +90,13 @@ impl PyRobot {
 
     /// Converts the serial chain from link `base` to link `tip` of a plain URDF (xacro
     /// expanded first) into a robot, exactly (`docs/urdf.md`); `base`'s frame becomes the
-    /// measurement frame and the measured point is `tool_mm` in `tip`'s frame.
+    /// measurement frame and the measured point is `tool_mm` in `tip`'s frame. A robot whose
+    /// reach is not a robot arm's (a URDF in millimetres) is refused unless `allow` names
+    /// `"length-units"`, as `kincal urdf import --allow length-units`.
     #[staticmethod]
     #[pyo3(
-        signature = (path, base, tip, *, tool_mm = (0.0, 0.0, 0.0), name = None),
-        text_signature = "(path, base, tip, *, tool_mm=(0.0, 0.0, 0.0), name=None)"
+        signature = (path, base, tip, *, tool_mm = (0.0, 0.0, 0.0), name = None, allow = None),
+        text_signature = "(path, base, tip, *, tool_mm=(0.0, 0.0, 0.0), name=None, allow=None)"
     )]
     fn from_urdf(
         py: Python<'_>,
@@ -103,10 +105,19 @@ impl PyRobot {
         tip: &str,
         tool_mm: (f64, f64, f64),
         name: Option<String>,
+        allow: Option<Bound<'_, PyAny>>,
     ) -> PyResult<Self> {
+        let allow = allow_arg(allow.as_ref())?;
+        if let Some(other) = allow.iter().find(|c| **c != calibrate::Check::LengthUnits) {
+            return Err(KincalError::new_err(format!(
+                "allow: `{}` is not a check of a URDF import (only length-units)",
+                other.name()
+            )));
+        }
         let opts = urdf::ImportOptions {
             tool_in_tip_mm: [tool_mm.0, tool_mm.1, tool_mm.2],
             name,
+            allow_implausible_size: !allow.is_empty(),
             ..Default::default()
         };
         let spec = py
@@ -562,6 +573,23 @@ impl PyCalibration {
     }
 }
 
+/// The checks an `allow` argument names: `None`, a check's name or a sequence of names.
+fn allow_arg(allow: Option<&Bound<'_, PyAny>>) -> PyResult<Vec<calibrate::Check>> {
+    let Some(a) = allow else {
+        return Ok(Vec::new());
+    };
+    a.extract::<String>()
+        .map(|s| vec![s])
+        .or_else(|_| a.extract::<Vec<String>>())
+        .map_err(|_| KincalError::new_err("allow: expected a check's name or a list of names"))?
+        .iter()
+        .map(|name| {
+            name.parse::<calibrate::Check>()
+                .map_err(|e| KincalError::new_err(format!("allow: {e}")))
+        })
+        .collect()
+}
+
 /// A spec given as a string or a sequence of names (joined by commas).
 fn params_arg(params: &Bound<'_, PyAny>) -> PyResult<identify::ParamSpec> {
     let text = match params.extract::<String>() {
@@ -681,20 +709,7 @@ fn py_identify<'py>(
     .into_iter()
     .find(|u| u.name() == length_units)
     .ok_or_else(|| refuse("length_units", length_units, "mm, m, in"))?;
-    let allow = match &allow {
-        None => Vec::new(),
-        Some(a) => a
-            .extract::<String>()
-            .map(|s| vec![s])
-            .or_else(|_| a.extract::<Vec<String>>())
-            .map_err(|_| KincalError::new_err("allow: expected a check's name or a list of names"))?
-            .iter()
-            .map(|name| {
-                name.parse::<calibrate::Check>()
-                    .map_err(|e| KincalError::new_err(format!("allow: {e}")))
-            })
-            .collect::<PyResult<Vec<_>>>()?,
-    };
+    let allow = allow_arg(allow.as_ref())?;
     let request = calibrate::IdentifyRequest {
         validate: validate.as_ref().map(|v| PathBuf::from(&v.source)),
         split,

@@ -238,6 +238,25 @@ def test_from_urdf_errors_name_the_element(tmp_path):
         kincal.Robot.from_urdf(missing, "a", "b")
 
 
+def test_from_urdf_refuses_a_millimetre_urdf_as_the_cli(tmp_path):
+    """Every origin 1000x: a reach of kilometres, refused naming the override; allowed, the
+    points are 1000x the metre file's."""
+    text = (URDF_FIXTURES / "ur10.urdf").read_text()
+    scaled = re.sub(r'xyz="([^"]*)"', lambda m: 'xyz="' + " ".join(
+        repr(float(v) * 1000) for v in m.group(1).split()) + '"', text)
+    mm = tmp_path / "ur10-mm.urdf"
+    mm.write_text(scaled)
+    with pytest.raises(kincal.KincalError) as e:
+        kincal.Robot.from_urdf(mm, "base_link", "tool0")
+    assert "look like millimetres" in str(e.value) and "allow" in str(e.value)
+    with pytest.raises(kincal.KincalError, match="only length-units"):
+        kincal.Robot.from_urdf(mm, "base_link", "tool0", allow="mirror")
+    big = kincal.Robot.from_urdf(mm, "base_link", "tool0", allow="length-units")
+    metre = kincal.Robot.from_urdf(URDF_FIXTURES / "ur10.urdf", "base_link", "tool0")
+    q = joints_within_limits("ur10.json", 20, seed=3)
+    assert np.allclose(big.fk(q), 1000 * metre.fk(q), rtol=1e-12, atol=1e-6)
+
+
 @pytest.mark.parametrize("robot_file", ROBOT_FILES)
 def test_urdf_round_trip(robot_file, tmp_path):
     """to_urdf writes what `kincal urdf export` writes; reading it back reproduces the points."""

@@ -67,11 +67,14 @@ class Robot:
         *,
         tool_mm: tuple[float, float, float] = (0.0, 0.0, 0.0),
         name: str | None = None,
+        allow: str | Sequence[str] | None = None,
     ) -> Robot:
         """Converts the serial chain from link ``base`` to link ``tip`` of a plain URDF (xacro
         expanded first) into a robot, exactly, as ``kincal urdf import`` does (docs/urdf.md):
         ``base``'s frame becomes the measurement frame and the measured point is ``tool_mm`` in
-        ``tip``'s frame; ``name`` defaults to the URDF's robot name.
+        ``tip``'s frame; ``name`` defaults to the URDF's robot name. A robot whose reach is
+        outside 20 mm … 50 m (a URDF written in millimetres) is refused unless ``allow``
+        names ``"length-units"`` (``--allow length-units``).
 
         Raises KincalError naming the file and the element on an unreadable URDF, a missing
         link or a chain that is not serial and revolute.
