@@ -118,7 +118,6 @@ impl PyRobot {
             tool_in_tip_mm: [tool_mm.0, tool_mm.1, tool_mm.2],
             name,
             allow_implausible_size: !allow.is_empty(),
-            ..Default::default()
         };
         let spec = py
             .detach(|| urdf::import_file(&path, base, tip, &opts))
