@@ -41,7 +41,9 @@ impl LoadedRobot {
     /// Checks a measurement set built in memory as [`LoadedRobot::read_set`] checks a file:
     /// every row has this robot's N joint values, finite and within the joint limits (as in
     /// the robot file), a finite point where `require_points`, finite orientations and
-    /// standard deviations if given. `what` names the set in errors. Rows keep their `line`
+    /// standard deviations if given, and the checks across rows
+    /// ([`MeasurementSet::check_rows`]: unit quaternions, the pose rules of targets). `what`
+    /// names the set in errors. Rows keep their `line`
     /// (0 is replaced by the 1-based row number, so errors and reports name the row). The
     /// radians notice is added to the set's notices as when reading. The row count is not
     /// checked here (the calibration checks it against the free parameters).
@@ -148,6 +150,7 @@ impl LoadedRobot {
                 }
             }
         }
+        set.check_rows().map_err(err)?;
         to_degrees_and_mm(&mut set, (deg_per_unit, mm_per_unit), &self.limits_deg());
         Ok(set)
     }

@@ -606,6 +606,118 @@ fn params_arg(params: &Bound<'_, PyAny>) -> PyResult<identify::ParamSpec> {
     Ok(text.parse().expect("a parameter spec always parses"))
 }
 
+/// The options `identify` and `identify_frames` share: the flags of `kincal identify`.
+struct Shared<'a, 'py> {
+    params: Option<Bound<'py, PyAny>>,
+    reject_outliers: bool,
+    every: Option<usize>,
+    offset: usize,
+    select: Option<usize>,
+    criterion: &'a str,
+    schedule: &'a str,
+    redundant: &'a str,
+    registration: &'a str,
+    outlier_k: f64,
+    worst: usize,
+    joint_units: &'a str,
+    length_units: &'a str,
+    allow: Option<Bound<'py, PyAny>>,
+}
+
+/// The request `kincal identify` builds from its flags, for the robot `robot`, the data
+/// named `data` and the validation set named `validate`.
+fn identify_request(
+    robot: &std::path::Path,
+    data: &str,
+    validate: Option<&str>,
+    o: Shared<'_, '_>,
+) -> PyResult<calibrate::IdentifyRequest> {
+    let Shared {
+        params,
+        reject_outliers,
+        every,
+        offset,
+        select,
+        criterion,
+        schedule,
+        redundant,
+        registration,
+        outlier_k,
+        worst,
+        joint_units,
+        length_units,
+        allow,
+    } = o;
+    let refuse = |name: &str, value: &str, allowed: &str| {
+        KincalError::new_err(format!("{name}: unknown value {value:?} ({allowed})"))
+    };
+    let split = match (every, select) {
+        (Some(_), Some(_)) => {
+            return Err(KincalError::new_err(
+                "every and select: give one split of the data, not both",
+            ));
+        }
+        (Some(every), None) => calibrate::Split::Every { every, offset },
+        (None, Some(poses)) => calibrate::Split::Select {
+            poses,
+            criterion: criterion.parse().map_err(KincalError::new_err)?,
+        },
+        (None, None) => calibrate::Split::All,
+    };
+    if offset != 0 && every.is_none() {
+        return Err(KincalError::new_err("offset: only with every"));
+    }
+    let damping = match schedule {
+        "levenberg" => identify::Damping::levenberg(),
+        "marquardt" => identify::Damping::marquardt(),
+        "nielsen" => identify::Damping::nielsen(),
+        other => return Err(refuse("schedule", other, "levenberg, marquardt, nielsen")),
+    };
+    let redundant = match redundant {
+        "hold" => identify::Redundant::Hold,
+        "damp" => identify::Redundant::Damp,
+        other => return Err(refuse("redundant", other, "hold, damp")),
+    };
+    let registration = match registration {
+        "auto" => identify::RegistrationPolicy::default(),
+        "always" => identify::RegistrationPolicy::Always,
+        "never" => identify::RegistrationPolicy::Never,
+        other => return Err(refuse("registration", other, "auto, always, never")),
+    };
+    let params = match &params {
+        Some(p) => params_arg(p)?,
+        None => identify::ParamSpec::default(),
+    };
+    let joint_units = [calibrate::JointUnits::Deg, calibrate::JointUnits::Rad]
+        .into_iter()
+        .find(|u| u.name() == joint_units)
+        .ok_or_else(|| refuse("joint_units", joint_units, "deg, rad"))?;
+    let length_units = [
+        calibrate::LengthUnits::Mm,
+        calibrate::LengthUnits::M,
+        calibrate::LengthUnits::In,
+    ]
+    .into_iter()
+    .find(|u| u.name() == length_units)
+    .ok_or_else(|| refuse("length_units", length_units, "mm, m, in"))?;
+    let allow = allow_arg(allow.as_ref())?;
+    Ok(calibrate::IdentifyRequest {
+        validate: validate.map(PathBuf::from),
+        split,
+        params,
+        damping,
+        redundant,
+        registration,
+        reject_outliers,
+        outlier_k,
+        worst,
+        joint_units,
+        length_units,
+        allow,
+        ..calibrate::IdentifyRequest::new(robot, data)
+    })
+}
+
 /// Identifies the robot's parameters from measured points `(n, 3)` (mm) at joints `(n, N)`
 /// (degrees), as `kincal identify` does on a file with the same rows. `joint_units` ("deg",
 /// "rad") and `length_units` ("mm", "m", "in") declare other units. The plausibility checks
@@ -656,74 +768,27 @@ fn py_identify<'py>(
             Ok(memory_set("validation arrays", n, q, Some(p)))
         })
         .transpose()?;
-    let refuse = |name: &str, value: &str, allowed: &str| {
-        KincalError::new_err(format!("{name}: unknown value {value:?} ({allowed})"))
-    };
-    let split = match (every, select, &validate) {
-        (Some(_), Some(_), _) => {
-            return Err(KincalError::new_err(
-                "every and select: give one split of the data, not both",
-            ));
-        }
-        (Some(every), None, _) => calibrate::Split::Every { every, offset },
-        (None, Some(poses), _) => calibrate::Split::Select {
-            poses,
-            criterion: criterion.parse().map_err(KincalError::new_err)?,
+    let request = identify_request(
+        &nominal.path,
+        &data.source,
+        validate.as_ref().map(|v| v.source.as_str()),
+        Shared {
+            params,
+            reject_outliers,
+            every,
+            offset,
+            select,
+            criterion,
+            schedule,
+            redundant,
+            registration,
+            outlier_k,
+            worst,
+            joint_units,
+            length_units,
+            allow,
         },
-        (None, None, _) => calibrate::Split::All,
-    };
-    if offset != 0 && every.is_none() {
-        return Err(KincalError::new_err("offset: only with every"));
-    }
-    let damping = match schedule {
-        "levenberg" => identify::Damping::levenberg(),
-        "marquardt" => identify::Damping::marquardt(),
-        "nielsen" => identify::Damping::nielsen(),
-        other => return Err(refuse("schedule", other, "levenberg, marquardt, nielsen")),
-    };
-    let redundant = match redundant {
-        "hold" => identify::Redundant::Hold,
-        "damp" => identify::Redundant::Damp,
-        other => return Err(refuse("redundant", other, "hold, damp")),
-    };
-    let registration = match registration {
-        "auto" => identify::RegistrationPolicy::default(),
-        "always" => identify::RegistrationPolicy::Always,
-        "never" => identify::RegistrationPolicy::Never,
-        other => return Err(refuse("registration", other, "auto, always, never")),
-    };
-    let params = match &params {
-        Some(p) => params_arg(p)?,
-        None => identify::ParamSpec::default(),
-    };
-    let joint_units = [calibrate::JointUnits::Deg, calibrate::JointUnits::Rad]
-        .into_iter()
-        .find(|u| u.name() == joint_units)
-        .ok_or_else(|| refuse("joint_units", joint_units, "deg, rad"))?;
-    let length_units = [
-        calibrate::LengthUnits::Mm,
-        calibrate::LengthUnits::M,
-        calibrate::LengthUnits::In,
-    ]
-    .into_iter()
-    .find(|u| u.name() == length_units)
-    .ok_or_else(|| refuse("length_units", length_units, "mm, m, in"))?;
-    let allow = allow_arg(allow.as_ref())?;
-    let request = calibrate::IdentifyRequest {
-        validate: validate.as_ref().map(|v| PathBuf::from(&v.source)),
-        split,
-        params,
-        damping,
-        redundant,
-        registration,
-        reject_outliers,
-        outlier_k,
-        worst,
-        joint_units,
-        length_units,
-        allow,
-        ..calibrate::IdentifyRequest::new(&nominal.path, &data.source)
-    };
+    )?;
     py.detach(|| {
         let err = |e: calibrate::CalibrateError| kincal_error(&e);
         let inputs =
@@ -743,6 +808,402 @@ fn py_identify<'py>(
             library_ms,
         })
     })
+}
+
+/// `(n, 4)` unit quaternions `w, x, y, z` as rows, `n` rows expected (`what` names the joints
+/// they go with).
+fn quaternion_rows(
+    a: &PyArrayLikeDyn<'_, f64, AllowTypeChange>,
+    rows: usize,
+    name: &str,
+    what: &str,
+) -> PyResult<Vec<[f64; 4]>> {
+    let shape = a.shape().to_vec();
+    if shape[..] != [rows, 4] {
+        return Err(KincalError::new_err(format!(
+            "{name}: expected shape ({rows}, 4) (one unit quaternion w, x, y, z per row of \
+             {what}), got {}",
+            shape_text(&shape)
+        )));
+    }
+    let flat: Vec<f64> = a.as_array().iter().copied().collect();
+    Ok(flat
+        .chunks_exact(4)
+        .map(|q| [q[0], q[1], q[2], q[3]])
+        .collect())
+}
+
+/// `n` strings (target names or pose ids), or an error naming `name`.
+fn string_rows(v: &Bound<'_, PyAny>, rows: usize, name: &str) -> PyResult<Vec<String>> {
+    let v: Vec<String> = v.extract().map_err(|_| {
+        KincalError::new_err(format!("{name}: expected a sequence of {rows} strings"))
+    })?;
+    if v.len() != rows {
+        return Err(KincalError::new_err(format!(
+            "{name}: expected {rows} strings (one per row), got {}",
+            v.len()
+        )));
+    }
+    Ok(v)
+}
+
+/// A measurement set of 6-DoF / multi-target rows built in memory: the rows of a file with
+/// `qw,qx,qy,qz` (orientations), `target` and `id` (pose ids) columns. `names` name the five
+/// arguments in errors.
+#[allow(clippy::too_many_arguments)]
+fn frame_set(
+    source: &str,
+    n: usize,
+    q: &PyArrayLikeDyn<'_, f64, AllowTypeChange>,
+    points: &PyArrayLikeDyn<'_, f64, AllowTypeChange>,
+    orientations: Option<&PyArrayLikeDyn<'_, f64, AllowTypeChange>>,
+    targets: Option<&Bound<'_, PyAny>>,
+    ids: Option<&Bound<'_, PyAny>>,
+    names: [&str; 5],
+) -> PyResult<measurements::MeasurementSet> {
+    let q = joint_rows(q, n, names[0])?;
+    let rows = q.len();
+    let p = point_rows(points, rows, names[1], names[0])?;
+    let o = orientations
+        .map(|o| quaternion_rows(o, rows, names[2], names[0]))
+        .transpose()?;
+    let t = targets
+        .map(|t| string_rows(t, rows, names[3]))
+        .transpose()?;
+    let ids = ids.map(|i| string_rows(i, rows, names[4])).transpose()?;
+    if t.is_some() && ids.is_none() {
+        return Err(KincalError::new_err(format!(
+            "{}: with targets every row needs a pose id (the rows with the same id are one pose)",
+            names[4]
+        )));
+    }
+    let mut set = memory_set(source, n, q, Some(p));
+    for (k, r) in set.rows.iter_mut().enumerate() {
+        r.orientation = o.as_ref().map(|o| o[k]);
+        r.target = t.as_ref().map(|t| t[k].clone());
+        r.id = ids.as_ref().map(|i| i[k].clone());
+    }
+    Ok(set)
+}
+
+/// Identifies the robot and its tool frame from 6-DoF measurements (points and unit
+/// quaternions `w, x, y, z` of the probe) and/or several named targets per pose, as
+/// `kincal identify` does on a file with `qw,qx,qy,qz` or `target` columns (`docs/model.md`
+/// §5, §6.4). The options are `identify`'s; `orientation_weight` is `--orientation-weight`
+/// (mm per degree, default 5).
+#[pyfunction(name = "identify_frames")]
+#[pyo3(signature = (
+    robot, q_deg, points_mm, *, orientations_wxyz = None, targets = None, pose_ids = None,
+    orientation_weight = None, params = None, validate = None, reject_outliers = false,
+    every = None, offset = 0, select = None, criterion = "d", schedule = "levenberg",
+    redundant = "hold", registration = "auto", outlier_k = 3.0, worst = 10,
+    joint_units = "deg", length_units = "mm", allow = None
+))]
+#[allow(clippy::too_many_arguments)]
+fn py_identify_frames<'py>(
+    py: Python<'py>,
+    robot: &PyRobot,
+    q_deg: PyArrayLikeDyn<'py, f64, AllowTypeChange>,
+    points_mm: PyArrayLikeDyn<'py, f64, AllowTypeChange>,
+    orientations_wxyz: Option<PyArrayLikeDyn<'py, f64, AllowTypeChange>>,
+    targets: Option<Bound<'py, PyAny>>,
+    pose_ids: Option<Bound<'py, PyAny>>,
+    orientation_weight: Option<f64>,
+    params: Option<Bound<'py, PyAny>>,
+    validate: Option<Bound<'py, pyo3::types::PyTuple>>,
+    reject_outliers: bool,
+    every: Option<usize>,
+    offset: usize,
+    select: Option<usize>,
+    criterion: &str,
+    schedule: &str,
+    redundant: &str,
+    registration: &str,
+    outlier_k: f64,
+    worst: usize,
+    joint_units: &str,
+    length_units: &str,
+    allow: Option<Bound<'py, PyAny>>,
+) -> PyResult<PyFrameCalibration> {
+    if orientations_wxyz.is_none() && targets.is_none() {
+        return Err(KincalError::new_err(
+            "identify_frames: give orientations_wxyz or targets (points alone: kincal.identify)",
+        ));
+    }
+    if let Some(w) = orientation_weight
+        && !(w.is_finite() && w > 0.0)
+    {
+        return Err(KincalError::new_err(format!(
+            "orientation_weight: {w} mm per degree (a positive number)"
+        )));
+    }
+    let nominal = robot.loaded.clone();
+    let n = nominal.robot.n_joints();
+    let data = frame_set(
+        "identification arrays",
+        n,
+        &q_deg,
+        &points_mm,
+        orientations_wxyz.as_ref(),
+        targets.as_ref(),
+        pose_ids.as_ref(),
+        [
+            "q_deg",
+            "points_mm",
+            "orientations_wxyz",
+            "targets",
+            "pose_ids",
+        ],
+    )?;
+    let validate = match validate {
+        None => None,
+        Some(v) => {
+            if !(2..=5).contains(&v.len()) {
+                return Err(KincalError::new_err(format!(
+                    "validate: expected (q_deg, points_mm[, orientations_wxyz[, targets[, \
+                     pose_ids]]]), got a tuple of {}",
+                    v.len()
+                )));
+            }
+            let item = |k: usize| -> PyResult<Option<Bound<'py, PyAny>>> {
+                Ok(match v.get_item(k) {
+                    Ok(x) if !x.is_none() => Some(x),
+                    _ => None,
+                })
+            };
+            let array =
+                |x: Bound<'py, PyAny>| -> PyResult<PyArrayLikeDyn<'py, f64, AllowTypeChange>> {
+                    x.extract()
+                };
+            let (vq, vp) = match (item(0)?, item(1)?) {
+                (Some(q), Some(p)) => (array(q)?, array(p)?),
+                _ => {
+                    return Err(KincalError::new_err(
+                        "validate: q_deg and points_mm are required",
+                    ));
+                }
+            };
+            let vo = item(2)?.map(array).transpose()?;
+            Some(frame_set(
+                "validation arrays",
+                n,
+                &vq,
+                &vp,
+                vo.as_ref(),
+                item(3)?.as_ref(),
+                item(4)?.as_ref(),
+                [
+                    "validate[0] (q_deg)",
+                    "validate[1] (points_mm)",
+                    "validate[2] (orientations_wxyz)",
+                    "validate[3] (targets)",
+                    "validate[4] (pose_ids)",
+                ],
+            )?)
+        }
+    };
+    let request = identify_request(
+        &nominal.path,
+        &data.source,
+        validate.as_ref().map(|v| v.source.as_str()),
+        Shared {
+            params,
+            reject_outliers,
+            every,
+            offset,
+            select,
+            criterion,
+            schedule,
+            redundant,
+            registration,
+            outlier_k,
+            worst,
+            joint_units,
+            length_units,
+            allow,
+        },
+    )?;
+    let options = calibrate::frames::FrameOptions {
+        mm_per_deg: orientation_weight,
+        sigma: false,
+    };
+    py.detach(|| {
+        let err = |e: calibrate::CalibrateError| kincal_error(&e);
+        let inputs =
+            calibrate::Inputs::from_sets(&request, nominal, data, validate).map_err(err)?;
+        let started = std::time::Instant::now();
+        let cal = calibrate::frames::calibrate_frames(&request, inputs, &options).map_err(err)?;
+        let library_ms = started.elapsed().as_secs_f64() * 1e3;
+        let identified = calibrate::LoadedRobot::from_spec(
+            cal.identified_robot().to_spec(),
+            "identified.json",
+            "robot",
+        )
+        .map_err(err)?;
+        Ok(PyFrameCalibration {
+            cal,
+            identified,
+            library_ms,
+        })
+    })
+}
+
+/// The errors of a model on a set of poses, as a dict.
+fn frame_errors<'py>(
+    py: Python<'py>,
+    e: &calibrate::frames::FrameErrors,
+) -> PyResult<Bound<'py, PyDict>> {
+    let d = PyDict::new(py);
+    d.set_item("n_poses", e.poses)?;
+    d.set_item("position_mean_mm", e.position_mm.0)?;
+    d.set_item("position_max_mm", e.position_mm.1)?;
+    d.set_item("orientation_mean_deg", e.orientation_deg.0)?;
+    d.set_item("orientation_max_deg", e.orientation_deg.1)?;
+    Ok(d)
+}
+
+/// The result of `kincal.identify_frames`: the 6-DoF / multi-target calibration the CLI's
+/// `kincal identify` computes on the same data, with its calibrated robot (tool frame and
+/// targets included), unknowns, position and orientation errors; `save(dir)` writes the
+/// files of `kincal identify --out`.
+#[pyclass(module = "kincal", name = "FrameCalibration", frozen)]
+struct PyFrameCalibration {
+    cal: calibrate::frames::FrameCalibration,
+    /// The calibrated robot as written to `identified.json`.
+    identified: calibrate::LoadedRobot,
+    /// Wall time of the library call `calibrate::frames::calibrate_frames`, ms.
+    library_ms: f64,
+}
+
+#[pymethods]
+impl PyFrameCalibration {
+    /// The calibrated robot with its tool frame (`tool_mm`, `tool_rotation_deg` where
+    /// orientation was measured, `targets` where named), as `identified.json` holds it.
+    #[getter]
+    fn robot(&self) -> PyRobot {
+        PyRobot {
+            loaded: self.identified.clone(),
+        }
+    }
+
+    /// The unknowns of the fit as records `{"name", "unit", "start", "identified",
+    /// "std_error"}` (display units; `tool_rx, tool_ry, tool_rz` are the rotation vector from
+    /// the start orientation): the table of `report.md`.
+    #[getter]
+    fn parameters<'py>(&self, py: Python<'py>) -> PyResult<Vec<Bound<'py, PyDict>>> {
+        self.cal
+            .fit
+            .estimates
+            .iter()
+            .map(|e| {
+                let d = PyDict::new(py);
+                d.set_item("name", &e.name)?;
+                d.set_item("unit", e.unit.as_str())?;
+                d.set_item("start", e.start)?;
+                d.set_item("identified", e.value)?;
+                d.set_item("std_error", e.std_error)?;
+                Ok(d)
+            })
+            .collect()
+    }
+
+    /// Candidates held at their start values as confounded with the tool frame or with kept
+    /// parameters (names).
+    #[getter]
+    fn held(&self) -> Vec<String> {
+        self.cal.held.clone()
+    }
+
+    /// Errors on the identification poses: `{"start": {...}, "identified": {...}}`, each
+    /// `{"n_poses", "position_mean_mm", "position_max_mm", "orientation_mean_deg",
+    /// "orientation_max_deg"}`.
+    #[getter]
+    fn fit_errors<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let d = PyDict::new(py);
+        d.set_item("start", frame_errors(py, &self.cal.fit_errors.0)?)?;
+        d.set_item("identified", frame_errors(py, &self.cal.fit_errors.1)?)?;
+        Ok(d)
+    }
+
+    /// Errors on the validation poses (`validate=` or the poses an `every`/`select` split
+    /// held out), as `fit_errors` (start: the registered nominal with the closed-form tool
+    /// frame); `None` without validation poses.
+    #[getter]
+    fn validation<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyDict>>> {
+        let Some((_, start, identified)) = &self.cal.validation else {
+            return Ok(None);
+        };
+        let d = PyDict::new(py);
+        d.set_item("start", frame_errors(py, start)?)?;
+        d.set_item("identified", frame_errors(py, identified)?)?;
+        Ok(Some(d))
+    }
+
+    /// The poses the outlier screen flagged (largest ratio first), as records `{"row",
+    /// "ratio", "position_mm", "orientation_deg"}`: `row` the 0-based index of the pose's
+    /// first row in the arrays given; excluded from the final fit with
+    /// `reject_outliers=True`.
+    #[getter]
+    fn outliers<'py>(&self, py: Python<'py>) -> PyResult<Vec<Bound<'py, PyDict>>> {
+        self.cal
+            .outlier_poses()
+            .iter()
+            .map(|o| {
+                let d = PyDict::new(py);
+                d.set_item("row", o.line - 1)?;
+                d.set_item("ratio", o.ratio)?;
+                d.set_item("position_mm", o.position_mm)?;
+                d.set_item("orientation_deg", o.orientation_deg)?;
+                Ok(d)
+            })
+            .collect()
+    }
+
+    /// σ̂ of the weighted fit.
+    #[getter]
+    fn sigma_hat(&self) -> f64 {
+        self.cal.fit.sigma_hat
+    }
+
+    /// Wall time (ms) of the library call `calibrate::frames::calibrate_frames` inside
+    /// `identify_frames`, timed in Rust.
+    #[getter]
+    fn library_ms(&self) -> f64 {
+        self.library_ms
+    }
+
+    /// The console summary `kincal identify` prints for this calibration.
+    fn summary(&self) -> String {
+        report::calibration::frames::summary(&self.cal)
+    }
+
+    /// Writes the files of `kincal identify --out` on the same data into `directory`
+    /// (created if missing; all or nothing): `identified.json`, `report.md`, `report.html`
+    /// and its plots.
+    fn save(&self, py: Python<'_>, directory: PathBuf) -> PyResult<()> {
+        py.detach(|| {
+            let files =
+                report::calibration::frames::render(&self.cal).map_err(|e| kincal_error(&e))?;
+            std::fs::create_dir_all(&directory)
+                .and_then(|()| measurements::write_all_atomically(&directory, &files))
+                .map_err(|e| {
+                    KincalError::new_err(format!(
+                        "writing the outputs into {}: {e}",
+                        directory.display()
+                    ))
+                })
+        })
+    }
+
+    fn __repr__(&self) -> String {
+        format!(
+            "FrameCalibration({:?}, poses={}, unknowns={}, sigma_hat={:.4})",
+            self.cal.nominal_name,
+            self.cal.data.n_poses(),
+            self.cal.fit.estimates.len(),
+            self.cal.fit.sigma_hat
+        )
+    }
 }
 
 /// The joints `(n, N)` (degrees) to command so that the calibrated robot reaches the points
@@ -1036,7 +1497,9 @@ fn _kincal(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("KincalError", m.py().get_type::<KincalError>())?;
     m.add_class::<PyRobot>()?;
     m.add_class::<PyCalibration>()?;
+    m.add_class::<PyFrameCalibration>()?;
     m.add_function(wrap_pyfunction!(py_identify, m)?)?;
+    m.add_function(wrap_pyfunction!(py_identify_frames, m)?)?;
     m.add_function(wrap_pyfunction!(py_compensate, m)?)?;
     m.add_function(wrap_pyfunction!(py_design, m)?)?;
     m.add_function(wrap_pyfunction!(py_campaign, m)?)?;

@@ -571,6 +571,49 @@ impl PoseProblem {
     }
 }
 
+impl MeasurementSet {
+    /// The checks [`read_file`] makes across a file's rows, for a set built in memory: each
+    /// orientation a unit quaternion within [`QUATERNION_NORM_TOLERANCE`]; with targets, an
+    /// id on every row and the pose rules (rows with the same id are one pose: equal joints,
+    /// each target at most once; a target spelled one way). Errors name the row's `line` as
+    /// the reader names a file's line.
+    ///
+    /// # Errors
+    /// [`MeasurementError::NotUnitQuaternion`], [`MeasurementError::InvalidField`] (a missing
+    /// id), and the pose errors of a file.
+    pub fn check_rows(&self) -> Result<(), MeasurementError> {
+        let with_target = self.has_targets();
+        for r in &self.rows {
+            if let Some(q) = r.orientation {
+                let norm = q.iter().map(|v| v * v).sum::<f64>().sqrt();
+                if (norm - 1.0).abs() > QUATERNION_NORM_TOLERANCE {
+                    return Err(MeasurementError::NotUnitQuaternion {
+                        file: self.source.clone(),
+                        line: r.line,
+                        column: "qw".to_owned(),
+                        norm,
+                        tolerance: QUATERNION_NORM_TOLERANCE,
+                    });
+                }
+            }
+            if with_target && r.id.is_none() {
+                return Err(MeasurementError::InvalidField {
+                    file: self.source.clone(),
+                    line: r.line,
+                    column: "id".to_owned(),
+                    reason: "no id, but with targets every row needs one (the rows with the \
+                             same id are one pose)"
+                        .to_owned(),
+                });
+            }
+        }
+        if with_target {
+            check_poses(&self.rows).map_err(|p| p.into_error(&self.source, &self.rows))?;
+        }
+        Ok(())
+    }
+}
+
 /// The pose rules of a set with targets: a target name is spelled one way throughout (no
 /// two names equal but for letter case); rows with the same id (one pose) have equal joint
 /// values (`==`) and name each target at most once. Rows without an id are poses of their own.
@@ -642,6 +685,62 @@ fn shorten(text: &str) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A set built in memory gets the reader's checks across rows, naming the row's line.
+    #[test]
+    fn check_rows_applies_the_readers_rules_to_a_set_in_memory() {
+        let row = |q: f64, id: &str, t: &str| {
+            Measurement::new(vec![q], Some([0.0; 3]))
+                .with_id(id)
+                .with_target(t)
+        };
+        let lined = |mut rows: Vec<Measurement>| {
+            for (k, r) in rows.iter_mut().enumerate() {
+                r.line = k + 1;
+            }
+            MeasurementSet::new("mem", 1, rows)
+        };
+        let ok = lined(vec![
+            row(1.0, "p1", "A"),
+            row(1.0, "p1", "B"),
+            row(2.0, "p2", "A"),
+        ]);
+        ok.check_rows().unwrap();
+        let e = lined(vec![row(1.0, "p1", "A"), row(1.5, "p1", "B")])
+            .check_rows()
+            .unwrap_err();
+        assert!(
+            matches!(e, MeasurementError::PoseJointsDisagree { line: 2, .. }),
+            "{e}"
+        );
+        let e = lined(vec![row(1.0, "p1", "A"), row(1.0, "p1", "A")])
+            .check_rows()
+            .unwrap_err();
+        assert!(
+            matches!(e, MeasurementError::DuplicateTarget { line: 2, .. }),
+            "{e}"
+        );
+        let mut no_id = row(3.0, "p3", "A");
+        no_id.id = None;
+        let e = lined(vec![row(1.0, "p1", "A"), no_id])
+            .check_rows()
+            .unwrap_err();
+        assert!(e.to_string().contains("\"id\""), "{e}");
+        let turned =
+            Measurement::new(vec![1.0], Some([0.0; 3])).with_orientation([1.0, 0.0, 0.0, 0.0]);
+        lined(vec![turned.clone()]).check_rows().unwrap();
+        let long = turned.with_orientation([1.0, 0.01, 0.0, 0.0]);
+        let e = lined(vec![
+            row(1.0, "p1", "A").with_orientation([1.0, 0.0, 0.0, 0.0]),
+            long,
+        ])
+        .check_rows()
+        .unwrap_err();
+        assert!(
+            matches!(e, MeasurementError::NotUnitQuaternion { line: 2, .. }),
+            "{e}"
+        );
+    }
 
     #[test]
     fn joint_like_names() {

@@ -5,12 +5,14 @@ float64. Errors of the library raise :class:`KincalError` (a ``ValueError``) wit
 library's message, which names the file, line and field.
 
 :class:`Robot` (load, from_urdf, save, to_urdf, fk, parameters), :func:`identify` →
-:class:`Calibration`, :func:`compensate`, :func:`design`, :func:`campaign`,
+:class:`Calibration`, :func:`identify_frames` (6-DoF, several targets) →
+:class:`FrameCalibration`, :func:`compensate`, :func:`design`, :func:`campaign`,
 :func:`simulate`. See docs/python.md.
 """
 
 from ._kincal import (
     Calibration,
+    FrameCalibration,
     KincalError,
     Robot,
     __version__,
@@ -18,11 +20,13 @@ from ._kincal import (
     compensate,
     design,
     identify,
+    identify_frames,
     simulate,
 )
 
 __all__ = [
     "Calibration",
+    "FrameCalibration",
     "KincalError",
     "Robot",
     "__version__",
@@ -30,5 +34,6 @@ __all__ = [
     "compensate",
     "design",
     "identify",
+    "identify_frames",
     "simulate",
 ]

@@ -18,6 +18,7 @@ _Path = Union[str, PathLike[str]]
 
 __all__ = [
     "Calibration",
+    "FrameCalibration",
     "KincalError",
     "Robot",
     "__version__",
@@ -25,6 +26,7 @@ __all__ = [
     "compensate",
     "design",
     "identify",
+    "identify_frames",
     "simulate",
 ]
 
@@ -282,6 +284,123 @@ def identify(
     ``parameters``, ``validation``) is ``--allow``. Raises KincalError with the library's
     message. The GIL is released during the work.
     """
+
+class FrameParameter(TypedDict):
+    """One entry of :attr:`FrameCalibration.parameters`: an unknown of the 6-DoF fit (the
+    table of ``report.md``)."""
+
+    name: str
+    unit: str
+    start: float
+    identified: float
+    std_error: float
+
+class FrameErrors(TypedDict):
+    """Position (mm) and orientation (degrees) errors of a model on a set of poses."""
+
+    n_poses: int
+    position_mean_mm: float
+    position_max_mm: float
+    orientation_mean_deg: float
+    orientation_max_deg: float
+
+class FrameErrorsBeforeAfter(TypedDict):
+    """Errors of the start model (registered nominal, closed-form tool frame) and of the
+    identified one."""
+
+    start: FrameErrors
+    identified: FrameErrors
+
+class FrameOutlier(TypedDict):
+    """A pose the outlier screen flagged."""
+
+    row: int
+    """0-based index of the pose's first row in the arrays given."""
+    ratio: float
+    position_mm: float
+    orientation_deg: float | None
+
+@final
+class FrameCalibration:
+    """The result of :func:`identify_frames`: the 6-DoF / multi-target calibration
+    ``kincal identify`` computes on a file with the same rows. Immutable."""
+
+    @property
+    def robot(self) -> Robot:
+        """The calibrated robot with its tool frame (``identified.json``)."""
+
+    @property
+    def parameters(self) -> list[FrameParameter]:
+        """The fit's unknowns: name, unit, start, identified, std_error (display units)."""
+
+    @property
+    def held(self) -> list[str]:
+        """Candidates held at their start values (confounded with the tool frame or with
+        kept parameters)."""
+
+    @property
+    def fit_errors(self) -> FrameErrorsBeforeAfter:
+        """Position and orientation errors on the identification poses."""
+
+    @property
+    def validation(self) -> FrameErrorsBeforeAfter | None:
+        """Position and orientation errors on the validation poses; ``None`` without them."""
+
+    @property
+    def outliers(self) -> list[FrameOutlier]:
+        """The poses the outlier screen flagged, largest ratio first."""
+
+    @property
+    def sigma_hat(self) -> float:
+        """σ̂ of the weighted fit."""
+
+    @property
+    def library_ms(self) -> float:
+        """Wall time (ms) of the library call inside :func:`identify_frames`."""
+
+    def summary(self) -> str:
+        """The console summary ``kincal identify`` prints."""
+
+    def save(self, directory: _Path) -> None:
+        """Writes the files of ``kincal identify --out`` into ``directory`` (created if
+        missing; all or nothing)."""
+
+    def __repr__(self) -> str: ...
+
+def identify_frames(
+    robot: Robot,
+    q_deg: ArrayLike,
+    points_mm: ArrayLike,
+    *,
+    orientations_wxyz: ArrayLike | None = None,
+    targets: Sequence[str] | None = None,
+    pose_ids: Sequence[str] | None = None,
+    orientation_weight: float | None = None,
+    params: str | Sequence[str] | None = None,
+    validate: tuple[Any, ...] | None = None,
+    reject_outliers: bool = False,
+    every: int | None = None,
+    offset: int = 0,
+    select: int | None = None,
+    criterion: str = "d",
+    schedule: str = "levenberg",
+    redundant: str = "hold",
+    registration: str = "auto",
+    outlier_k: float = 3.0,
+    worst: int = 10,
+    joint_units: Literal["deg", "rad"] = "deg",
+    length_units: Literal["mm", "m", "in"] = "mm",
+    allow: str | Sequence[str] | None = None,
+) -> FrameCalibration:
+    """Identifies the robot and its tool frame from 6-DoF measurements and/or several
+    targets per pose, as ``kincal identify`` does on a file with ``qw,qx,qy,qz`` or
+    ``target`` columns (docs/model.md §5, §6.4): ``orientations_wxyz`` ``(n, 4)`` unit
+    quaternions of the probe (scalar first, in the measurement frame); ``targets`` ``(n,)``
+    target names with ``pose_ids`` ``(n,)`` (the rows with the same id are one pose, with
+    equal joints). ``orientation_weight`` is ``--orientation-weight`` (mm per degree, default
+    5); ``validate=(q_deg, points_mm[, orientations_wxyz[, targets[, pose_ids]]])``. The
+    other options, the checks and ``allow`` are :func:`identify`'s. Raises KincalError with
+    the library's message. The GIL is released during the work."""
 
 def compensate(calibration: Calibration, q_deg: ArrayLike) -> NDArray[np.float64]:
     """The joints ``(n, N)`` (degrees) that make the calibrated robot reach the points the

@@ -1,0 +1,122 @@
+"""kincal.identify_frames (6-DoF and several targets per pose) against `kincal identify` on
+a file with the same rows: the same calibrated robot to the bit, the same figures, errors as
+exceptions naming the row."""
+
+import re
+
+import numpy as np
+import pytest
+
+import kincal
+from conftest import REPO, ROBOTS, read_csv, run_cli
+
+SIX_DOF = REPO / "data" / "ur10-ipa" / "series-b-6dof.csv"
+
+
+def six_dof():
+    rows = read_csv(SIX_DOF)
+    q = np.array([[float(r[f"q{i + 1}"]) for i in range(6)] for r in rows])
+    p = np.array([[float(r[c]) for c in "xyz"] for r in rows])
+    o = np.array([[float(r[c]) for c in ("qw", "qx", "qy", "qz")] for r in rows])
+    return q, p, o
+
+
+def without_time_and_names(summary):
+    """The summary without what names the data (a file or the arrays), its lines and times."""
+    s = re.sub(r"\d+\.\d ms", "T ms", summary)
+    s = re.sub(r"line \d+", "line L", s)
+    s = s.replace(str(SIX_DOF), "DATA").replace("identification arrays", "DATA")
+    return [l for l in s.splitlines() if not l.startswith("→")]
+
+
+def test_six_dof_equals_the_cli(tmp_path):
+    out = tmp_path / "cli"
+    stdout = run_cli("identify", "--robot", ROBOTS / "ur10.json", "--data", SIX_DOF,
+                     "--every", 15, "--out", out)
+    q, p, o = six_dof()
+    robot = kincal.Robot.load(ROBOTS / "ur10.json")
+    cal = kincal.identify_frames(robot, q, p, orientations_wxyz=o, every=15)
+    cli_robot = kincal.Robot.load(out / "identified.json")
+    assert cal.robot.parameters == cli_robot.parameters
+    assert np.array_equal(cal.robot.fk(q), cli_robot.fk(q))
+    assert without_time_and_names(cal.summary()) == without_time_and_names(stdout)
+    v = cal.validation
+    assert v["identified"]["n_poses"] == 1395
+    assert f"{v['identified']['position_mean_mm']:.3f}" == "0.422"
+    assert f"{v['identified']['orientation_mean_deg']:.4f}" == "0.0471"
+    assert f"{v['start']['position_mean_mm']:.3f}" == "2.933"
+    assert cal.fit_errors["identified"]["n_poses"] == 100
+    # The flagged pose: line 862 of the file is data row 856 (6 comment and header lines).
+    assert [o["row"] for o in cal.outliers] == [855]
+    assert "base_rz" in cal.held
+    names = [r["name"] for r in cal.parameters]
+    assert len(names) == 30 and {"tool_rx", "tool_ry", "tool_rz"} <= set(names)
+    cal.save(tmp_path / "py")
+    assert sorted(f.name for f in (tmp_path / "py").iterdir()) == sorted(
+        f.name for f in out.iterdir())
+    # Deterministic.
+    again = kincal.identify_frames(robot, q, p, orientations_wxyz=o, every=15)
+    assert again.parameters == cal.parameters
+
+
+def test_several_targets_per_pose_equal_the_cli(tmp_path):
+    """Three reflectors per pose derived from the measured frame (p + R·o_k), as
+    docs/calibrating-real-data.md's table does, without orientation."""
+    q, p, o = six_dof()
+    q, p, o = q[:300], p[:300], o[:300]
+    offsets = {"A": (100.0, 0.0, 0.0), "B": (-50.0, 86.6, 0.0), "C": (-50.0, -86.6, 0.0)}
+
+    def rot(w, x, y, z):
+        return np.array([
+            [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+            [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+            [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
+        ])
+
+    rows_q, rows_p, targets, ids = [], [], [], []
+    for k in range(len(q)):
+        for name, off in offsets.items():
+            rows_q.append(q[k])
+            rows_p.append(p[k] + rot(*o[k]) @ np.array(off))
+            targets.append(name)
+            ids.append(f"p{k}")
+    rows_q, rows_p = np.array(rows_q), np.array(rows_p)
+    data = tmp_path / "targets.csv"
+    data.write_text("id,q1,q2,q3,q4,q5,q6,target,x,y,z\n" + "".join(
+        ",".join([i, *(repr(float(v)) for v in qq), t, *(repr(float(v)) for v in pp)]) + "\n"
+        for i, qq, t, pp in zip(ids, rows_q, targets, rows_p)))
+    out = tmp_path / "cli"
+    run_cli("identify", "--robot", ROBOTS / "ur10.json", "--data", data, "--every", 15,
+            "--out", out)
+    robot = kincal.Robot.load(ROBOTS / "ur10.json")
+    cal = kincal.identify_frames(robot, rows_q, rows_p, targets=targets, pose_ids=ids, every=15)
+    assert cal.robot.parameters == kincal.Robot.load(out / "identified.json").parameters
+    assert cal.fit_errors["identified"]["n_poses"] == 20
+    assert cal.validation["identified"]["position_mean_mm"] < 1.0
+
+
+def test_frame_errors_name_the_row():
+    q, p, o = six_dof()
+    q, p, o = q[:40], p[:40], o[:40].copy()
+    robot = kincal.Robot.load(ROBOTS / "ur10.json")
+
+    def refused(text, *args, **kw):
+        with pytest.raises(kincal.KincalError) as e:
+            kincal.identify_frames(robot, *args, **kw)
+        assert text in str(e.value), str(e.value)
+
+    refused("give orientations_wxyz or targets", q, p)
+    refused("orientations_wxyz: expected shape (40, 4)", q, p, orientations_wxyz=o[:, :3])
+    bad = o.copy()
+    bad[6] *= 1.01
+    refused("identification arrays", q, p, orientations_wxyz=bad)
+    with pytest.raises(kincal.KincalError, match=r"arrays.*7.*qw|qw.*7"):
+        kincal.identify_frames(robot, q, p, orientations_wxyz=bad)
+    refused("with targets every row needs a pose id", q, p, targets=["A"] * 40)
+    refused("targets: expected 40 strings", q, p, targets=["A"] * 3, pose_ids=["x"] * 3)
+    ids = [f"p{k // 2}" for k in range(40)]
+    # Rows 0 and 1 are one pose but their joints differ.
+    refused("same id are one pose", q, p, targets=["A", "B"] * 20, pose_ids=ids)
+    refused("orientation_weight", q, p, orientations_wxyz=o, orientation_weight=0.0)
+    refused("validate: expected", q, p, orientations_wxyz=o, validate=(q,))
+    refused("unknown value", q, p, orientations_wxyz=o, schedule="fast")
