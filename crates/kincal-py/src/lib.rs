@@ -41,6 +41,23 @@ fn kincal_error(e: &(dyn std::error::Error + 'static)) -> PyErr {
     KincalError::new_err(msg)
 }
 
+/// Writes a calibration's rendered files into `directory` (created if missing), all or
+/// nothing, as `kincal identify --out` does.
+fn save_outputs(
+    directory: &std::path::Path,
+    files: Result<Vec<(String, String)>, report::PlotError>,
+) -> PyResult<()> {
+    let files = files.map_err(|e| kincal_error(&e))?;
+    std::fs::create_dir_all(directory)
+        .and_then(|()| measurements::write_all_atomically(directory, &files))
+        .map_err(|e| {
+            KincalError::new_err(format!(
+                "writing the outputs into {}: {e}",
+                directory.display()
+            ))
+        })
+}
+
 /// Writes a file the way every kincal front end does (atomically: temporary file, rename).
 fn write_file(path: &std::path::Path, text: &str) -> PyResult<()> {
     measurements::write_atomically(path, text.as_bytes()).map_err(|e| {
@@ -547,17 +564,7 @@ impl PyCalibration {
     /// all or nothing): `identified.json`, `registered-nominal.json`, `parameters.json`,
     /// `report.md`, `report.html` and its plots.
     fn save(&self, py: Python<'_>, directory: PathBuf) -> PyResult<()> {
-        py.detach(|| {
-            let files = report::calibration::render(&self.cal).map_err(|e| kincal_error(&e))?;
-            std::fs::create_dir_all(&directory)
-                .and_then(|()| measurements::write_all_atomically(&directory, &files))
-                .map_err(|e| {
-                    KincalError::new_err(format!(
-                        "writing the outputs into {}: {e}",
-                        directory.display()
-                    ))
-                })
-        })
+        py.detach(|| save_outputs(&directory, report::calibration::render(&self.cal)))
     }
 
     fn __repr__(&self) -> String {
@@ -1181,18 +1188,7 @@ impl PyFrameCalibration {
     /// (created if missing; all or nothing): `identified.json`, `report.md`, `report.html`
     /// and its plots.
     fn save(&self, py: Python<'_>, directory: PathBuf) -> PyResult<()> {
-        py.detach(|| {
-            let files =
-                report::calibration::frames::render(&self.cal).map_err(|e| kincal_error(&e))?;
-            std::fs::create_dir_all(&directory)
-                .and_then(|()| measurements::write_all_atomically(&directory, &files))
-                .map_err(|e| {
-                    KincalError::new_err(format!(
-                        "writing the outputs into {}: {e}",
-                        directory.display()
-                    ))
-                })
-        })
+        py.detach(|| save_outputs(&directory, report::calibration::frames::render(&self.cal)))
     }
 
     fn __repr__(&self) -> String {
