@@ -41,21 +41,28 @@ fn kincal_error(e: &(dyn std::error::Error + 'static)) -> PyErr {
     KincalError::new_err(msg)
 }
 
-/// Writes a calibration's rendered files into `directory` (created if missing), all or
-/// nothing, as `kincal identify --out` does.
+/// Writes a calibration's rendered files into `directory` as `kincal identify --out` does
+/// (`measurements::OutputDir`): under the directory's advisory lock (another run writing
+/// there is refused, named), the set replacing the previous one as a whole, the user's own
+/// files kept; a path that is not a directory is refused.
 fn save_outputs(
     directory: &std::path::Path,
     files: Result<Vec<(String, String)>, report::PlotError>,
 ) -> PyResult<()> {
     let files = files.map_err(|e| kincal_error(&e))?;
-    std::fs::create_dir_all(directory)
-        .and_then(|()| measurements::write_all_atomically(directory, &files))
-        .map_err(|e| {
-            KincalError::new_err(format!(
-                "writing the outputs into {}: {e}",
-                directory.display()
-            ))
+    let context = |e: measurements::OutputError| {
+        let msg = e.to_string();
+        let dir = directory.display().to_string();
+        KincalError::new_err(if msg.contains(&dir) {
+            msg
+        } else {
+            format!("writing the outputs into {dir}: {msg}")
         })
+    };
+    measurements::OutputDir::lock(directory)
+        .map_err(context)?
+        .write_set(&files)
+        .map_err(context)
 }
 
 /// Writes a file the way every kincal front end does (atomically: temporary file, rename).
@@ -560,9 +567,10 @@ impl PyCalibration {
         report::calibration::summary(&self.cal)
     }
 
-    /// Writes the files of `kincal identify --out` into `directory` (created if missing;
-    /// all or nothing): `identified.json`, `registered-nominal.json`, `parameters.json`,
-    /// `report.md`, `report.html` and its plots.
+    /// Writes the files of `kincal identify --out` into `directory` as the CLI does (created
+    /// if missing; the set replaced as a whole under the directory's lock):
+    /// `identified.json`, `registered-nominal.json`, `parameters.json`, `report.md`,
+    /// `report.html` and its plots.
     fn save(&self, py: Python<'_>, directory: PathBuf) -> PyResult<()> {
         py.detach(|| save_outputs(&directory, report::calibration::render(&self.cal)))
     }
@@ -1184,9 +1192,9 @@ impl PyFrameCalibration {
         report::calibration::frames::summary(&self.cal)
     }
 
-    /// Writes the files of `kincal identify --out` on the same data into `directory`
-    /// (created if missing; all or nothing): `identified.json`, `report.md`, `report.html`
-    /// and its plots.
+    /// Writes the files of `kincal identify --out` on the same data into `directory` as the
+    /// CLI does (created if missing; the set replaced as a whole under the directory's
+    /// lock): `identified.json`, `report.md`, `report.html` and its plots.
     fn save(&self, py: Python<'_>, directory: PathBuf) -> PyResult<()> {
         py.detach(|| save_outputs(&directory, report::calibration::frames::render(&self.cal)))
     }

@@ -94,6 +94,19 @@ def test_save_writes_the_clis_files(readme_example, tmp_path):
     a = json.loads((tmp_path / "api" / "parameters.json").read_text())
     b = json.loads((out / "parameters.json").read_text())
     assert a["parameters"] == b["parameters"]
+    # As the CLI's --out: a second save replaces the set as a whole and keeps the user's own
+    # files; no lock or staging is left; a path that is not a directory is refused.
+    (tmp_path / "api" / "notes.txt").write_text("mine")
+    (tmp_path / "api" / "identified.json").write_text("stale")
+    cal.save(tmp_path / "api")
+    assert (tmp_path / "api" / "notes.txt").read_text() == "mine"
+    assert (tmp_path / "api" / "identified.json").read_text() != "stale"
+    assert names(tmp_path / "api") == sorted(names(out) + ["notes.txt"])
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["api"]
+    (tmp_path / "file").write_text("x")
+    with pytest.raises(kincal.KincalError, match="is a regular file, but an output directory"):
+        cal.save(tmp_path / "file")
+    assert (tmp_path / "file").read_text() == "x"
 
 
 def test_identify_with_a_validation_set_equals_every(readme_example):

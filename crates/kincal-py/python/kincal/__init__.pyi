@@ -236,8 +236,9 @@ class Calibration:
         """The console summary ``kincal identify`` prints."""
 
     def save(self, directory: _Path) -> None:
-        """Writes the files of ``kincal identify --out`` into ``directory`` (created if
-        missing; all or nothing)."""
+        """Writes the files of ``kincal identify --out`` into ``directory`` as the CLI does:
+        under the directory's lock, the set replacing the previous one as a whole (your own
+        files kept); a path that is not a directory raises KincalError."""
 
     def __repr__(self) -> str: ...
 
@@ -362,8 +363,9 @@ class FrameCalibration:
         """The console summary ``kincal identify`` prints."""
 
     def save(self, directory: _Path) -> None:
-        """Writes the files of ``kincal identify --out`` into ``directory`` (created if
-        missing; all or nothing)."""
+        """Writes the files of ``kincal identify --out`` into ``directory`` as the CLI does:
+        under the directory's lock, the set replacing the previous one as a whole (your own
+        files kept); a path that is not a directory raises KincalError."""
 
     def __repr__(self) -> str: ...
 
