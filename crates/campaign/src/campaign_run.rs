@@ -474,11 +474,12 @@ impl SimulateRun {
     pub fn run(&self) -> Result<virtual_robot::Simulation, CampaignError> {
         let loaded = Scenario::from_file(&self.scenario)?;
         let held = measurements::OutputDir::lock(&self.out)?;
-        let sim = virtual_robot::simulate(
+        let sim = virtual_robot::simulate_with(
             &loaded.nominal,
             &loaded.virtual_robot(),
             loaded.scenario.seed,
             self.trial,
+            &loaded.scenario.measurement.probe(),
         )
         .map_err(|source| CampaignError::Sim {
             trial: self.trial,

@@ -348,6 +348,22 @@ impl MeasurementConfig {
         v
     }
 
+    /// What the virtual tracker reads per pose in a simulated measurement file
+    /// (`kincal simulate`): the tool point, the 6-DoF probe, or the tool point and the
+    /// reflectors named as [`MeasurementConfig::target_names`].
+    pub fn probe(&self) -> virtual_robot::Probe {
+        match self.kind {
+            design::Measure::Point => virtual_robot::Probe::Point,
+            design::Measure::Frame => virtual_robot::Probe::Frame,
+            design::Measure::Targets => virtual_robot::Probe::Targets(
+                self.target_names()
+                    .into_iter()
+                    .zip(self.offsets_mm())
+                    .collect(),
+            ),
+        }
+    }
+
     /// Target names of the identification (`""` for the tool point alone; `tool`, `r1`, …
     /// with reflectors).
     pub fn target_names(&self) -> Vec<String> {

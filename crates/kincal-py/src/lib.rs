@@ -1460,7 +1460,15 @@ fn py_simulate<'py>(
     let loaded = scenario_arg(py, &scenario)?;
     let seed = seed.unwrap_or(loaded.scenario.seed);
     let sim = py
-        .detach(|| virtual_robot::simulate(&loaded.nominal, &loaded.virtual_robot(), seed, trial))
+        .detach(|| {
+            virtual_robot::simulate_with(
+                &loaded.nominal,
+                &loaded.virtual_robot(),
+                seed,
+                trial,
+                &loaded.scenario.measurement.probe(),
+            )
+        })
         .map_err(|e| {
             KincalError::new_err(format!(
                 "simulating trial {trial} of {}: {}",
@@ -1490,6 +1498,24 @@ fn py_simulate<'py>(
             .collect();
         d.set_item(format!("{name}_q_deg"), vec_rows_array(py, &q, n))?;
         d.set_item(format!("{name}_points_mm"), rows_array(py, &p))?;
+        if set.has_orientation() {
+            let o: Vec<[f64; 4]> = set
+                .rows
+                .iter()
+                .map(|r| r.orientation.unwrap_or([f64::NAN; 4]))
+                .collect();
+            d.set_item(format!("{name}_orientations_wxyz"), rows_array(py, &o))?;
+        }
+        if set.has_targets() {
+            let column = |f: fn(&measurements::Measurement) -> Option<&String>| -> Vec<String> {
+                set.rows
+                    .iter()
+                    .map(|r| f(r).cloned().unwrap_or_default())
+                    .collect()
+            };
+            d.set_item(format!("{name}_targets"), column(|r| r.target.as_ref()))?;
+            d.set_item(format!("{name}_pose_ids"), column(|r| r.id.as_ref()))?;
+        }
     }
     Ok(d)
 }

@@ -120,3 +120,49 @@ def test_frame_errors_name_the_row():
     refused("orientation_weight", q, p, orientations_wxyz=o, orientation_weight=0.0)
     refused("validate: expected", q, p, orientations_wxyz=o, validate=(q,))
     refused("unknown value", q, p, orientations_wxyz=o, schedule="fast")
+
+
+@pytest.mark.parametrize("kind", ["frame", "targets"])
+def test_simulate_gives_the_clis_frame_files_and_identify_frames_reads_them(kind, tmp_path):
+    """A scenario measuring frames or three reflectors: kincal.simulate returns the rows
+    `kincal simulate` writes (orientations; targets and pose ids), and identify_frames on
+    them gives the CLI's calibrated robot on its files."""
+    import json
+
+    scenario = json.loads((REPO / "scenarios" / "noise-floor.json").read_text())
+    scenario["robot"] = str(ROBOTS / "kr1000-titan.json")
+    scenario["residual_budget"] = {"enabled": False}
+    scenario["measurement"] = {"type": kind}
+    file = tmp_path / "scenario.json"
+    file.write_text(json.dumps(scenario))
+    run_cli("simulate", file, "--out", tmp_path / "sim")
+    sim = kincal.simulate(scenario)
+    for part in ["identification", "validation"]:
+        rows = read_csv(tmp_path / "sim" / f"{part}.csv")
+        assert np.array_equal(
+            sim[f"{part}_q_deg"], [[float(r[f"q{i + 1}"]) for i in range(6)] for r in rows])
+        assert np.array_equal(sim[f"{part}_points_mm"], [[float(r[c]) for c in "xyz"] for r in rows])
+        if kind == "frame":
+            assert np.array_equal(sim[f"{part}_orientations_wxyz"],
+                                  [[float(r[c]) for c in ("qw", "qx", "qy", "qz")] for r in rows])
+            assert f"{part}_targets" not in sim
+        else:
+            assert sim[f"{part}_targets"] == [r["target"] for r in rows]
+            assert sim[f"{part}_pose_ids"] == [r["id"] for r in rows]
+            assert len(rows) == 150 and f"{part}_orientations_wxyz" not in sim
+    run_cli("identify", "--robot", ROBOTS / "kr1000-titan.json",
+            "--data", tmp_path / "sim" / "identification.csv",
+            "--validate", tmp_path / "sim" / "validation.csv", "--out", tmp_path / "cal")
+    robot = kincal.Robot.load(ROBOTS / "kr1000-titan.json")
+    extra = lambda part: (
+        {"orientations_wxyz": sim[f"{part}_orientations_wxyz"]} if kind == "frame"
+        else {"targets": sim[f"{part}_targets"], "pose_ids": sim[f"{part}_pose_ids"]})
+    v = extra("validation")
+    cal = kincal.identify_frames(
+        robot, sim["identification_q_deg"], sim["identification_points_mm"],
+        validate=(sim["validation_q_deg"], sim["validation_points_mm"],
+                  v.get("orientations_wxyz"), v.get("targets"), v.get("pose_ids")),
+        **extra("identification"))
+    assert cal.robot.parameters == kincal.Robot.load(tmp_path / "cal" / "identified.json").parameters
+    after = cal.validation["identified"]["position_mean_mm"]
+    assert after < 0.5 and after < cal.validation["start"]["position_mean_mm"]

@@ -138,12 +138,21 @@ pub fn simulate(args: SimulateArgs) -> Result<()> {
     run.trial = args.trial;
     let sim = run.run().map_err(|e| with_option(e, true))?;
     let t = sim.truth.sampling.total();
+    // With several targets a pose has several rows.
+    let count = |set: &measurements::MeasurementSet| {
+        let poses = set.poses().len();
+        if poses == set.rows.len() {
+            format!("{poses}")
+        } else {
+            format!("{poses} poses ({} rows)", set.rows.len())
+        }
+    };
     eprintln!(
         "{} identification and {} validation measurements, truth → {}\n\
          pose sampling: {} candidate draws, {} rejected ({} %: wrist {}, floor {}, \
          elevation {}, range {}, condition {})",
-        sim.identification.rows.len(),
-        sim.validation.rows.len(),
+        count(&sim.identification),
+        count(&sim.validation),
         args.out.display(),
         t.draws,
         t.rejected(),

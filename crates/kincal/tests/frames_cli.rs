@@ -264,3 +264,77 @@ fn three_targets_per_pose_and_a_flagged_pose() {
     let robot = std::fs::read_to_string(tmp.path().join("r/identified.json")).unwrap();
     assert!(robot.contains("\"targets\""), "{robot}");
 }
+
+/// `kincal simulate` of a scenario that measures frames or several reflectors writes the
+/// files such data give (`qw,qx,qy,qz`; `id,target`, a row per reflector), and `identify`
+/// calibrates from them: it wrote points only, silently, before.
+#[test]
+fn simulate_writes_the_scenarios_measurement_and_identify_reads_it() {
+    let tmp = tempfile::tempdir().unwrap();
+    let root = crate::common::root();
+    let mut scenario: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(root.join("scenarios/noise-floor.json")).unwrap(),
+    )
+    .unwrap();
+    scenario["robot"] = serde_json::json!(crate::common::kr1000());
+    scenario["residual_budget"] = serde_json::json!({ "enabled": false });
+    for (kind, header, rows_per_pose) in [
+        ("frame", "id,q1,q2,q3,q4,q5,q6,x,y,z,qw,qx,qy,qz", 1),
+        ("targets", "id,target,q1,q2,q3,q4,q5,q6,x,y,z", 3),
+    ] {
+        scenario["measurement"] = serde_json::json!({ "type": kind });
+        let file = tmp.path().join(format!("{kind}.json"));
+        std::fs::write(&file, serde_json::to_string_pretty(&scenario).unwrap()).unwrap();
+        let dir = tmp.path().join(kind);
+        let out = kincal(&["simulate", s(&file), "--out", s(&dir)]);
+        assert!(out.status.success(), "{}", stderr(&out));
+        let text = std::fs::read_to_string(dir.join("identification.csv")).unwrap();
+        let mut lines = text.lines().filter(|l| !l.starts_with('#'));
+        assert_eq!(lines.next(), Some(header), "{kind}");
+        let rows: Vec<Vec<f64>> = lines
+            .map(|l| l.split(',').filter_map(|v| v.parse().ok()).collect())
+            .collect();
+        assert_eq!(rows.len(), 50 * rows_per_pose, "{kind}");
+        if kind == "frame" {
+            for r in &rows {
+                let norm = r[9..13].iter().map(|v| v * v).sum::<f64>().sqrt();
+                assert!((norm - 1.0).abs() < 1e-12 && r[9] >= 0.0, "{r:?}");
+            }
+        } else {
+            assert!(stderr(&out).contains("50 poses (150 rows) identification"));
+        }
+        let calibrated = ok(&kincal(&[
+            "identify",
+            "--robot",
+            s(crate::common::kr1000()),
+            "--data",
+            s(&dir.join("identification.csv")),
+            "--validate",
+            s(&dir.join("validation.csv")),
+            "--out",
+            s(&tmp.path().join(format!("{kind}-cal"))),
+        ]));
+        let line = calibrated
+            .lines()
+            .find(|l| l.starts_with("validation on"))
+            .unwrap();
+        let mean = |after: &str| -> f64 {
+            let tail = &line[line.find(after).unwrap() + after.len()..];
+            tail.split_whitespace().next().unwrap().parse().unwrap()
+        };
+        let (before, after) = (
+            mean("nominal position mean "),
+            mean("identified position mean "),
+        );
+        // The noise floor's simulated robot: errors of a few tenths of a millimetre after.
+        assert!(after < 0.5 && after < before, "{kind}: {line}");
+        assert!(
+            calibrated.contains(if kind == "frame" {
+                "6-DoF (point and orientation per pose)"
+            } else {
+                "targets"
+            }),
+            "{calibrated}"
+        );
+    }
+}

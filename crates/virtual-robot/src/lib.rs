@@ -151,7 +151,9 @@ pub use error::{ConfigError, NotMeasurable, SimError};
 pub use poses::{PoseSampling, PoseSet, SAMPLING_MARGIN_DEG, SAMPLING_MARGIN_MM};
 pub use rng::{MAX_TRIAL, Purpose, stream};
 pub use sampling::{SamplingReport, SamplingStats};
-pub use simulate::{IDENTIFICATION_FILE, Simulation, TRUTH_FILE, VALIDATION_FILE, simulate};
+pub use simulate::{
+    IDENTIFICATION_FILE, Probe, Simulation, TRUTH_FILE, VALIDATION_FILE, simulate, simulate_with,
+};
 pub use tracker::{NoiseModel, Tracker, TrackerConfig};
 pub use truth::{ErrorDistribution, InjectedErrors, RandomErrors, ScaleOutcome, ScaleTarget};
 pub use unmodelled::{

@@ -16,6 +16,21 @@ pub const VALIDATION_FILE: &str = "validation.csv";
 /// File name of the truth.
 pub const TRUTH_FILE: &str = "truth.json";
 
+/// What the tracker reads at each pose of a simulated trial (a scenario's `measurement`).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub enum Probe {
+    /// The tool point: one row per pose with `x,y,z` (the paper's measurement).
+    #[default]
+    Point,
+    /// A 6-DoF probe at the tool: one row per pose with `x,y,z` and its orientation
+    /// `qw,qx,qy,qz` ([`World::measure_tool`] with the orientation).
+    Frame,
+    /// Several reflectors: one row per reflector and pose, named in the `target` column, the
+    /// rows of a pose sharing its id. Each is `(name, offset from the tool point in the
+    /// flange frame, mm)`; the first is usually the tool point itself (offset zero).
+    Targets(Vec<(String, nalgebra::Vector3<f64>)>),
+}
+
 /// One simulated trial: the two measurement sets (`docs/model.md` §5; joints in degrees,
 /// points in mm in the measurement frame) and the truth.
 #[derive(Clone, Debug, PartialEq)]
@@ -39,6 +54,18 @@ pub fn simulate(
     World::new(nominal, cfg, seed, trial)?.simulate()
 }
 
+/// [`simulate()`] with what the tracker reads at each pose ([`Probe`]): [`Probe::Point`]
+/// gives [`simulate()`]'s sets, byte for byte.
+pub fn simulate_with(
+    nominal: &Robot,
+    cfg: &VirtualRobotConfig,
+    seed: u64,
+    trial: u64,
+    probe: &Probe,
+) -> Result<Simulation, SimError> {
+    World::new(nominal, cfg, seed, trial)?.simulate_with(probe)
+}
+
 impl Setup {
     /// Simulates trial `trial` ([`Setup::world`], then [`World::simulate`]).
     pub fn simulate(&self, trial: u64) -> Result<Simulation, SimError> {
@@ -50,17 +77,24 @@ impl World {
     /// Measures the identification poses, then the validation poses (counting moves, so
     /// drift grows over the run), and collects the truth afterwards.
     pub fn simulate(&mut self) -> Result<Simulation, SimError> {
+        self.simulate_with(&Probe::Point)
+    }
+
+    /// [`World::simulate`] reading each pose with `probe`.
+    pub fn simulate_with(&mut self, probe: &Probe) -> Result<Simulation, SimError> {
         let identification = self.measure_set(
             "poses.identification",
             IDENTIFICATION_FILE,
             'I',
             self.identification_poses_deg().to_vec(),
+            probe,
         )?;
         let validation = self.measure_set(
             "poses.validation",
             VALIDATION_FILE,
             'V',
             self.validation_poses_deg().to_vec(),
+            probe,
         )?;
         Ok(Simulation {
             identification,
@@ -75,37 +109,77 @@ impl World {
         source: &str,
         prefix: char,
         poses_deg: Vec<f64>,
+        probe: &Probe,
     ) -> Result<MeasurementSet, SimError> {
         let n = self.nominal().n_joints();
         let mut rows = Vec::with_capacity(poses_deg.len() / n);
         let mut q_rad = vec![0.0; n];
+        let (offsets, names): (Vec<nalgebra::Vector3<f64>>, Vec<&str>) = match probe {
+            Probe::Point | Probe::Frame => (vec![nalgebra::Vector3::zeros()], vec![]),
+            Probe::Targets(t) => t.iter().map(|(name, o)| (*o, name.as_str())).unzip(),
+        };
         for (index, q_deg) in poses_deg.chunks_exact(n).enumerate() {
             for (r, d) in q_rad.iter_mut().zip(q_deg) {
                 *r = d.to_radians();
             }
-            let p = self
-                .measure(&q_rad)
-                .map_err(|source| SimError::NotMeasurable {
-                    field: field.to_string(),
-                    index,
-                    source,
-                })?;
-            rows.push(
-                Measurement::new(q_deg.to_vec(), Some([p.x, p.y, p.z]))
-                    .with_id(format!("{prefix}{:03}", index + 1)),
-            );
+            let unmeasurable = |source| SimError::NotMeasurable {
+                field: field.to_string(),
+                index,
+                source,
+            };
+            let id = format!("{prefix}{:03}", index + 1);
+            if *probe == Probe::Point {
+                let p = self.measure(&q_rad).map_err(unmeasurable)?;
+                rows.push(Measurement::new(q_deg.to_vec(), Some([p.x, p.y, p.z])).with_id(id));
+                continue;
+            }
+            let (points, rotation) = self
+                .measure_tool(&q_rad, &offsets, *probe == Probe::Frame)
+                .map_err(unmeasurable)?;
+            for (k, p) in points.iter().enumerate() {
+                let mut row =
+                    Measurement::new(q_deg.to_vec(), Some([p.x, p.y, p.z])).with_id(id.clone());
+                if let Some(name) = names.get(k) {
+                    row = row.with_target(*name);
+                }
+                if let (0, Some(r)) = (k, rotation) {
+                    row = row.with_orientation(unit_quaternion(&r));
+                }
+                rows.push(row);
+            }
         }
         Ok(MeasurementSet::new(source, n, rows))
     }
 }
 
+/// The rotation `r` as a unit quaternion `[w, x, y, z]` with `w ≥ 0` (the measurement
+/// files' orientation columns).
+fn unit_quaternion(r: &nalgebra::Matrix3<f64>) -> [f64; 4] {
+    let q = nalgebra::UnitQuaternion::from_rotation_matrix(
+        &nalgebra::Rotation3::from_matrix_unchecked(*r),
+    );
+    let s = if q.w < 0.0 { -1.0 } else { 1.0 };
+    [s * q.w, s * q.i, s * q.j, s * q.k]
+}
+
 impl Simulation {
     fn header(&self, what: &str) -> String {
-        format!(
+        let set = match what {
+            "identification" => &self.identification,
+            _ => &self.validation,
+        };
+        let mut h = format!(
             "kincal virtual robot — {what} measurements of {}\nseed {}, trial {}; q in degrees, \
              x y z in mm in the measurement frame",
             self.truth.nominal_robot.name, self.truth.seed, self.truth.trial
-        )
+        );
+        if set.has_orientation() {
+            h.push_str("; qw qx qy qz the probe's orientation in the measurement frame");
+        }
+        if set.has_targets() {
+            h.push_str("; one row per target, the rows with the same id are one pose");
+        }
+        h
     }
 
     /// `identification.csv` as text (`docs/model.md` §5).

@@ -447,7 +447,10 @@ def simulate(
     *,
     seed: int | None = None,
     trial: int = 0,
-) -> dict[str, NDArray[np.float64]]:
+) -> dict[str, Any]:
     """A simulated measurement set of trial ``trial`` of a scenario's virtual robot, as
     ``kincal simulate`` writes it: ``{"identification_q_deg", "identification_points_mm",
-    "validation_q_deg", "validation_points_mm"}``."""
+    "validation_q_deg", "validation_points_mm"}`` (float64 arrays). A scenario whose
+    ``measurement`` is ``frame`` adds ``"{set}_orientations_wxyz"`` ``(n, 4)``; one with
+    ``targets`` has a row per reflector and adds ``"{set}_targets"`` and
+    ``"{set}_pose_ids"`` (lists of strings): the arguments of :func:`identify_frames`."""
