@@ -94,6 +94,31 @@ impl LoadedRobot {
             opts = opts.with_euler(e);
         }
         let mut set = read_file(path, &opts).map_err(|source| {
+            // A joint beyond its limit, checked in the file's units, reported in degrees.
+            let source = match source {
+                MeasurementError::JointOutOfLimits {
+                    file,
+                    line,
+                    column,
+                    value_deg,
+                    ..
+                } if deg_per_unit != 1.0 => {
+                    let j = column
+                        .strip_prefix('q')
+                        .and_then(|k| k.parse::<usize>().ok())
+                        .map_or(0, |k| k.saturating_sub(1));
+                    let [min_deg, max_deg] = self.limits_deg().get(j).copied().unwrap_or([0.0; 2]);
+                    MeasurementError::JointOutOfLimits {
+                        file,
+                        line,
+                        column,
+                        value_deg: value_deg * deg_per_unit,
+                        min_deg,
+                        max_deg,
+                    }
+                }
+                other => other,
+            };
             let too_few = matches!(source, MeasurementError::TooFewRows { .. });
             let err = CalibrateError::Read {
                 context: format!(

@@ -111,13 +111,15 @@ impl LoadedRobot {
                     return Err(err(non_finite(column, v)));
                 }
                 if !(min..=max).contains(&v) {
+                    // Checked in the rows' units, reported in degrees.
+                    let [min_deg, max_deg] = self.limits_deg()[j];
                     return Err(err(MeasurementError::JointOutOfLimits {
                         file: source.clone(),
                         line,
                         column,
-                        value_deg: v,
-                        min_deg: min,
-                        max_deg: max,
+                        value_deg: v * deg_per_unit,
+                        min_deg,
+                        max_deg,
                     }));
                 }
             }
@@ -166,7 +168,7 @@ impl Inputs {
     ///
     /// # Errors
     /// As [`LoadedRobot::check_set`]; [`Refusal::NoDataRows`] for an empty validation set;
-    /// the `joint-units` refusal.
+    /// the `joint-units` refusal; [`Refusal::NoDataRows`] for an empty identification set.
     pub fn from_sets(
         request: &IdentifyRequest,
         nominal: LoadedRobot,
@@ -197,6 +199,13 @@ impl Inputs {
                 })
         };
         let data = checked(data, "identification data")?;
+        if data.rows.is_empty() {
+            return Err(Refusal::NoDataRows {
+                what: "identification data",
+                file: data.source,
+            }
+            .into());
+        }
         let validate = validate
             .map(|v| -> Result<MeasurementSet> {
                 let v = checked(v, "validation data")?;
@@ -354,9 +363,42 @@ mod tests {
         request.allow = vec![Check::JointUnits];
         let e = Inputs::from_sets(&request, r.clone(), rows(1.0, 1e-3), None).unwrap_err();
         let text = format!("{e}: {}", std::error::Error::source(&e).unwrap());
-        assert!(text.contains("outside"), "{text}");
+        // Checked in radians, reported in degrees: 10 rad on q1 against the UR10's ±360°.
+        let q1 = 10.0 * request.joint_units.deg_per_unit();
+        assert!(
+            text.contains(&format!(
+                "joint value {q1} deg is outside its limits [-360, 360] deg"
+            )),
+            "{text}"
+        );
         let e = Inputs::from_sets(&request, r, rows(to_rad, 1e-3), Some(set(vec![]))).unwrap_err();
         assert!(e.to_string().contains("no data rows"), "{e}");
+    }
+
+    /// A file in radians with a joint beyond its limit: the error gives the value and the
+    /// limits in degrees, as the in-memory check does.
+    #[test]
+    fn a_joint_beyond_its_limit_in_radians_is_reported_in_degrees() {
+        let r = ur10();
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("rad.csv");
+        std::fs::write(
+            &path,
+            "q1,q2,q3,q4,q5,q6,x,y,z\n0.1,0.2,0.3,0.4,0.5,10,1,2,3\n",
+        )
+        .unwrap();
+        let deg = crate::JointUnits::Rad.deg_per_unit();
+        let e = r
+            .read_set_in(&path, true, (0, None), "data", (deg, 1.0))
+            .unwrap_err();
+        let text = format!("{e}: {}", std::error::Error::source(&e).unwrap());
+        let q6 = 10.0 * deg;
+        assert!(
+            text.contains(&format!(
+                "column \"q6\": joint value {q6} deg is outside its limits [-360, 360] deg"
+            )),
+            "{text}"
+        );
     }
 
     #[test]

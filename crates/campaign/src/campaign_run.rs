@@ -289,11 +289,12 @@ impl CampaignRun {
         };
         let started = Instant::now();
         let ctx = Context::new(loaded)?;
-        let checkpoint = match (self.checkpoint, self.shard) {
+        // The chunk size is taken on the campaign's pool (64 trials per thread of it).
+        let checkpoint = pool.install(|| match (self.checkpoint, self.shard) {
             (None, _) => None,
             (Some(c), Some(shard)) => Some(c.config(out.join(shard.checkpoint_name()))),
             (Some(c), None) => Some(c.config(out.join("checkpoint.json"))),
-        };
+        });
         let mut prior_seconds = 0.0;
         if let Some(cfg) = checkpoint.as_ref().filter(|c| c.resume)
             && let Ok(Some(c)) = Checkpoint::read(&cfg.path)

@@ -110,8 +110,11 @@ def test_frame_errors_name_the_row():
     bad = o.copy()
     bad[6] *= 1.01
     refused("identification arrays", q, p, orientations_wxyz=bad)
-    with pytest.raises(kincal.KincalError, match=r"arrays.*7.*qw|qw.*7"):
-        kincal.identify_frames(robot, q, p, orientations_wxyz=bad)
+    refused('identification arrays:7: column "qw"', q, p, orientations_wxyz=bad)
+    refused("identification arrays: the identification data file has no data rows",
+            q[:0], p[:0], orientations_wxyz=o[:0])
+    refused('column "target"', q, p, targets=["A", "r 1"] * 20, pose_ids=[f"p{k}" for k in range(40)])
+    refused('column "id"', q, p, targets=["A"] * 40, pose_ids=[""] * 40)
     refused("with targets every row needs a pose id", q, p, targets=["A"] * 40)
     refused("targets: expected 40 strings", q, p, targets=["A"] * 3, pose_ids=["x"] * 3)
     ids = [f"p{k // 2}" for k in range(40)]

@@ -573,8 +573,8 @@ impl PoseProblem {
 
 impl MeasurementSet {
     /// The checks [`read_file`] makes across a file's rows, for a set built in memory: each
-    /// orientation a unit quaternion within [`QUATERNION_NORM_TOLERANCE`]; with targets, an
-    /// id on every row and the pose rules (rows with the same id are one pose: equal joints,
+    /// orientation a unit quaternion within [`QUATERNION_NORM_TOLERANCE`]; each target name
+    /// one a file accepts; with targets, a non-empty id on every row and the pose rules (rows with the same id are one pose: equal joints,
     /// each target at most once; a target spelled one way). Errors name the row's `line` as
     /// the reader names a file's line.
     ///
@@ -596,7 +596,17 @@ impl MeasurementSet {
                     });
                 }
             }
-            if with_target && r.id.is_none() {
+            if let Some(t) = &r.target
+                && let Some(problem) = target_problem(t)
+            {
+                return Err(MeasurementError::InvalidField {
+                    file: self.source.clone(),
+                    line: r.line,
+                    column: "target".to_owned(),
+                    reason: format!("target {:?} {problem}", shorten(t)),
+                });
+            }
+            if with_target && r.id.as_deref().is_none_or(str::is_empty) {
                 return Err(MeasurementError::InvalidField {
                     file: self.source.clone(),
                     line: r.line,
@@ -726,6 +736,19 @@ mod tests {
             .check_rows()
             .unwrap_err();
         assert!(e.to_string().contains("\"id\""), "{e}");
+        let e = lined(vec![row(1.0, "p1", "A"), row(3.0, "", "A")])
+            .check_rows()
+            .unwrap_err();
+        assert!(e.to_string().contains("\"id\""), "{e}");
+        for bad in ["", "r 1", "a,b"] {
+            let e = lined(vec![row(1.0, "p1", "A"), row(3.0, "p3", bad)])
+                .check_rows()
+                .unwrap_err();
+            assert!(
+                matches!(&e, MeasurementError::InvalidField { line: 2, column, .. } if column == "target"),
+                "{bad:?}: {e}"
+            );
+        }
         let turned =
             Measurement::new(vec![1.0], Some([0.0; 3])).with_orientation([1.0, 0.0, 0.0, 0.0]);
         lined(vec![turned.clone()]).check_rows().unwrap();
