@@ -15,7 +15,8 @@ use measurements::{MeasurementError, MeasurementSet};
 
 use crate::error::{CalibrateError, Result};
 use crate::files::{LoadedRobot, to_degrees_and_mm};
-use crate::{Check, IdentifyRequest, Inputs, Refusal};
+use crate::workflow::{declared_radians, with_rows};
+use crate::{Check, IdentifyRequest, Inputs};
 
 impl LoadedRobot {
     /// A robot not read from a file: `spec` validated into a model; `label` stands where a
@@ -167,8 +168,8 @@ impl Inputs {
     /// `request.validate` only name the sets; the row count is checked by [`crate::calibrate`].
     ///
     /// # Errors
-    /// As [`LoadedRobot::check_set`]; [`Refusal::NoDataRows`] for an empty validation set;
-    /// the `joint-units` refusal; [`Refusal::NoDataRows`] for an empty identification set.
+    /// As [`LoadedRobot::check_set`]; [`crate::Refusal::NoDataRows`] for an empty validation set;
+    /// the `joint-units` refusal; [`crate::Refusal::NoDataRows`] for an empty identification set.
     pub fn from_sets(
         request: &IdentifyRequest,
         nominal: LoadedRobot,
@@ -180,44 +181,19 @@ impl Inputs {
             request.length_units.mm_per_unit(),
         );
         let checked = |set: MeasurementSet, what: &str| {
-            let as_degrees = (request.joint_units == crate::JointUnits::Rad
+            // The rows as given, kept only where a failure may be degrees declared radians.
+            let kept = (request.joint_units == crate::JointUnits::Rad
                 && !request.allows(Check::JointUnits))
             .then(|| set.clone());
-            nominal
-                .check_set_in(set, true, what, units)
-                .map_err(|err| match as_degrees {
-                    // Read as degrees, the rows pass the limits: the declared radians are
-                    // degrees if some |q| is beyond a turn.
-                    Some(deg) => match nominal.check_set_in(deg, true, what, (1.0, units.1)) {
-                        Ok(deg) => match crate::checks::declared_radians(&deg.source, &deg.rows) {
-                            Err(refusal) => refusal.into(),
-                            Ok(()) => err,
-                        },
-                        Err(_) => err,
-                    },
-                    None => err,
+            nominal.check_set_in(set, true, what, units).map_err(|err| {
+                declared_radians(request, err, || {
+                    kept.and_then(|deg| nominal.check_set_in(deg, true, what, (1.0, units.1)).ok())
                 })
-        };
-        let data = checked(data, "identification data")?;
-        if data.rows.is_empty() {
-            return Err(Refusal::NoDataRows {
-                what: "identification data",
-                file: data.source,
-            }
-            .into());
-        }
-        let validate = validate
-            .map(|v| -> Result<MeasurementSet> {
-                let v = checked(v, "validation data")?;
-                if v.rows.is_empty() {
-                    return Err(Refusal::NoDataRows {
-                        what: "validation",
-                        file: v.source,
-                    }
-                    .into());
-                }
-                Ok(v)
             })
+        };
+        let data = with_rows(checked(data, "identification data")?, "identification data")?;
+        let validate = validate
+            .map(|v| with_rows(checked(v, "validation data")?, "validation"))
             .transpose()?;
         Ok(Inputs {
             nominal,

@@ -515,6 +515,11 @@ impl Inputs {
             request.joint_units.deg_per_unit(),
             request.length_units.mm_per_unit(),
         );
+        let as_degrees = |path: &std::path::Path| {
+            nominal
+                .read_set_in(path, true, (0, None), "data", (1.0, units.1))
+                .ok()
+        };
         let data = nominal
             .read_set_in(
                 &request.data,
@@ -523,21 +528,14 @@ impl Inputs {
                 "identification data",
                 units,
             )
-            .map_err(|e| declared_radians(request, &nominal, &request.data, e))
+            .map_err(|e| declared_radians(request, e, || as_degrees(&request.data)))
             .map_err(|e| too_few_rows(request, n_free, min_rows, e))?;
         let validate = match (&request.validate, &request.split) {
             (Some(path), Split::All) => {
                 let set = nominal
                     .read_set_in(path, true, (0, None), "validation data", units)
-                    .map_err(|e| declared_radians(request, &nominal, path, e))?;
-                if set.rows.is_empty() {
-                    return Err(Refusal::NoDataRows {
-                        what: "validation",
-                        file: set.source,
-                    }
-                    .into());
-                }
-                Some(set)
+                    .map_err(|e| declared_radians(request, e, || as_degrees(path)))?;
+                Some(with_rows(set, "validation")?)
             }
             _ => None,
         };
@@ -549,33 +547,38 @@ impl Inputs {
     }
 }
 
-/// A read of `path` in declared radians that failed (`err`): when the file reads cleanly as
-/// degrees and [`checks::declared_radians`] sees degrees, that refusal (with its evidence)
-/// instead of `err` (typically the first joint beyond a limit in radians). Not when the
-/// request allows the `joint-units` check.
-fn declared_radians(
+/// A read in declared radians that failed (`err`): when the rows read cleanly as degrees
+/// (`as_degrees`: the rows read again in degrees, `None` if they do not pass) and
+/// [`checks::declared_radians`] sees degrees, that refusal (with its evidence) instead of
+/// `err` (typically the first joint beyond a limit in radians). Not when the request allows
+/// the `joint-units` check or declares degrees (`as_degrees` is then not called).
+pub(crate) fn declared_radians(
     request: &IdentifyRequest,
-    nominal: &LoadedRobot,
-    path: &std::path::Path,
     err: CalibrateError,
+    as_degrees: impl FnOnce() -> Option<MeasurementSet>,
 ) -> CalibrateError {
     if request.joint_units != crate::JointUnits::Rad || request.allows(Check::JointUnits) {
         return err;
     }
-    let as_degrees = nominal.read_set_in(
-        path,
-        true,
-        (0, None),
-        "data",
-        (1.0, request.length_units.mm_per_unit()),
-    );
-    match as_degrees {
-        Ok(set) => match checks::declared_radians(&set.source, &set.rows) {
+    match as_degrees() {
+        Some(set) => match checks::declared_radians(&set.source, &set.rows) {
             Err(refusal) => refusal.into(),
             Ok(()) => err,
         },
-        Err(_) => err,
+        None => err,
     }
+}
+
+/// `set` if it has rows, else [`Refusal::NoDataRows`] naming it as the `what` file.
+pub(crate) fn with_rows(set: MeasurementSet, what: &'static str) -> Result<MeasurementSet> {
+    if set.rows.is_empty() {
+        return Err(Refusal::NoDataRows {
+            what,
+            file: set.source,
+        }
+        .into());
+    }
+    Ok(set)
 }
 
 /// The nominal of `request` extended by its `+` parameters, with the number of free

@@ -287,15 +287,30 @@ fn point_rows(
     name: &str,
     what: &str,
 ) -> PyResult<Vec<[f64; 3]>> {
-    let shape = points.shape().to_vec();
-    if shape[..] != [rows, 3] {
+    fixed_rows(points, rows, name, "point in mm", what)
+}
+
+/// `(n, K)` values as rows of K, `n` rows expected; the error says what each row is (`each`)
+/// and names the joints they go with (`what`).
+fn fixed_rows<const K: usize>(
+    a: &PyArrayLikeDyn<'_, f64, AllowTypeChange>,
+    rows: usize,
+    name: &str,
+    each: &str,
+    what: &str,
+) -> PyResult<Vec<[f64; K]>> {
+    let shape = a.shape().to_vec();
+    if shape[..] != [rows, K] {
         return Err(KincalError::new_err(format!(
-            "{name}: expected shape ({rows}, 3) (one point in mm per row of {what}), got {}",
+            "{name}: expected shape ({rows}, {K}) (one {each} per row of {what}), got {}",
             shape_text(&shape)
         )));
     }
-    let flat: Vec<f64> = points.as_array().iter().copied().collect();
-    Ok(flat.chunks_exact(3).map(|p| [p[0], p[1], p[2]]).collect())
+    let flat: Vec<f64> = a.as_array().iter().copied().collect();
+    Ok(flat
+        .chunks_exact(K)
+        .map(|r| std::array::from_fn(|k| r[k]))
+        .collect())
 }
 
 /// A measurement set of joint rows (and points) built in memory, named `source`.
@@ -825,29 +840,6 @@ fn py_identify<'py>(
     })
 }
 
-/// `(n, 4)` unit quaternions `w, x, y, z` as rows, `n` rows expected (`what` names the joints
-/// they go with).
-fn quaternion_rows(
-    a: &PyArrayLikeDyn<'_, f64, AllowTypeChange>,
-    rows: usize,
-    name: &str,
-    what: &str,
-) -> PyResult<Vec<[f64; 4]>> {
-    let shape = a.shape().to_vec();
-    if shape[..] != [rows, 4] {
-        return Err(KincalError::new_err(format!(
-            "{name}: expected shape ({rows}, 4) (one unit quaternion w, x, y, z per row of \
-             {what}), got {}",
-            shape_text(&shape)
-        )));
-    }
-    let flat: Vec<f64> = a.as_array().iter().copied().collect();
-    Ok(flat
-        .chunks_exact(4)
-        .map(|q| [q[0], q[1], q[2], q[3]])
-        .collect())
-}
-
 /// `n` strings (target names or pose ids), or an error naming `name`.
 fn string_rows(v: &Bound<'_, PyAny>, rows: usize, name: &str) -> PyResult<Vec<String>> {
     let v: Vec<String> = v.extract().map_err(|_| {
@@ -880,7 +872,7 @@ fn frame_set(
     let rows = q.len();
     let p = point_rows(points, rows, names[1], names[0])?;
     let o = orientations
-        .map(|o| quaternion_rows(o, rows, names[2], names[0]))
+        .map(|o| fixed_rows(o, rows, names[2], "unit quaternion w, x, y, z", names[0]))
         .transpose()?;
     let t = targets
         .map(|t| string_rows(t, rows, names[3]))
@@ -980,17 +972,13 @@ fn py_identify_frames<'py>(
                     v.len()
                 )));
             }
-            let item = |k: usize| -> PyResult<Option<Bound<'py, PyAny>>> {
-                Ok(match v.get_item(k) {
-                    Ok(x) if !x.is_none() => Some(x),
-                    _ => None,
-                })
-            };
+            // Item k, `None` where absent or given as None.
+            let item = |k: usize| v.get_item(k).ok().filter(|x| !x.is_none());
             let array =
                 |x: Bound<'py, PyAny>| -> PyResult<PyArrayLikeDyn<'py, f64, AllowTypeChange>> {
                     x.extract()
                 };
-            let (vq, vp) = match (item(0)?, item(1)?) {
+            let (vq, vp) = match (item(0), item(1)) {
                 (Some(q), Some(p)) => (array(q)?, array(p)?),
                 _ => {
                     return Err(KincalError::new_err(
@@ -998,15 +986,15 @@ fn py_identify_frames<'py>(
                     ));
                 }
             };
-            let vo = item(2)?.map(array).transpose()?;
+            let vo = item(2).map(array).transpose()?;
             Some(frame_set(
                 "validation arrays",
                 n,
                 &vq,
                 &vp,
                 vo.as_ref(),
-                item(3)?.as_ref(),
-                item(4)?.as_ref(),
+                item(3).as_ref(),
+                item(4).as_ref(),
                 [
                     "validate[0] (q_deg)",
                     "validate[1] (points_mm)",

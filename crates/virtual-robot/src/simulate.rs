@@ -163,11 +163,8 @@ fn unit_quaternion(r: &nalgebra::Matrix3<f64>) -> [f64; 4] {
 }
 
 impl Simulation {
-    fn header(&self, what: &str) -> String {
-        let set = match what {
-            "identification" => &self.identification,
-            _ => &self.validation,
-        };
+    /// The comment header of `set`'s file (`what`: identification or validation).
+    fn header(&self, what: &str, set: &MeasurementSet) -> String {
         let mut h = format!(
             "kincal virtual robot — {what} measurements of {}\nseed {}, trial {}; q in degrees, \
              x y z in mm in the measurement frame",
@@ -186,7 +183,7 @@ impl Simulation {
     pub fn identification_csv(&self) -> Result<String, SimError> {
         Ok(to_csv_string(
             &self.identification,
-            Some(&self.header("identification")),
+            Some(&self.header("identification", &self.identification)),
         )?)
     }
 
@@ -194,7 +191,7 @@ impl Simulation {
     pub fn validation_csv(&self) -> Result<String, SimError> {
         Ok(to_csv_string(
             &self.validation,
-            Some(&self.header("validation")),
+            Some(&self.header("validation", &self.validation)),
         )?)
     }
 
