@@ -63,13 +63,36 @@ fn checkpointing(args: &CheckpointArgs) -> Checkpointing {
     }
 }
 
+/// At most this many worker threads per core: results do not depend on the count, and more
+/// threads than a few per core only add switching and memory (each thread keeps its own
+/// workspace). A larger `--threads` is capped with a note, not refused.
+pub const MAX_THREADS_PER_CORE: usize = 4;
+
+/// `--threads`, capped at [`MAX_THREADS_PER_CORE`] × the cores this process may use, with a
+/// note when it was.
+fn capped_threads(threads: Option<usize>) -> Option<usize> {
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let max = MAX_THREADS_PER_CORE * cores;
+    threads.map(|t| {
+        if t > max {
+            crate::errln!(
+                "note: --threads {t} capped at {max} ({MAX_THREADS_PER_CORE} per core, {cores} \
+                 core(s) here); the results do not depend on the thread count"
+            );
+            max
+        } else {
+            t
+        }
+    })
+}
+
 /// `kincal campaign`.
 pub fn campaign(args: CampaignArgs) -> Result<()> {
     let mut run = CampaignRun::new(&args.scenario);
     run.trials = args.trials;
     run.iso_off = args.no_iso;
     run.budget_off = args.no_budget;
-    run.threads = args.threads;
+    run.threads = capped_threads(args.threads);
     run.shard = args.shard.as_deref().map(parse_shard).transpose()?;
     run.checkpoint = Some(checkpointing(&args.checkpoint));
     let out_given = args.out.is_some();
@@ -92,9 +115,9 @@ pub fn print_campaign(outcome: &CampaignOutcome, quiet: bool) {
             seconds,
         } => {
             if !quiet {
-                println!("{}", summary.to_markdown());
+                crate::outln!("{}", summary.to_markdown());
             }
-            eprintln!(
+            crate::errln!(
                 "{} trials in {} s on {threads} thread(s) → {}",
                 summary.scenario.trials,
                 fmt::secs(*seconds),
@@ -106,7 +129,7 @@ pub fn print_campaign(outcome: &CampaignOutcome, quiet: bool) {
             trials,
             file,
             seconds,
-        } => eprintln!(
+        } => crate::errln!(
             "shard {shard}: trials {}..{} in {} s → {}",
             trials.start,
             trials.end,
@@ -123,8 +146,8 @@ pub fn merge(args: MergeArgs) -> Result<()> {
     let out_given = args.out.is_some();
     run.out = args.out;
     let outcome = run.run().map_err(|e| with_option(e, out_given))?;
-    println!("{}", outcome.summary.to_markdown());
-    eprintln!(
+    crate::outln!("{}", outcome.summary.to_markdown());
+    crate::errln!(
         "merged {} shards → {}",
         run.shards.len(),
         outcome.out.display()
@@ -147,7 +170,7 @@ pub fn simulate(args: SimulateArgs) -> Result<()> {
             format!("{poses} poses ({} rows)", set.rows.len())
         }
     };
-    eprintln!(
+    crate::errln!(
         "{} identification and {} validation measurements, truth → {}\n\
          pose sampling: {} candidate draws, {} rejected ({} %: wrist {}, floor {}, \
          elevation {}, range {}, condition {})",
@@ -170,7 +193,7 @@ pub fn simulate(args: SimulateArgs) -> Result<()> {
 pub fn sweep(args: SweepArgs) -> Result<()> {
     let mut run = SweepRun::new(&args.sweep);
     run.trials = args.trials;
-    run.threads = args.threads;
+    run.threads = capped_threads(args.threads);
     run.checkpoint = Some(checkpointing(&args.checkpoint));
     let out_given = args.out.is_some();
     run.out = args.out;
@@ -186,9 +209,9 @@ pub fn sweep(args: SweepArgs) -> Result<()> {
 pub fn print_sweep(outcome: &SweepOutcome, quiet: bool) {
     let r = &outcome.result;
     if !quiet {
-        println!("{}", r.to_markdown());
+        crate::outln!("{}", r.to_markdown());
     }
-    eprintln!(
+    crate::errln!(
         "{}: {} points × {} trials in {} s → {}",
         r.spec.name,
         r.points.len(),

@@ -75,6 +75,11 @@ pub struct DesignArgs {
 /// Runs `design`.
 pub fn run(args: &DesignArgs) -> Result<()> {
     crate::check_file_out("--out", &args.out)?;
+    let mut inputs = vec![("--robot", args.robot.as_path())];
+    inputs.extend(args.candidates.as_deref().map(|p| ("--candidates", p)));
+    inputs.extend(args.scenario.as_deref().map(|p| ("--scenario", p)));
+    inputs.extend(args.workspace.as_deref().map(|p| ("--workspace", p)));
+    crate::check_not_input("--out", &args.out, &inputs)?;
     let geometric = Robot::from_file(&args.robot)
         .with_context(|| format!("loading {}", args.robot.display()))?;
     let params_flag = || format!("--params {}", args.params);
@@ -144,11 +149,11 @@ pub fn run(args: &DesignArgs) -> Result<()> {
     crate::write_file_out(&args.out, csv.as_bytes())?;
     if crate::is_stdout(&args.out) {
         // The plan is on stdout: the report goes to stderr.
-        eprint!("{}", report.to_text());
-        eprintln!("plan: {} poses → standard output", plan.rows.len());
+        crate::errout!("{}", report.to_text());
+        crate::errln!("plan: {} poses → standard output", plan.rows.len());
     } else {
-        print!("{}", report.to_text());
-        println!("plan: {} poses → {}", plan.rows.len(), args.out.display());
+        crate::out!("{}", report.to_text());
+        crate::outln!("plan: {} poses → {}", plan.rows.len(), args.out.display());
     }
     Ok(())
 }

@@ -131,9 +131,9 @@ pub fn run(args: &IdentifiabilityArgs) -> Result<()> {
     let report = analyze(&robot, &poses, None, &free, &opts)
         .with_context(|| format!("analysing {} on {source}", robot.name()))?;
     if args.json {
-        println!("{}", serde_json::to_string_pretty(&report)?);
+        crate::outln!("{}", serde_json::to_string_pretty(&report)?);
     } else {
-        print!(
+        crate::out!(
             "{}",
             report::identifiability::console(
                 &report,
@@ -158,7 +158,7 @@ fn read_poses(robot: &Robot, path: &Path) -> Result<Vec<f64>> {
     )
     .with_context(|| format!("reading poses from {}", path.display()))?;
     for notice in &set.notices {
-        eprintln!("note: {notice}");
+        crate::errln!("note: {notice}");
     }
     Ok(set
         .rows

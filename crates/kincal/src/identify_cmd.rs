@@ -37,6 +37,19 @@ pub fn write_outputs(dir: &Path, files: &[(String, String)]) -> Result<()> {
 
 /// `kincal identify`.
 pub fn run(args: &IdentifyArgs) -> Result<()> {
+    let mut inputs = vec![("--robot", args.robot.as_path()), ("--data", &args.data)];
+    inputs.extend(args.validate.as_deref().map(|p| ("--validate", p)));
+    crate::check_dir_not_input(
+        &args.out,
+        &[
+            ROBOT_FILE,
+            REGISTERED_FILE,
+            PARAMETERS_FILE,
+            REPORT_FILE,
+            REPORT_HTML_FILE,
+        ],
+        &inputs,
+    )?;
     let out = lock_out(&args.out)?;
     let request = args.request();
     let cal = if args.euler.is_some() || calibrate::frames::header_has_frames(&args.data) {
@@ -51,14 +64,14 @@ pub fn run(args: &IdentifyArgs) -> Result<()> {
     }
     .map_err(|e| args.flagged(e))?;
     for notice in &cal.notices {
-        eprintln!("note: {notice}");
+        crate::errln!("note: {notice}");
     }
     let files = report::calibration::render(&cal)
         .with_context(|| format!("drawing the plots of {REPORT_HTML_FILE}"))?;
     write_outputs_into(&out, &files)?;
     drop(out);
-    print!("{}", report::calibration::summary(&cal));
-    println!(
+    crate::out!("{}", report::calibration::summary(&cal));
+    crate::outln!(
         "→ {}: {ROBOT_FILE} (the calibrated robot), {REGISTERED_FILE} (the nominal robot in \
          the same frame: compensation targets), {PARAMETERS_FILE} (parameter table), \
          {REPORT_FILE} and {REPORT_HTML_FILE} (the report, with its plots)",
@@ -78,13 +91,13 @@ fn run_frames(
     let cal = calibrate::frames::calibrate_frames(request, inputs, &options)
         .map_err(|e| args.flagged(e))?;
     for notice in &cal.notices {
-        eprintln!("note: {notice}");
+        crate::errln!("note: {notice}");
     }
     let files = report::calibration::frames::render(&cal)
         .with_context(|| format!("drawing the plots of {REPORT_HTML_FILE}"))?;
     write_outputs_into(out, &files)?;
-    print!("{}", report::calibration::frames::summary(&cal));
-    println!(
+    crate::out!("{}", report::calibration::frames::summary(&cal));
+    crate::outln!(
         "→ {}: {ROBOT_FILE} (the calibrated robot with its tool frame), {REPORT_FILE} and \
          {REPORT_HTML_FILE} (the report, with its plots: position and orientation errors)",
         args.out.display(),

@@ -48,23 +48,30 @@ pub struct PredictArgs {
 /// `kincal predict`.
 pub fn predict(args: &PredictArgs) -> Result<()> {
     check_out(args.out.as_deref())?;
+    if let Some(out) = args.out.as_deref() {
+        crate::check_not_input(
+            "--out",
+            out,
+            &[("--robot", &args.robot), ("--joints", &args.joints)],
+        )?;
+    }
     let robot = LoadedRobot::load(&args.robot, "robot")?;
     let p = calibrate::predict(&robot, &args.joints, &out_label(args.out.as_deref()))?;
     for notice in &p.notices {
-        eprintln!("note: {notice}");
+        crate::errln!("note: {notice}");
     }
     emit(args.out.as_deref(), &p.csv)?;
     match p.file_error_mm {
-        Some((mean, max)) => eprintln!(
+        Some((mean, max)) => crate::errln!(
             "{} rows; the file has points x, y, z: |file − predicted| mean {} mm, max {} mm",
             p.rows,
             report::fmt::mm(mean),
             report::fmt::mm(max)
         ),
-        None => eprintln!("{} rows", p.rows),
+        None => crate::errln!("{} rows", p.rows),
     }
     if let Some(out) = args.out.as_deref().filter(|p| !crate::is_stdout(p)) {
-        eprintln!("→ {}", out.display());
+        crate::errln!("→ {}", out.display());
     }
     Ok(())
 }
@@ -107,6 +114,17 @@ pub struct CompensateArgs {
 /// `kincal compensate`.
 pub fn compensate(args: &CompensateArgs) -> Result<()> {
     check_out(args.out.as_deref())?;
+    if let Some(out) = args.out.as_deref() {
+        crate::check_not_input(
+            "--out",
+            out,
+            &[
+                ("--robot", &args.robot),
+                ("--nominal", &args.nominal),
+                ("--targets", &args.targets),
+            ],
+        )?;
+    }
     let calibrated = LoadedRobot::load(&args.robot, "calibrated robot")?;
     let nominal = LoadedRobot::load(&args.nominal, "nominal robot")?;
     if !(args.flag_change_deg.is_finite() && args.flag_change_deg > 0.0) {
@@ -133,13 +151,13 @@ pub fn compensate(args: &CompensateArgs) -> Result<()> {
         e => e.into(),
     })?;
     for notice in &c.notices {
-        eprintln!("note: {notice}");
+        crate::errln!("note: {notice}");
     }
     for u in &c.unreachable {
-        eprintln!("{u}");
+        crate::errln!("{u}");
     }
     for f in &c.flagged {
-        eprintln!("flagged: {f}");
+        crate::errln!("flagged: {f}");
     }
     emit(args.out.as_deref(), &c.csv)?;
     let reasons = c
@@ -148,7 +166,7 @@ pub fn compensate(args: &CompensateArgs) -> Result<()> {
         .map(|(k, n)| format!("{k} {n}"))
         .collect::<Vec<_>>()
         .join(", ");
-    eprintln!(
+    crate::errln!(
         "compensated {} of {} targets ({} unreachable left out; {} flagged: a joint moves > \
          {}°{}); largest joint change {:.4}°, largest IK position error {:.1e} mm{}",
         c.compensated,

@@ -8,6 +8,7 @@
 // types allow the two rustdoc lints.
 
 pub mod campaign_cmd;
+pub mod console;
 pub mod design_cmd;
 pub mod identifiability;
 pub mod identify_cmd;
@@ -75,18 +76,22 @@ pub fn run(cmd: Command) -> Result<()> {
 /// Ends a front end's `main`: on an error, prints it and what caused it, one line each
 /// (`error: …` then `  caused by: …`, outermost first) to stderr and exits with status 1.
 /// A cause that the message before it already quotes is left out. No backtrace, whatever
-/// `RUST_BACKTRACE` says: every error names its file, line or option.
+/// `RUST_BACKTRACE` says: every error names its file, line or option. A run whose notes
+/// could not be written to standard error ([`console`]) also ends with status 1.
 pub fn exit_on_error(result: Result<()>) {
     if let Err(e) = result {
-        eprintln!("error: {e}");
+        crate::errln!("error: {e}");
         let mut shown = e.to_string();
         for cause in e.chain().skip(1).map(|c| c.to_string()) {
             // A message that already quotes its cause (`file: No such file…`) is not repeated.
             if !shown.contains(&cause) {
-                eprintln!("  caused by: {cause}");
+                crate::errln!("  caused by: {cause}");
             }
             shown = cause;
         }
+        std::process::exit(1);
+    }
+    if console::stderr_failed() {
         std::process::exit(1);
     }
 }
@@ -104,6 +109,49 @@ pub fn check_file_out(flag: &str, path: &Path) -> Result<()> {
     if !is_stdout(path) {
         measurements::check_output(path, measurements::OutputKind::File)
             .with_context(|| format!("{flag} {}", path.display()))?;
+    }
+    Ok(())
+}
+
+/// Refuses, before any work, a single-file output that is the same file as one of the
+/// command's inputs (same device and inode through any spelling: links, `..`, another
+/// relative path; [`measurements::same_file`]): `predict --joints m.csv --out m.csv` would
+/// replace the measurements with the prediction. `inputs` pairs each input's option (or
+/// argument name) with its path; `-` (standard output) is never an input.
+pub fn check_not_input(out_flag: &str, out: &Path, inputs: &[(&str, &Path)]) -> Result<()> {
+    if is_stdout(out) {
+        return Ok(());
+    }
+    for (flag, input) in inputs {
+        if measurements::same_file(out, input) {
+            anyhow::bail!(
+                "{out_flag} {} is the same file as {flag} {}: the output would replace its own \
+                 input; write the output to another file",
+                out.display(),
+                input.display()
+            );
+        }
+    }
+    Ok(())
+}
+
+/// Refuses, before any work, an output directory whose set would replace one of the
+/// command's inputs: `dir/NAME` for a `NAME` of `set_names` is the same file as an input
+/// ([`check_not_input`]); e.g. `identify --robot cal/identified.json --out cal`.
+pub fn check_dir_not_input(dir: &Path, set_names: &[&str], inputs: &[(&str, &Path)]) -> Result<()> {
+    for name in set_names {
+        let target = dir.join(name);
+        for (flag, input) in inputs {
+            if measurements::same_file(&target, input) {
+                anyhow::bail!(
+                    "{flag} {} is {name} in --out {}, which this run replaces: the output set \
+                     would overwrite its own input; copy the input elsewhere or write the \
+                     outputs to another directory",
+                    input.display(),
+                    dir.display()
+                );
+            }
+        }
     }
     Ok(())
 }

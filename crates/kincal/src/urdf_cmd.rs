@@ -89,6 +89,7 @@ pub fn run(args: &UrdfArgs) -> Result<()> {
             out,
         } => {
             crate::check_file_out("--out", out)?;
+            crate::check_not_input("--out", out, &[("the URDF", path)])?;
             let [x, y, z] = tool_mm[..] else {
                 bail!(
                     "--tool-mm takes three values x,y,z (mm), got {}",
@@ -110,9 +111,9 @@ pub fn run(args: &UrdfArgs) -> Result<()> {
             // With `--out -` the robot file is on stdout: the notes go to stderr.
             let note = |line: String| {
                 if crate::is_stdout(out) {
-                    eprintln!("{line}");
+                    crate::errln!("{line}");
                 } else {
-                    println!("{line}");
+                    crate::outln!("{line}");
                 }
             };
             note(format!(
@@ -134,8 +135,13 @@ pub fn run(args: &UrdfArgs) -> Result<()> {
             joint_names,
         } => {
             crate::check_file_out("--out", out)?;
+            let mut inputs = vec![("the robot file", robot.as_path())];
+            inputs.extend(nominal.as_deref().map(|p| ("--nominal", p)));
+            crate::check_not_input("--out", out, &inputs)?;
             if let Some(path) = offsets {
                 crate::check_file_out("--offsets", path)?;
+                inputs.push(("--out", out.as_path()));
+                crate::check_not_input("--offsets", path, &inputs)?;
             }
             let spec = RobotSpec::from_file(robot)?;
             let opts = urdf::ExportOptions {
@@ -169,9 +175,9 @@ pub fn run(args: &UrdfArgs) -> Result<()> {
             // With `--out -` the URDF is on stdout: the notes go to stderr.
             let note = |line: String| {
                 if crate::is_stdout(out) {
-                    eprintln!("{line}");
+                    crate::errln!("{line}");
                 } else {
-                    println!("{line}");
+                    crate::outln!("{line}");
                 }
             };
             note(format!(

@@ -8,5 +8,6 @@ mod design_frames_cli;
 mod docs_examples;
 mod files_cli;
 mod frames_cli;
+mod full_device_cli;
 mod trust_cli;
 mod urdf_cli;

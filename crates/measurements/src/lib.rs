@@ -185,7 +185,7 @@ pub use limits::{SizeError, available_memory, bytes_in_words, check_size};
 #[cfg(unix)]
 pub use output::{
     FAULT_ENV, NO_EXCHANGE_ENV, OutputDir, OutputError, OutputKind, SharedOutputDir, TargetProblem,
-    check_output,
+    check_output, same_file,
 };
 pub use read::{read_file, read_str};
 pub use rotation::{

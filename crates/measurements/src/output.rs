@@ -1017,6 +1017,17 @@ fn exchange_unsupported(e: &io::Error) -> bool {
         )
 }
 
+/// Whether `a` and `b` name the same existing file: the same device and inode, whatever the
+/// spelling (symbolic links, hard links, `..`, a relative or absolute path). A path that
+/// does not exist (yet) is no file, so `false`; so is one that cannot be inspected.
+pub fn same_file(a: &Path, b: &Path) -> bool {
+    use std::os::unix::fs::MetadataExt as _;
+    match (fs::metadata(a), fs::metadata(b)) {
+        (Ok(x), Ok(y)) => x.dev() == y.dev() && x.ino() == y.ino(),
+        _ => false,
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -1038,3 +1049,4 @@ mod tests {
         assert_eq!(temp_file_pid("..1.2.tmp"), None);
     }
 }
+

@@ -147,7 +147,7 @@ impl Observer for Progress {
                 && d < p.total
             {
                 p.last = Instant::now();
-                eprintln!("{}", p.line(d));
+                crate::errln!("{}", p.line(d));
             }
             return;
         }
@@ -162,7 +162,7 @@ impl Observer for Progress {
         if let Some(plain) = &self.plain {
             let p = plain.lock().unwrap_or_else(|e| e.into_inner());
             if p.total > 0 {
-                eprintln!("{}", p.line(self.done.load(Ordering::Relaxed)));
+                crate::errln!("{}", p.line(self.done.load(Ordering::Relaxed)));
             }
             return;
         }
@@ -172,7 +172,7 @@ impl Observer for Progress {
     }
 
     fn note(&self, message: &str) {
-        eprintln!("note: {message}");
+        crate::errln!("note: {message}");
     }
 
     fn resuming(
@@ -181,7 +181,7 @@ impl Observer for Progress {
         done: std::ops::Range<u64>,
         trials: std::ops::Range<u64>,
     ) {
-        eprintln!(
+        crate::errln!(
             "resuming from {}: trials {}..{} of {}..{} done",
             checkpoint.display(),
             done.start,
@@ -193,7 +193,7 @@ impl Observer for Progress {
 
     fn sweep_point(&self, point: usize, points: usize) {
         if self.points {
-            eprintln!("point {}/{points}", point + 1);
+            crate::errln!("point {}/{points}", point + 1);
         }
     }
 }
