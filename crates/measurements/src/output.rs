@@ -326,7 +326,13 @@ fn step(what: &str) -> io::Result<()> {
 /// The name prefix of everything the set writer leaves beside an output directory `NAME`:
 /// `.NAME.kincal-lock`, `.NAME.kincal-stage-PID`, `.NAME.kincal-old-PID`.
 fn sibling(parent: &Path, name: &str, what: &str) -> PathBuf {
-    parent.join(format!(".{name}.kincal-{what}"))
+    parent.join(format!("{}{what}", sibling_prefix(name)))
+}
+
+/// `.NAME.kincal-`, with `NAME` shortened (`write::short_name`) so that every sibling's name
+/// stays within the file-name limit (255 bytes) whatever the directory's name.
+fn sibling_prefix(name: &str) -> String {
+    format!(".{}.kincal-", crate::write::short_name(name))
 }
 
 /// An output directory held by this process: checked, locked against other writers, and
@@ -363,12 +369,12 @@ pub struct OutputDir {
     _lock: File,
 }
 
-fn is_alive(pid: u32) -> bool {
+pub(crate) fn is_alive(pid: u32) -> bool {
     pid == std::process::id() || Path::new("/proc").join(pid.to_string()).exists()
 }
 
 /// The pid of a single-file writer's temporary `.<name>.<pid>.<n>.tmp`, if it is one.
-fn temp_file_pid(file_name: &str) -> Option<u32> {
+pub(crate) fn temp_file_pid(file_name: &str) -> Option<u32> {
     let mid = file_name.strip_prefix('.')?.strip_suffix(".tmp")?;
     let mut parts = mid.rsplitn(3, '.');
     let n = parts.next()?;
@@ -561,7 +567,7 @@ impl OutputDir {
     /// renames of the fallback leaves), and single-file temporaries of processes that are
     /// gone.
     fn clean_up(&self) -> Result<(), OutputError> {
-        let prefix = format!(".{}.kincal-", self.name);
+        let prefix = sibling_prefix(&self.name);
         let mut staged = Vec::new();
         let mut retired = Vec::new();
         let entries = fs::read_dir(&self.parent).map_err(io_err(&self.parent, "listing"))?;
@@ -1049,4 +1055,3 @@ mod tests {
         assert_eq!(temp_file_pid("..1.2.tmp"), None);
     }
 }
-

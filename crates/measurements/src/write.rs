@@ -178,10 +178,15 @@ fn fill_and_rename(mut file: File, bytes: &[u8], tmp_path: &Path, path: &Path) -
     fs::rename(tmp_path, path)
 }
 
-/// Create a new, uniquely named hidden file `.<name>.<pid>.<n>.tmp` in `dir`.
+/// Create a new, uniquely named hidden file `.<name>.<pid>.<n>.tmp` in `dir` (`<name>`
+/// shortened when long, so the temporary's name stays within the file-name limit). The
+/// temporaries of this name left by writers that are gone (a killed run) are removed first.
 fn create_temp_file(dir: &Path, name: &str) -> io::Result<(PathBuf, File)> {
     static COUNTER: AtomicU64 = AtomicU64::new(0);
     let pid = std::process::id();
+    let name = short_name(name);
+    #[cfg(unix)]
+    remove_dead_temporaries_of(dir, &name);
     let mut attempt = 0;
     loop {
         let n = COUNTER.fetch_add(1, Ordering::Relaxed);
@@ -196,6 +201,48 @@ fn create_temp_file(dir: &Path, name: &str) -> io::Result<(PathBuf, File)> {
             Err(e) => return Err(e),
         }
     }
+}
+
+/// Removes `dir`'s temporaries `.<name>.<pid>.<n>.tmp` whose process is gone (best effort:
+/// a file another process removed first, or one that cannot be removed, is left).
+#[cfg(unix)]
+fn remove_dead_temporaries_of(dir: &Path, name: &str) {
+    let prefix = format!(".{name}.");
+    let Ok(entries) = fs::read_dir(dir) else {
+        return;
+    };
+    for e in entries.flatten() {
+        let f = e.file_name().to_string_lossy().into_owned();
+        let ours = f
+            .strip_prefix(&prefix)
+            .is_some_and(|rest| rest.matches('.').count() == 2);
+        if ours && crate::output::temp_file_pid(&f).is_some_and(|pid| !crate::output::is_alive(pid))
+        {
+            let _ = fs::remove_file(e.path());
+        }
+    }
+}
+
+/// The longest a name taken into a hidden helper file's name may be (bytes): 255, the
+/// usual file-name limit, less room for the helper's own prefix and suffix.
+pub(crate) const MAX_EMBEDDED_NAME: usize = 180;
+
+/// `name` if it is at most [`MAX_EMBEDDED_NAME`] bytes, else its first bytes (at a
+/// character boundary) and a 16-digit hash of the whole name, so that two long names
+/// sharing a prefix still get different helper files.
+pub(crate) fn short_name(name: &str) -> String {
+    if name.len() <= MAX_EMBEDDED_NAME {
+        return name.to_owned();
+    }
+    // FNV-1a, 64 bits: stable across runs and platforms.
+    let hash = name.bytes().fold(0xcbf2_9ce4_8422_2325_u64, |h, b| {
+        (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3)
+    });
+    let mut cut = MAX_EMBEDDED_NAME - 17;
+    while !name.is_char_boundary(cut) {
+        cut -= 1;
+    }
+    format!("{}~{hash:016x}", &name[..cut])
 }
 
 /// Make the rename durable (best effort; only meaningful on Unix).

@@ -564,3 +564,53 @@ mod six_dof_and_targets {
         }
     }
 }
+
+/// A temporary left by a killed writer of the same file (`.NAME.PID.N.tmp`, its process
+/// gone) is removed by the next write of that file; a live writer's temporary and another
+/// file's temporary are kept (issue 39).
+#[test]
+fn a_dead_writers_temporary_is_removed_by_the_next_write() {
+    let dir = scratch("dead-temporary");
+    // No process has a pid above the kernel's limit (at most 2^22).
+    let dead = ".predicted.csv.99999999.0.tmp";
+    let live = format!(".predicted.csv.{}.999.tmp", std::process::id());
+    let other = ".other.csv.99999999.0.tmp";
+    let longer = ".predicted.csv.x.99999999.0.tmp";
+    for f in [dead, live.as_str(), other, longer] {
+        std::fs::write(dir.join(f), "partial").unwrap();
+    }
+    write_atomically(&dir.join("predicted.csv"), b"x,y,z\n").unwrap();
+    let mut want = vec![
+        live.clone(),
+        longer.to_string(),
+        other.to_string(),
+        "predicted.csv".to_string(),
+    ];
+    want.sort();
+    assert_eq!(entries(&dir), want);
+}
+
+/// A 240-character output name: the single-file write and the output directory's helper
+/// files (lock, staged set) stay within the 255-byte file-name limit (issue 39: "File name
+/// too long" from the hidden staging name); two long names sharing their first 200
+/// characters do not share helper files.
+#[test]
+fn long_output_names_stay_within_the_file_name_limit() {
+    let dir = scratch("long-names");
+    let name = format!("{}.csv", "n".repeat(236));
+    assert_eq!(name.len(), 240);
+    write_atomically(&dir.join(&name), b"q1\n1\n").unwrap();
+    assert_eq!(std::fs::read(dir.join(&name)).unwrap(), b"q1\n1\n");
+    let a = dir.join(format!("{}a", "d".repeat(239)));
+    let b = dir.join(format!("{}b", "d".repeat(239)));
+    let held_a = measurements::OutputDir::lock(&a).unwrap();
+    let held_b = measurements::OutputDir::lock(&b).unwrap();
+    held_a.write_set(&[("summary.json", "{}\n")]).unwrap();
+    held_b.write_set(&[("summary.json", "[]\n")]).unwrap();
+    drop((held_a, held_b));
+    assert_eq!(std::fs::read(a.join("summary.json")).unwrap(), b"{}\n");
+    assert_eq!(std::fs::read(b.join("summary.json")).unwrap(), b"[]\n");
+    for e in entries(&dir) {
+        assert!(e.len() <= 255, "{e}");
+    }
+}
