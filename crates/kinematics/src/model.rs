@@ -285,8 +285,32 @@ pub struct ExtendedParamSpec {
 }
 
 impl RobotSpec {
-    /// Parses and validates a model from JSON text; `source_name` labels errors.
+    /// Parses and validates a model from JSON text; `source_name` labels errors. A leading
+    /// byte-order mark (as some Windows editors write) is skipped, as the measurement reader
+    /// skips it.
     pub fn from_json_str(text: &str, source_name: &str) -> Result<Self, ModelError> {
+        let text = text.strip_prefix('\u{feff}').unwrap_or(text);
+        // Not a JSON object at all (a measurement CSV given as the robot, say): say what the
+        // file starts with rather than serde's "expected value at line 1 column 1".
+        let body = text.trim_start();
+        if !body.starts_with('{') {
+            let start: String = body.lines().next().unwrap_or("").chars().take(40).collect();
+            return Err(ModelError::Parse {
+                source_name: source_name.to_string(),
+                field: ".".to_string(),
+                message: if body.is_empty() {
+                    "the file is empty; a robot model file is a JSON object (docs/model.md §4)"
+                        .to_string()
+                } else {
+                    format!(
+                        "not a robot model file: it starts with `{start}`, where a robot model \
+                         file is a JSON object `{{ \"name\": …, \"joints\": [...] }}` \
+                         (docs/model.md §4); a measurement or joint CSV goes to --data, \
+                         --joints or --targets"
+                    )
+                },
+            });
+        }
         let de = &mut serde_json::Deserializer::from_str(text);
         let spec: RobotSpec = serde_path_to_error::deserialize(&mut *de).map_err(|e| {
             let field = e.path().to_string();

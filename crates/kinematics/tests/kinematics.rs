@@ -459,3 +459,38 @@ fn base_spec_requires_six_in_the_robot_file_and_defaults_in_the_scenario_form() 
     let robot = Robot::from_spec(&spec).unwrap();
     assert_eq!(robot.base_frame(), full.frame());
 }
+
+/// A robot file that starts with a UTF-8 byte-order mark (as some Windows editors save
+/// JSON) reads as the same robot, where it gave "expected value at line 1 column 1".
+#[test]
+fn a_robot_file_with_a_byte_order_mark_reads_as_without() {
+    let path = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../scenarios/robots/ur10.json"
+    );
+    let text = std::fs::read_to_string(path).unwrap();
+    let plain = RobotSpec::from_json_str(&text, "ur10.json").unwrap();
+    let marked = RobotSpec::from_json_str(&format!("\u{feff}{text}"), "ur10.json").unwrap();
+    assert_eq!(plain.to_json_string(), marked.to_json_string());
+}
+
+/// A CSV (or anything but a JSON object) given as a robot file is refused saying what it
+/// starts with and what a robot file is, where serde said "expected value at line 1 column
+/// 1"; an empty file is called empty.
+#[test]
+fn a_csv_given_as_a_robot_file_is_named_as_such() {
+    let e = RobotSpec::from_json_str("id,q1,q2,q3,q4,q5,q6,x,y,z\n1,0,0,0,0,0,0,1,2,3\n", "m.csv")
+        .unwrap_err()
+        .to_string();
+    assert!(e.starts_with("m.csv: "), "{e}");
+    assert!(
+        e.contains("starts with `id,q1,q2,q3,q4,q5,q6,x,y,z`"),
+        "{e}"
+    );
+    assert!(e.contains("JSON object"), "{e}");
+    assert!(!e.contains("expected value"), "{e}");
+    let e = RobotSpec::from_json_str(" \n", "e.json")
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("the file is empty"), "{e}");
+}
