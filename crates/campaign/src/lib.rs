@@ -5,24 +5,39 @@
 //! [`SweepRun`], [`SimulateRun`] (one trial as measurement files); progress goes to an
 //! [`Observer`] it attaches. The modules below are the parts those requests are made of.
 
+#[path = "run/aggregate.rs"]
 pub mod aggregate;
+#[path = "run/budget.rs"]
 pub mod budget;
+#[path = "requests/campaign.rs"]
 pub mod campaign_run;
+#[path = "requests/check.rs"]
 pub mod check;
+#[path = "run/checkpoint.rs"]
 pub mod checkpoint;
 pub mod error;
+#[path = "requests/in_memory.rs"]
 pub mod in_memory;
 pub mod observer;
+#[path = "outputs/files.rs"]
 pub mod outputs;
+#[path = "outputs/plots.rs"]
 pub mod plots;
+#[path = "run/range.rs"]
 pub mod run;
 pub mod scenario;
+#[path = "run/shard.rs"]
 pub mod shard;
+#[path = "outputs/summary.rs"]
 pub mod summary;
+#[path = "sweep/spec.rs"]
 pub mod sweep;
+#[path = "requests/sweep.rs"]
 pub mod sweep_run;
 pub mod trial;
+#[path = "trial/frames.rs"]
 mod trial_frames;
+#[path = "outputs/trial_report.rs"]
 pub mod trial_report;
 
 pub use budget::{BudgetConfig, ResidualBudget, residual_budget};
