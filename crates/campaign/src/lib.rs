@@ -5,43 +5,62 @@
 //! [`SweepRun`], [`SimulateRun`] (one trial as measurement files); progress goes to an
 //! [`Observer`] it attaches. The modules below are the parts those requests are made of.
 
-pub mod aggregate;
-pub mod budget;
-pub mod campaign_run;
-pub mod check;
-pub mod checkpoint;
-pub mod error;
-pub mod in_memory;
-pub mod observer;
-pub mod outputs;
-pub mod plots;
-pub mod run;
-pub mod scenario;
-pub mod shard;
-pub mod summary;
-pub mod sweep;
-pub mod sweep_run;
-pub mod trial;
-mod trial_frames;
-pub mod trial_report;
+//! The crate is laid out by what runs where:
+//!
+//! | folder | what |
+//! |---|---|
+//! | `scenario.rs` | the scenario file: everything a campaign needs, in one JSON document |
+//! | `trial/` | one trial end to end: the shared context, the point or frame identification ([`TrialFit`](trial) inside), the ISO test, the result |
+//! | `run/` | many trials: the parallel fold into an exact aggregate, checkpoints, shards, the residual budget |
+//! | `outputs/` | what a campaign writes: summary, trial report, figures, the file set |
+//! | `sweep/` | a sweep: its file, its points as campaigns, its outputs |
+//! | `requests/` | what a front end calls: [`CampaignRun`], [`MergeRun`], [`SimulateRun`], [`SweepRun`], [`summarize`], [`run_check`] |
+//!
+//! Each folder imports only those above it in this table (and `error.rs`, `observer.rs`);
+//! the modules are private and what other crates use is re-exported here.
 
-pub use budget::{BudgetConfig, ResidualBudget, residual_budget};
-pub use campaign_run::{
+mod error;
+mod observer;
+mod outputs;
+mod requests;
+mod run;
+mod scenario;
+mod sweep;
+mod trial;
+
+pub use error::{CampaignError, FieldPathError, SweepPlotError};
+pub use observer::{Observer, Phase, Silent};
+pub use outputs::files::{cpu_model_name, render_outputs, write_outputs};
+pub use outputs::summary::{
+    CampaignSummary, PAPER, PaperFigures, RecoverySummary, SCHEMA_VERSION, Tool,
+};
+pub use outputs::trial_report::TrialReport;
+pub use requests::campaign::{
     CampaignOutcome, CampaignRun, Checkpointing, MergeOutcome, MergeRun, SimulateRun, default_out,
 };
-pub use check::{Baseline, CheckFile, CheckSpec, Comparison, Figures, compare, run_check};
-pub use checkpoint::{
-    Checkpoint, CheckpointConfig, CheckpointManifest, code_version, run_range_checkpointed,
+pub use requests::check::{
+    Baseline, CheckFile, CheckSpec, Comparison, Figures, RecoveryFigures, Tolerances, compare,
+    run_check,
 };
-pub use error::{CampaignError, FieldPathError, SweepPlotError};
-pub use in_memory::{InMemoryOutcome, summarize};
-pub use observer::{Observer, Phase, Silent};
-pub use outputs::{cpu_model_name, render_outputs, write_outputs};
-pub use run::{Aggregate, run_range};
-pub use scenario::{LoadedScenario, Scenario, ScenarioError};
-pub use shard::{Shard, ShardFile, ShardManifest, merge_shards, shard_budget, shard_range};
-pub use summary::CampaignSummary;
-pub use sweep::{SweepResult, SweepSpec, run_sweep, run_sweep_checkpointed};
-pub use sweep_run::{SweepOutcome, SweepRun};
-pub use trial::{Context, TrialResult, run_trial};
-pub use trial_report::TrialReport;
+pub use requests::in_memory::{InMemoryOutcome, summarize};
+pub use requests::sweep::{SWEEP_CHECKPOINT, SweepOutcome, SweepRun};
+pub use run::aggregate::{Counts, Stat, Summary};
+pub use run::budget::{
+    BudgetRow, ResidualBudget, RunFigures, Source as BudgetSource, budget_runs, budget_trials,
+    residual_budget,
+};
+pub use run::checkpoint::{
+    Checkpoint, CheckpointConfig, CheckpointManifest, code_version, run_chunks,
+    run_range_checkpointed,
+};
+pub use run::range::{Aggregate, METRICS, RecoveryStat, run_range};
+pub use run::shard::{Shard, ShardFile, ShardManifest, merge_shards, shard_budget, shard_range};
+pub use scenario::{
+    BYTES_PER_POSE, BudgetConfig, CompensationConfig, DEFAULT_BUDGET_TRIALS, IdentificationConfig,
+    IsoConfig, LoadedScenario, MAX_POSES, MAX_REACH_MM, MIN_REACH_MM, MeasurementConfig,
+    PoseSelection, RecoveryConfig, Scenario, ScenarioError, SelectionMethod,
+};
+pub use sweep::spec::{
+    Axis, Curve, PlotSpec, SweepPoint, SweepResult, SweepSpec, run_sweep, run_sweep_checkpointed,
+};
+pub use trial::{Context, FitSummary, IsoPlan, STALL_GRADIENT_COSINE, TrialResult, run_trial};

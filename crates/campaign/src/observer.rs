@@ -10,7 +10,7 @@ use std::path::Path;
 pub enum Phase {
     /// The trials of the campaign, or of the shard being run.
     Trials,
-    /// The residual budget's reruns of the first trials ([`crate::budget`]).
+    /// The residual budget's reruns of the first trials ([`crate::residual_budget`]).
     ResidualBudget,
 }
 

@@ -427,7 +427,7 @@ pub struct Scenario {
     #[serde(default, skip_serializing_if = "PoseSelection::is_default")]
     pub pose_selection: PoseSelection,
     /// The residual budget: rerun with each source outside the model switched off in turn
-    /// and alone (see [`crate::budget`]) \[off\].
+    /// and alone (see [`crate::residual_budget`]) \[off\].
     #[serde(default, skip_serializing_if = "BudgetConfig::is_default")]
     pub residual_budget: BudgetConfig,
     /// What each identification pose measures: a point \[default\], a 6-DoF frame, or
@@ -768,7 +768,7 @@ pub const BYTES_PER_POSE: u64 = 3_072;
 /// Trials per budget run when the scenario does not say \[200\].
 pub const DEFAULT_BUDGET_TRIALS: u64 = 200;
 
-/// The scenario's `residual_budget` section (what the budget computes: [`crate::budget`]).
+/// The scenario's `residual_budget` section (what [`crate::residual_budget`] computes).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct BudgetConfig {

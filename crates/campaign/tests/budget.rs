@@ -4,7 +4,7 @@
 
 use crate::common::{load_edited, scenario_path};
 
-use campaign::budget::{Source, budget_runs, budget_trials};
+use campaign::{BudgetSource as Source, budget_runs, budget_trials};
 use campaign::{
     CampaignSummary, Context, LoadedScenario, Scenario, ShardFile, ShardManifest, merge_shards,
     residual_budget, run_range, shard_budget, shard_range,

@@ -119,7 +119,7 @@ fn every_recorded_metric_is_listed() {
     for s in [s0, s1] {
         for k in s.aggregate.metrics.keys() {
             assert!(
-                campaign::run::METRICS.contains(&k.as_str()),
+                campaign::METRICS.contains(&k.as_str()),
                 "{k} missing from METRICS"
             );
         }
@@ -211,7 +211,7 @@ fn a_missing_robot_file_is_named_as_relative_to_the_scenario() {
 /// aggregate does not depend on the chunking.
 #[test]
 fn checkpoints_follow_their_cadence_and_leave_the_aggregate_alone() {
-    use campaign::{CheckpointConfig, Context, checkpoint::run_chunks};
+    use campaign::{CheckpointConfig, Context, run_chunks};
     let file = scenarios().join("paper-kr1000.json");
     let mut loaded = Scenario::from_file(&file).unwrap();
     loaded.scenario.iso.enabled = false;

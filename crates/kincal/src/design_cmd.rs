@@ -103,8 +103,8 @@ pub fn run(args: &DesignArgs) -> Result<()> {
             measurements::check_size(
                 "candidates",
                 n as u64,
-                campaign::scenario::MAX_POSES,
-                campaign::scenario::BYTES_PER_POSE,
+                campaign::MAX_POSES,
+                campaign::BYTES_PER_POSE,
             )
             .with_context(|| format!("--random {n}"))?;
             let loaded = campaign::Scenario::from_file(path)

@@ -106,8 +106,8 @@ pub fn run(args: &IdentifiabilityArgs) -> Result<()> {
         measurements::check_size(
             "poses",
             n as u64,
-            campaign::scenario::MAX_POSES,
-            campaign::scenario::BYTES_PER_POSE,
+            campaign::MAX_POSES,
+            campaign::BYTES_PER_POSE,
         )
         .with_context(|| format!("--random-poses {n}"))?;
         let mut rng = ChaCha8Rng::seed_from_u64(args.seed);

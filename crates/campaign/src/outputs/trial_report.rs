@@ -16,8 +16,8 @@ use evaluate::{
 use report::fmt;
 use serde::{Deserialize, Serialize};
 
+use crate::outputs::summary::{PAPER, is_paper};
 use crate::scenario::Scenario;
-use crate::summary::{PAPER, is_paper};
 use crate::trial::TrialResult;
 
 /// Everything [`TrialReport::to_markdown`] prints for one trial.

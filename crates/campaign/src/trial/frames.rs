@@ -14,16 +14,17 @@ use identify::frames::{
     DEFAULT_MM_PER_DEG, FrameData, FrameFitOptions, FrameModel, FrameRow, fit_frames,
     residual_jacobian, select_free,
 };
-use identify::{Observability, ParamSet};
+use identify::{Observability, ParamSet, StopReason};
 use kinematics::Robot;
 use nalgebra::DMatrix;
 use virtual_robot::World;
 
+use super::context::Context;
+use super::result::FitSummary;
 use crate::error::CampaignError;
-use crate::trial::{Context, FitSummary};
 
 /// What the frame identification of a trial gives the rest of the trial.
-pub(crate) struct FrameIdentification {
+pub(super) struct FrameIdentification {
     /// The identified robot (tool point = target 0, tool orientation for frames).
     pub robot: Robot,
     /// The fit's figures.
@@ -35,7 +36,7 @@ pub(crate) struct FrameIdentification {
 }
 
 /// Measures `poses_rad` (flat) with the scenario's measurement and identifies.
-pub(crate) fn identify_frames(
+pub(super) fn identify_frames(
     ctx: &Context,
     world: &mut World,
     poses_rad: &[f64],
@@ -107,11 +108,11 @@ pub(crate) fn identify_frames(
         / (3 * errors.len()).max(1) as f64)
         .sqrt();
     let stop = if !fit.converged {
-        "max_iterations"
+        StopReason::MaxIterations
     } else if gradient_cosine < options.gradient_tol {
-        "small_gradient"
+        StopReason::SmallGradient
     } else {
-        "small_cost_change"
+        StopReason::SmallCostChange
     };
     // O1–O5 on the nominal model's rows (unit-norm columns: the weights' scale cancels).
     residual_jacobian(&start, &data, &free, Some(&mut jac));
@@ -120,7 +121,7 @@ pub(crate) fn identify_frames(
         robot: fit.model.to_robot(&names, orientation),
         summary: FitSummary {
             iterations: fit.iterations,
-            stop: stop.to_string(),
+            stop,
             converged: fit.converged,
             rms_mm,
             free: free.len(),
@@ -130,62 +131,4 @@ pub(crate) fn identify_frames(
         observability,
         unmeasurable,
     })
-}
-
-#[cfg(test)]
-mod tests {
-    use crate::scenario::Scenario;
-    use crate::trial::{Context, run_trial};
-
-    fn context(name: &str, measure: &str, poses: usize) -> Context {
-        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenarios");
-        let text = std::fs::read_to_string(dir.join(format!("{name}.json"))).unwrap();
-        let mut v: serde_json::Value = serde_json::from_str(&text).unwrap();
-        v["measurement"] = serde_json::json!({ "type": measure });
-        v["poses"]["identification"] = poses.into();
-        v["poses"]["validation"] = 30.into();
-        v["iso"] = serde_json::json!({ "enabled": false });
-        Context::new(
-            Scenario::from_value(v, "t")
-                .unwrap()
-                .load(&dir, "t")
-                .unwrap(),
-        )
-        .unwrap()
-    }
-
-    /// On the noise floor (geometric errors and tracker noise only), 8 poses are too few
-    /// for a point fit of the paper's 34 parameters but enough for a 6-DoF probe or three
-    /// reflectors: every fit converges and the geometry error on the validation poses falls
-    /// below a quarter of the error before calibration (0.05–0.24 mm against 1.1 mm at this
-    /// minimal count). At 12 poses three reflectors (9 equations per pose) beat a single
-    /// one (3 trials: 0.027 against 0.055 mm mean geometry error).
-    #[test]
-    fn frames_and_targets_calibrate_from_fewer_poses_than_points() {
-        let point = context("noise-floor", "point", 8);
-        assert!(run_trial(&point, 0).is_err());
-        for measure in ["frame", "targets"] {
-            let ctx = context("noise-floor", measure, 8);
-            for trial in 0..3 {
-                let r = run_trial(&ctx, trial).unwrap();
-                assert!(r.fit.converged, "{measure} {trial}: {:?}", r.fit);
-                assert_eq!(r.unmeasurable, 0);
-                assert!(
-                    r.predicted_error_mm < 0.25 * r.table4.before.norm.mean_mm,
-                    "{measure} {trial}: {} mm, before {}",
-                    r.predicted_error_mm,
-                    r.table4.before.norm.mean_mm
-                );
-            }
-        }
-        let mean = |measure: &str| {
-            let ctx = context("noise-floor", measure, 12);
-            (0..3)
-                .map(|t| run_trial(&ctx, t).unwrap().predicted_error_mm)
-                .sum::<f64>()
-                / 3.0
-        };
-        let (p, t) = (mean("point"), mean("targets"));
-        assert!(t < 0.7 * p, "targets {t} vs point {p}");
-    }
 }

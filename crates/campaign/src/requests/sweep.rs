@@ -6,14 +6,14 @@
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use crate::campaign_run::{
-    Checkpointing, default_out, lock_out_dir, scratch_out, thread_pool, visible_files,
-};
-use crate::checkpoint::finish;
 use crate::error::CampaignError;
 use crate::observer::Observer;
-use crate::outputs::render_sweep_outputs;
-use crate::sweep::{SweepResult, SweepSpec, run_sweep_checkpointed};
+use crate::requests::campaign::{
+    Checkpointing, default_out, lock_out_dir, scratch_out, thread_pool, visible_files,
+};
+use crate::run::checkpoint::finish;
+use crate::sweep::plots::render_sweep_outputs;
+use crate::sweep::spec::{SweepResult, SweepSpec, run_sweep_checkpointed};
 
 /// The name of a sweep's checkpoint file in its output directory.
 pub const SWEEP_CHECKPOINT: &str = "sweep-checkpoint.json";

@@ -6,13 +6,13 @@
 
 use std::time::Instant;
 
-use crate::budget::{budget_runs, budget_trials, residual_budget};
-use crate::campaign_run::thread_pool;
 use crate::error::CampaignError;
 use crate::observer::{Observer, Phase};
-use crate::run::run_range;
+use crate::outputs::summary::CampaignSummary;
+use crate::requests::campaign::thread_pool;
+use crate::run::budget::{budget_runs, budget_trials, residual_budget};
+use crate::run::range::run_range;
 use crate::scenario::LoadedScenario;
-use crate::summary::CampaignSummary;
 use crate::trial::Context;
 
 /// What [`summarize`] computed.

@@ -9,20 +9,20 @@ use std::ops::Range;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use crate::budget::{budget_runs, budget_trials, residual_budget};
-use crate::checkpoint::{
-    Checkpoint, CheckpointConfig, code_version, finish, run_range_checkpointed,
-};
 use crate::error::CampaignError;
 use crate::observer::{Observer, Phase};
-use crate::outputs::{render_outputs, timing_json};
-use crate::run::run_range;
+use crate::outputs::files::{render_outputs, timing_json};
+use crate::outputs::summary::CampaignSummary;
+use crate::run::budget::{budget_runs, budget_trials, residual_budget};
+use crate::run::checkpoint::{
+    Checkpoint, CheckpointConfig, code_version, finish, run_range_checkpointed,
+};
+use crate::run::range::run_range;
+use crate::run::shard::{Shard, ShardFile, merge_shards, shard_budget};
 use crate::scenario::Scenario;
-use crate::shard::{Shard, ShardFile, merge_shards, shard_budget};
-use crate::summary::CampaignSummary;
 use crate::trial::Context;
 
-/// Checkpoints of a run (see [`crate::checkpoint`]): written into the output directory as
+/// Checkpoints of a run (see [`Checkpoint`](crate::Checkpoint)): written into the output directory as
 /// the trials run, removed when the run finishes.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct Checkpointing {
@@ -166,7 +166,7 @@ enum Held {
 
 /// Refuses a run where every trial failed (its outputs, written by then, list the causes).
 pub(crate) fn check_some_succeeded(
-    agg: &crate::run::Aggregate,
+    agg: &crate::run::range::Aggregate,
     out: &Path,
 ) -> Result<(), CampaignError> {
     let failed: u64 = agg.failures.0.values().sum();
@@ -305,7 +305,7 @@ impl CampaignRun {
                 m.first_trial..c.next_trial,
                 m.first_trial..m.end_trial,
             );
-            prior_seconds = crate::checkpoint::prior_wall_seconds(cfg);
+            prior_seconds = crate::run::checkpoint::prior_wall_seconds(cfg);
         }
         let what = match self.shard {
             Some(shard) => format!("shard {shard}"),

@@ -24,10 +24,10 @@ use std::path::{Path, PathBuf};
 use serde::{Deserialize, Serialize};
 
 use crate::error::CampaignError;
-use crate::run::run_range;
+use crate::outputs::summary::CampaignSummary;
+use crate::run::range::run_range;
 use crate::scenario::Scenario;
-use crate::summary::CampaignSummary;
-use crate::sweep::scenario_json_with;
+use crate::sweep::spec::scenario_json_with;
 use crate::trial::Context;
 
 /// Tolerances of a check file (all ≥ 0).

@@ -11,9 +11,9 @@ use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
-use crate::budget::ResidualBudget;
 use crate::error::CampaignError;
-use crate::run::Aggregate;
+use crate::run::budget::ResidualBudget;
+use crate::run::range::Aggregate;
 use crate::scenario::Scenario;
 
 /// One shard of a campaign: shard `index` (0-based) of `count`, with `index < count`.
@@ -228,7 +228,7 @@ impl ShardFile {
         let text = serde_json::to_string(&body)?;
         Ok(format!(
             "fnv1a64:{:016x}",
-            crate::checkpoint::fnv1a(text.as_bytes())
+            crate::run::checkpoint::fnv1a(text.as_bytes())
         ))
     }
 

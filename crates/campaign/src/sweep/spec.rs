@@ -22,15 +22,15 @@ use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
-use crate::aggregate::Summary;
-use crate::checkpoint::{
-    CHECKPOINT_FORMAT, Checkpoint, CheckpointConfig, CheckpointManifest, run_chunks,
-};
 use crate::error::CampaignError;
 use crate::error::{FieldPathError, SweepPlotError};
-use crate::run::{Aggregate, run_range};
+use crate::outputs::summary::CampaignSummary;
+use crate::run::aggregate::Summary;
+use crate::run::checkpoint::{
+    CHECKPOINT_FORMAT, Checkpoint, CheckpointConfig, CheckpointManifest, run_chunks,
+};
+use crate::run::range::{Aggregate, run_range};
 use crate::scenario::Scenario;
-use crate::summary::CampaignSummary;
 use crate::trial::Context;
 
 /// One axis of a sweep.
@@ -236,7 +236,7 @@ impl SweepSpec {
     }
 
     /// Checks every setting before any point runs: each plot (`x` an axis with numeric
-    /// values, `y` a metric of [`crate::run::METRICS`]) and each point's scenario (the base
+    /// values, `y` a metric of [`crate::run::range::METRICS`]) and each point's scenario (the base
     /// scenario with the overrides and the point's axis values, loaded and set up as a run
     /// would). `sweep_file`: the sweep file (named in errors; the base scenario is relative
     /// to its directory).
@@ -261,10 +261,10 @@ impl SweepSpec {
                     axis: axis.path.clone(),
                 }));
             }
-            if !crate::run::METRICS.contains(&plot.y.as_str()) {
+            if !crate::run::range::METRICS.contains(&plot.y.as_str()) {
                 return Err(err(SweepPlotError::UnknownMetric {
                     y: plot.y.clone(),
-                    known: crate::run::METRICS.join(", "),
+                    known: crate::run::range::METRICS.join(", "),
                 }));
             }
         }
@@ -332,11 +332,11 @@ pub fn run_sweep(
 /// A sweep's checkpoint: the finished points and the current point's progress.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct SweepCheckpoint {
-    /// Checkpoint format ([`crate::checkpoint::CHECKPOINT_FORMAT`]).
+    /// Checkpoint format ([`crate::run::checkpoint::CHECKPOINT_FORMAT`]).
     pub format: u32,
     /// The sweep as run (trial count included).
     pub spec: SweepSpec,
-    /// Code version ([`crate::checkpoint::code_version`]).
+    /// Code version ([`code_version`](crate::code_version)).
     pub code: String,
     /// The finished points, in order.
     pub points: Vec<SweepPoint>,
@@ -365,10 +365,10 @@ impl SweepCheckpoint {
     }
 }
 
-/// [`run_sweep`] with checkpoints (see [`crate::checkpoint`]): with `cfg`, the finished
+/// [`run_sweep`] with checkpoints (see [`Checkpoint`](crate::Checkpoint)): with `cfg`, the finished
 /// points and the current point's aggregate are saved to `cfg.path` as the trials run, and
 /// with `cfg.resume` an interrupted sweep continues where it stopped. The caller writes the
-/// outputs, then calls [`crate::checkpoint::finish`] with their names.
+/// outputs, then calls [`crate::run::checkpoint::finish`] with their names.
 pub fn run_sweep_checkpointed(
     spec: &SweepSpec,
     sweep_dir: &Path,

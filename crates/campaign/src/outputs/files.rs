@@ -1,16 +1,15 @@
 //! The output files of a campaign — `summary.json`, `summary.md`, the trial report, the SVG
-//! plots and `report.html` — and of a sweep — `sweep.json`, `sweep.csv`, `sweep.md`, its
-//! plots and `report.html` —, rendered in memory and written all or nothing; and
+//! plots and `report.html` —, rendered in memory and written all or nothing (a sweep's are in
+//! `sweep/plots.rs`); and
 //! `timing.json`, the wall-clock record kept apart from the reproducible outputs.
 
 use std::path::Path;
 
 use crate::error::CampaignError;
-use crate::plots;
-use crate::run::Aggregate;
-use crate::summary::{CampaignSummary, is_paper};
-use crate::sweep::SweepResult;
-use crate::trial_report::TrialReport;
+use crate::outputs::plots;
+use crate::outputs::summary::{CampaignSummary, is_paper};
+use crate::outputs::trial_report::TrialReport;
+use crate::run::range::Aggregate;
 
 /// Renders every output file of a campaign in memory: `summary.json`, `summary.md`, the
 /// trial report, the SVG plots and `report.html` (the summary with the plots in place), as
@@ -81,24 +80,6 @@ pub fn write_outputs(
     let files = render_outputs(summary, agg)?;
     measurements::OutputDir::lock(dir)?.write_set(&files)?;
     Ok(())
-}
-
-/// Renders every output file of a sweep in memory: `sweep.json`, `sweep.csv`, `sweep.md`,
-/// the plots and `report.html`, as (file name, bytes).
-pub fn render_sweep_outputs(result: &SweepResult) -> Result<Vec<(String, Vec<u8>)>, CampaignError> {
-    let mut json =
-        serde_json::to_string_pretty(result).map_err(|source| CampaignError::Serialise {
-            path: "sweep.json".into(),
-            source,
-        })?;
-    json.push('\n');
-    let mut files: Vec<(String, Vec<u8>)> = vec![
-        ("sweep.json".into(), json.into_bytes()),
-        ("sweep.csv".into(), result.to_csv().into_bytes()),
-        ("sweep.md".into(), result.to_markdown().into_bytes()),
-    ];
-    files.extend(plots::sweep_outputs(result)?);
-    Ok(files)
 }
 
 /// `timing.json`: the wall clock of a run of `trials` trials on `threads` threads that took

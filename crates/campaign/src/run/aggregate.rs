@@ -61,6 +61,10 @@ pub const LINEAR_BITS: i32 = MANTISSA_BITS as i32 + 1;
 pub const TINY_LOG2: i32 = -24;
 /// The lowest floor and the narrowest linear bucket: magnitudes below 2⁻²⁴ ≈ 6·10⁻⁸ in the
 /// value's unit always share one bucket per sign.
+#[cfg_attr(
+    not(test),
+    expect(dead_code, reason = "named by the scheme above; the tests use it")
+)]
 pub const TINY: f64 = 1.0 / (1u64 << 24) as f64;
 /// Most buckets one sign's [`Store`] keeps. With 512, a store holds two full binades at
 /// relative resolution next to its 256 linear buckets, more where the binades are sparse.

@@ -6,7 +6,7 @@
 //! file, `fsync`, `rename`) to a checkpoint file beside the outputs, every
 //! [`CheckpointConfig::every`] seconds (by default), or every
 //! [`CheckpointConfig::every_trials`] trials when asked, whichever comes first. Every part of an aggregate merges exactly and independently of
-//! order (see [`crate::aggregate`]), so "the aggregate of trials `a..n`, then the
+//! order (see [`crate::run::aggregate`]), so "the aggregate of trials `a..n`, then the
 //! aggregate of `n..b` merged in" is bit for bit the aggregate of `a..b`: a resumed run gives
 //! the same bytes as an uninterrupted one, whatever the chunking, thread count or where it
 //! was killed. A kill during a checkpoint write leaves the previous checkpoint (and at worst
@@ -24,7 +24,7 @@ use std::time::{Duration, Instant};
 use serde::{Deserialize, Serialize};
 
 use crate::error::CampaignError;
-use crate::run::{Aggregate, run_range};
+use crate::run::range::{Aggregate, run_range};
 use crate::scenario::Scenario;
 use crate::trial::Context;
 
@@ -420,7 +420,9 @@ pub fn fnv1a(bytes: &[u8]) -> u64 {
 }
 
 /// A fast 64-bit fingerprint of a large byte string (an executable): FNV-1a over 8-byte
-/// little-endian words, then the tail and the length; stable across platforms.
+/// little-endian words, then the tail and the length; stable across platforms. The reference
+/// [`fingerprint_reader`] is tested against.
+#[cfg(test)]
 pub fn fingerprint(bytes: &[u8]) -> u64 {
     const PRIME: u64 = 0x0000_0100_0000_01b3;
     let mut words = bytes.chunks_exact(8);

@@ -16,7 +16,7 @@ use std::sync::Mutex;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use crate::aggregate::{Counts, Stat};
+use crate::run::aggregate::{Counts, Stat};
 use crate::trial::{Context, TrialResult, run_trial};
 
 /// Accumulated recovery statistics of one parameter.
@@ -155,7 +155,7 @@ impl Aggregate {
         self.metric("compensation_failures", r.compensation_failures as f64);
         self.metric("unmeasurable_poses", r.unmeasurable as f64);
         self.metric("pose_rejection_rate", r.pose_rejection_rate);
-        self.count("stop_reason", &r.fit.stop);
+        self.count("stop_reason", r.fit.stop.as_str());
         self.count("convergence", r.fit.convergence());
         self.count(
             "rank",

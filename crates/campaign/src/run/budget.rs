@@ -26,10 +26,9 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::aggregate::Summary;
 use crate::error::CampaignError;
-use crate::run::run_range;
-pub use crate::scenario::{BudgetConfig, DEFAULT_BUDGET_TRIALS};
+use crate::run::aggregate::Summary;
+use crate::run::range::run_range;
 use crate::scenario::{LoadedScenario, Scenario};
 use crate::trial::Context;
 use report::fmt;

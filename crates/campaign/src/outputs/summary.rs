@@ -5,9 +5,9 @@ use std::collections::BTreeMap;
 
 use serde::{Deserialize, Serialize};
 
-use crate::aggregate::Summary;
-use crate::budget::ResidualBudget;
-use crate::run::Aggregate;
+use crate::run::aggregate::Summary;
+use crate::run::budget::ResidualBudget;
+use crate::run::range::Aggregate;
 use crate::scenario::Scenario;
 use report::fmt::{self, Quantity};
 
@@ -85,7 +85,7 @@ pub struct CampaignSummary {
     /// ([`is_paper_robot`]); absent for any other robot, whose summary shows no paper column.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub paper: Option<PaperFigures>,
-    /// The residual budget, when the scenario asks for it ([`crate::budget`]).
+    /// The residual budget, when the scenario asks for it ([`crate::residual_budget`]).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub residual_budget: Option<ResidualBudget>,
 }

@@ -1,0 +1,253 @@
+//! The identification of a trial whose scenario measures one point per pose (the paper's
+//! measurement): the virtual robot measures the identification poses, the free set is
+//! resolved on them and LM identifies the robot from the nominal model; the observability
+//! of the poses and the recovery of the minimal set are scored on the same points.
+
+use evaluate::ParameterRecovery;
+use identify::{Fit, Observability, Problem};
+use kinematics::Robot;
+use nalgebra::{DMatrix, DVector, Vector3};
+use virtual_robot::World;
+
+use super::context::Context;
+use super::result::FitSummary;
+use crate::error::CampaignError;
+
+/// What the point identification of a trial gives the rest of the trial.
+pub(super) struct PointIdentification {
+    /// The fit.
+    pub fit: Fit,
+    /// The identification poses measured, flat, rad.
+    pub poses_rad: Vec<f64>,
+    /// Their measured points, mm.
+    pub points_mm: Vec<Vector3<f64>>,
+    /// Identification poses that could not be measured.
+    pub unmeasurable: usize,
+}
+
+/// Measures `poses_rad` (flat) one point per pose and identifies.
+pub(super) fn identify_points(
+    ctx: &Context,
+    world: &mut World,
+    poses_rad: &[f64],
+    trial: u64,
+) -> Result<PointIdentification, CampaignError> {
+    let scenario = &ctx.loaded.scenario;
+    let n = ctx.nominal().n_joints();
+    let ident = |source| CampaignError::Identify { trial, source };
+    let mut unmeasurable = 0;
+    let mut id_poses = Vec::with_capacity(poses_rad.len());
+    let mut id_points = Vec::with_capacity(poses_rad.len() / n.max(1));
+    for q in poses_rad.chunks_exact(n) {
+        match world.measure(q) {
+            Ok(p) => {
+                id_poses.extend_from_slice(q);
+                id_points.push(p);
+            }
+            Err(_) => unmeasurable += 1,
+        }
+    }
+    let free = scenario
+        .identification
+        .params
+        .resolve(
+            &ctx.id_nominal,
+            &id_poses,
+            None,
+            &scenario.identification.identifiability,
+        )
+        .map_err(ident)?;
+    let problem = Problem::new(&ctx.id_nominal, &id_poses, &id_points, free).map_err(ident)?;
+    let fit = identify::identify(&problem, &ctx.id_options).map_err(ident)?;
+    Ok(PointIdentification {
+        fit,
+        poses_rad: id_poses,
+        points_mm: id_points,
+        unmeasurable,
+    })
+}
+
+impl PointIdentification {
+    /// The fit's figures.
+    pub fn summary(&self) -> FitSummary {
+        let fit = &self.fit;
+        FitSummary {
+            iterations: fit.iterations,
+            stop: fit.stop,
+            converged: fit.stop.converged(),
+            rms_mm: fit.rms_mm,
+            free: fit.free.len(),
+            rank: fit.covariance.as_ref().map(|c| c.parameters.len()),
+            gradient_cosine: fit.gradient_cosine,
+        }
+    }
+
+    /// O1–O5 of the measured identification poses on the minimal set at the nominal model.
+    pub fn observability(&self, ctx: &Context) -> Option<Observability> {
+        observability(
+            ctx.nominal(),
+            &self.poses_rad,
+            &self.points_mm,
+            &ctx.minimal_free,
+        )
+    }
+
+    /// Recovery per minimal-set parameter against `truth` (see [`recovery`]).
+    pub fn recovery(
+        &self,
+        ctx: &Context,
+        truth: &Robot,
+    ) -> Result<Vec<ParameterRecovery>, identify::IdentifyError> {
+        recovery(ctx, &self.fit, truth, &self.poses_rad, &self.points_mm)
+    }
+}
+
+/// Re-expresses a robot's geometry in the minimal parameter set: the minimal-set model that
+/// reproduces `model`'s points on `poses` (noise-free fit from the nominal model).
+fn reexpress(
+    nominal: &Robot,
+    model: &Robot,
+    poses_rad: &[f64],
+    free: &[usize],
+    lm: &identify::LmOptions,
+) -> Result<Vec<f64>, identify::IdentifyError> {
+    let points = model.points(poses_rad);
+    let problem = Problem::new(nominal, poses_rad, &points, free.to_vec())?;
+    Ok(identify::solve(&problem, lm)?.params)
+}
+
+/// Observability indices O1–O5 (`docs/model.md` §6) of a trial's identification poses: on the
+/// singular values of the Jacobian of the minimal identifiable set at the nominal model, columns
+/// scaled to unit Euclidean norm — the square roots of the eigenvalues of the scaled Gram
+/// matrix `D·JᵀJ·D`, `D = diag(1/‖J_k‖)` (relative accuracy ≈ ε·cond², ample for the
+/// condition numbers of a full-rank set). `None` if the set is degenerate on these poses.
+fn observability(
+    nominal: &Robot,
+    poses_rad: &[f64],
+    points_mm: &[Vector3<f64>],
+    free: &[usize],
+) -> Option<Observability> {
+    let problem = Problem::new(nominal, poses_rad, points_mm, free.to_vec()).ok()?;
+    let (mut a, mut g) = (DMatrix::zeros(0, 0), DVector::zeros(0));
+    problem.normal_equations(&mut a, &mut g);
+    let p = a.nrows();
+    let d: Vec<f64> = (0..p).map(|k| a[(k, k)].sqrt()).collect();
+    if d.iter().any(|&x| !(x.is_finite() && x > 0.0)) {
+        return None;
+    }
+    let scaled = DMatrix::from_fn(p, p, |i, j| a[(i, j)] / (d[i] * d[j]));
+    let mut sv: Vec<f64> = scaled
+        .symmetric_eigenvalues()
+        .iter()
+        .map(|&l| l.max(0.0).sqrt())
+        .collect();
+    sv.sort_by(|x, y| y.total_cmp(x));
+    Observability::from_singular_values(&sv, problem.n_poses())
+}
+
+/// Scores the estimate against the truth on the minimal set of the identified model
+/// ([`Context::recovery_free`]): both are re-expressed in it (a noise-free fit of the
+/// minimal set to each model's points on the identification poses), and the standard
+/// errors come from the covariance at the re-expressed estimate with the trial's
+/// measurements. For an extended identification `truth` is [`World::extended_truth`].
+fn recovery(
+    ctx: &Context,
+    fit: &Fit,
+    truth: &Robot,
+    poses: &[f64],
+    measured: &[Vector3<f64>],
+) -> Result<Vec<ParameterRecovery>, identify::IdentifyError> {
+    let nominal = &ctx.id_nominal;
+    let free = &ctx.recovery_free;
+    let lm = &ctx.id_options.lm;
+    let truth_min = reexpress(nominal, truth, poses, free, lm)?;
+    let layout = nominal.layout();
+    // A fit from the nominal model that solved exactly the minimal set (its other free
+    // parameters held, or none) is its own re-expression, with its own covariance.
+    let solved: Vec<usize> = fit
+        .free
+        .iter()
+        .filter(|n| !fit.held.contains(n))
+        .filter_map(|n| layout.index_of(n).ok())
+        .collect();
+    let registered = fit.registration.as_ref().is_some_and(|r| r.applied);
+    let (est_min, cov) = if !registered && solved == *free {
+        (fit.params.clone(), fit.covariance.clone())
+    } else {
+        // The estimate's re-expression, then its covariance with the trial's measurements
+        // at that solution (reusing the normal matrix the solver assembled there).
+        let est_points = fit.robot.points(poses);
+        let est_problem = Problem::new(nominal, poses, &est_points, free.to_vec())?;
+        let est = identify::solve(&est_problem, lm)?;
+        let cov = identify::covariance_at_solution(
+            &est_problem,
+            &est,
+            measured,
+            &ctx.id_options.identifiability,
+            ctx.id_options.correlation_flag,
+        )?;
+        (est.params, cov)
+    };
+    let Some(cov) = cov else {
+        return Ok(Vec::new());
+    };
+    Ok(cov
+        .indices
+        .iter()
+        .zip(&cov.std_errors)
+        .map(|(&k, &se)| {
+            let info = layout.get(k);
+            let t = info.to_display(truth_min[k]);
+            let e = info.to_display(est_min[k]);
+            ParameterRecovery {
+                name: info.name.clone(),
+                unit: info.unit.as_str().to_string(),
+                truth: t,
+                estimate: e,
+                error: e - t,
+                std_error: se,
+                z: if se > 0.0 { (e - t) / se } else { f64::NAN },
+            }
+        })
+        .collect())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use identify::ParamSet;
+
+    /// The trial's O1–O5 (eigenvalues of the scaled Gram matrix) agree with the
+    /// identifiability report's (SVD of the scaled Jacobian) on the same minimal set.
+    #[test]
+    fn observability_matches_the_identifiability_report() {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../../scenarios/robots/kr1000-titan.json");
+        let text = std::fs::read_to_string(&path).unwrap();
+        let spec = kinematics::RobotSpec::from_json_str(&text, "kr1000").unwrap();
+        let robot = Robot::from_spec(&spec).unwrap();
+        let mut rng = <rand::rngs::ChaCha8Rng as rand::SeedableRng>::seed_from_u64(3);
+        let poses = kinematics::PoseSampler::default()
+            .sample(&robot, 50, &mut rng)
+            .unwrap()
+            .rad;
+        let points = robot.points(&poses);
+        let opts = identify::IdentifiabilityOptions::default();
+        let free = ParamSet::Minimal
+            .resolve(&robot, &poses, None, &opts)
+            .unwrap();
+        let ours = observability(&robot, &poses, &points, &free).unwrap();
+        let report = identify::analyze(&robot, &poses, None, &free, &opts).unwrap();
+        assert_eq!(report.rank, free.len());
+        let theirs = report.observability.unwrap();
+        for (a, b) in [
+            (ours.o1, theirs.o1),
+            (ours.o2, theirs.o2),
+            (ours.o3, theirs.o3),
+            (ours.o4, theirs.o4),
+            (ours.o5, theirs.o5),
+        ] {
+            assert!((a - b).abs() <= 1e-9 * b.abs(), "{ours:?} vs {theirs:?}");
+        }
+    }
+}

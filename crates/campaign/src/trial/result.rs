@@ -1,0 +1,82 @@
+//! What one trial produces ([`TrialResult`]) and the identification's figures in brief
+//! ([`FitSummary`]), whichever measurement identified it.
+
+use evaluate::{IsoReport, ParameterRecovery, Table4};
+use identify::{Observability, StopReason};
+use serde::{Deserialize, Serialize};
+
+/// A stop on a small step or a small cost change with the gradient cosine at the solution
+/// above this is counted as *stalled*, not converged: at a true minimum the residual is
+/// orthogonal to every column (cosines of 10⁻⁹–10⁻⁶ on the shipped scenarios), while an
+/// over-damped solver (e.g. Nielsen with τ = 1000 on an unscaled Jacobian) stops on tiny steps
+/// with cosines of 10⁻³–1.
+pub const STALL_GRADIENT_COSINE: f64 = 1e-4;
+
+/// The identification outcome of one trial, in brief.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct FitSummary {
+    /// LM iterations (accepted and rejected).
+    pub iterations: usize,
+    /// Why LM stopped.
+    pub stop: StopReason,
+    /// Converged (a stop reason other than the caps).
+    pub converged: bool,
+    /// RMS of the 3-D residuals at the solution, mm.
+    pub rms_mm: f64,
+    /// Free parameters.
+    pub free: usize,
+    /// Numerical rank of the free parameters at the solution (size of the identifiable set).
+    pub rank: Option<usize>,
+    /// max_k |J_kᵀe| / (‖J_k‖‖e‖) at the solution (see [`identify::Fit::gradient_cosine`]).
+    pub gradient_cosine: f64,
+}
+
+impl FitSummary {
+    /// `converged`, `stalled` (a converged stop reason but a gradient cosine above
+    /// [`STALL_GRADIENT_COSINE`]) or `cap` (iteration or rejection cap).
+    pub fn convergence(&self) -> &'static str {
+        if !self.converged {
+            "cap"
+        } else if self.gradient_cosine > STALL_GRADIENT_COSINE {
+            "stalled"
+        } else {
+            "converged"
+        }
+    }
+}
+
+/// Everything one trial produces.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct TrialResult {
+    /// Trial index.
+    pub trial: u64,
+    /// Per validation pose: measured − nominal target before compensation, mm.
+    pub before_mm: Vec<[f64; 3]>,
+    /// Per validation pose: measured − nominal target after compensation, mm (poses whose
+    /// compensation failed are left out and counted).
+    pub after_mm: Vec<[f64; 3]>,
+    /// Table 4 statistics.
+    pub table4: Table4,
+    /// Poses the tracker could not measure (skipped).
+    pub unmeasurable: usize,
+    /// Validation targets the identified model could not reach within limits.
+    pub compensation_failures: usize,
+    /// ISO 9283 targets (P1–P5) the identified model could not reach within limits: those
+    /// points are commanded uncompensated in the "after" cycles, and counted here.
+    pub iso_compensation_failures: usize,
+    /// Share of candidate poses the sampler rejected (identification and validation sets):
+    /// wrist, floor, tracker window, range or condition constraints.
+    pub pose_rejection_rate: f64,
+    /// Identification summary.
+    pub fit: FitSummary,
+    /// Mean distance between the identified model's and the true geometry's points on the
+    /// validation poses, mm (how well the geometry itself was recovered).
+    pub predicted_error_mm: f64,
+    /// Recovery per minimal-set parameter (when enabled and computable).
+    pub recovery: Vec<ParameterRecovery>,
+    /// Observability indices O1–O5 of the identification poses (`docs/model.md` §6; see
+    /// [`Observability`]).
+    pub observability: Option<Observability>,
+    /// ISO 9283 results (when enabled).
+    pub iso: Option<IsoReport>,
+}
