@@ -15,7 +15,7 @@
 //! 5 mm per degree).
 
 use calibrate::frames::{FrameOptions, frame_data, start_model};
-use identify::frames::{FrameData, FrameFitOptions, FrameModel, FrameRow, fit_frames, select_free};
+use identify::frames::{FrameData, FrameModel, FrameRow, fit_frames, select_free};
 use kinematics::Robot;
 use measurements::{ReadOptions, read_file};
 use nalgebra::Vector3;
@@ -99,7 +99,7 @@ fn held_out(model: &FrameModel, val: &FrameData, kind: usize) -> (f64, f64, f64)
         if kind == 1
             && let Some(m) = r.rotation
         {
-            let e = identify::frames::log_so3(&((f.rot * model.tool_rotation).transpose() * m));
+            let e = kinematics::rotation::log_so3(&((f.rot * model.tool_rotation).transpose() * m));
             ori.push(e.norm().to_degrees());
         }
     }
@@ -123,7 +123,7 @@ fn fit(nominal: &Robot, id: &FrameData) -> Option<FrameModel> {
     let (start, _, _) = start_model(&reg, id);
     let all: Vec<usize> = (0..nominal.n_params()).collect();
     let (free, _) = select_free(&start, id, &all).ok()?;
-    fit_frames(&start, id, &free, &FrameFitOptions::default())
+    fit_frames(&start, id, &free, &identify::LmOptions::default())
         .ok()
         .map(|f| f.model)
 }

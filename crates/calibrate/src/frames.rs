@@ -21,8 +21,8 @@ use identify::BlockScreen;
 use identify::RegistrationPolicy;
 use identify::RegistrationReport;
 use identify::frames::{
-    DEFAULT_MM_PER_DEG, FrameData, FrameFit, FrameFitOptions, FrameModel, FrameRow,
-    closed_form_tool, fit_frames, select_free,
+    DEFAULT_MM_PER_DEG, FrameData, FrameFit, FrameModel, FrameRow, closed_form_tool, fit_frames,
+    select_free,
 };
 use kinematics::Robot;
 use measurements::{Measurement, MeasurementSet, quaternion_to_matrix};
@@ -486,7 +486,8 @@ pub fn calibrate_frames(
     };
     let id_data = all.subset(&id_poses);
     let id_lines: Vec<usize> = id_poses.iter().map(|&j| lines[j]).collect();
-    let fit_opts = FrameFitOptions::default();
+    // The request's solver options (its damping schedule: `--schedule`, `schedule=`).
+    let fit_opts = request.lm_options();
     // One pass: register on the position rows, start the tool frame, choose the unknowns
     // (the one rank decision), fit.
     let pass = |d: &FrameData| -> Result<Pass> {
@@ -685,6 +686,7 @@ mod tests {
     use std::path::PathBuf;
 
     use super::*;
+    use identify::Damping;
 
     fn request(data: &str) -> IdentifyRequest {
         let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..");
@@ -711,7 +713,7 @@ mod tests {
         let inputs = load_inputs(&req, None).unwrap();
         assert!(applies(&inputs.data));
         let six = calibrate_frames(&req, inputs.clone(), &FrameOptions::default()).unwrap();
-        assert!(!six.rotation_given && six.fit.converged);
+        assert!(!six.rotation_given && six.fit.stop.converged());
         let (_, _, after) = six.validation.clone().unwrap();
         assert_eq!(after.poses, 1395);
         let point = crate::calibrate(&req, inputs).unwrap();
@@ -748,7 +750,7 @@ mod tests {
         };
         let inputs = load_inputs(&req, None).unwrap();
         let c = calibrate_frames(&req, inputs, &FrameOptions::default()).unwrap();
-        assert!(c.fit.converged);
+        assert!(c.fit.stop.converged());
         let layout = c.fit.model.robot.layout();
         assert!(
             c.fit
@@ -777,6 +779,34 @@ mod tests {
         assert!((back.position_mm.0 - after.position_mm.0).abs() < 1e-12);
         assert!((back.position_mm.1 - after.position_mm.1).abs() < 1e-12);
         assert!((back.orientation_deg.0 - after.orientation_deg.0).abs() < 1e-12);
+    }
+
+    /// Issue 42: the 6-DoF workflow fits with the request's schedule (`--schedule`,
+    /// `schedule=`), which it ignored before: the fit reports it and its first iteration
+    /// damps with its μ0; two schedules take different paths to the same calibration.
+    #[test]
+    fn six_dof_fit_honours_the_requested_schedule() {
+        let inputs = load_inputs(&request("series-b-6dof.csv"), None).unwrap();
+        let run = |damping: Damping| {
+            let req = IdentifyRequest {
+                damping,
+                ..request("series-b-6dof.csv")
+            };
+            calibrate_frames(&req, inputs.clone(), &FrameOptions::default()).unwrap()
+        };
+        let nielsen = Damping::Nielsen { tau: 0.5, nu0: 2.0 };
+        let (lev, nie) = (run(Damping::levenberg()), run(nielsen));
+        assert_eq!(
+            (lev.fit.damping, nie.fit.damping),
+            (Damping::levenberg(), nielsen)
+        );
+        assert!(lev.fit.stop.converged() && nie.fit.stop.converged());
+        assert_eq!(lev.fit.trace[0].mu, 1e-3);
+        assert!((nie.fit.trace[0].mu - 0.5).abs() < 1e-12);
+        let mus = |c: &FrameCalibration| c.fit.trace.iter().map(|t| t.mu).collect::<Vec<_>>();
+        assert_ne!(mus(&lev), mus(&nie));
+        let held_out = |c: &FrameCalibration| c.validation.as_ref().unwrap().2.position_mm.0;
+        assert!((held_out(&lev) - held_out(&nie)).abs() < 1e-4);
     }
 
     /// A point-only file does not call for this workflow.

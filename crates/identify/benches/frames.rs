@@ -9,9 +9,9 @@ use std::time::Duration;
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use identify::frames::{
-    FrameData, FrameFitOptions, FrameModel, FrameRow, closed_form_tool, exp_so3, fit_frames,
-    residual_jacobian, select_free,
+    FrameData, FrameModel, FrameRow, closed_form_tool, fit_frames, residual_jacobian, select_free,
 };
+use kinematics::rotation::exp_so3;
 use kinematics::{PoseSampler, Robot};
 use nalgebra::{DMatrix, Vector3};
 use rand::SeedableRng;
@@ -74,7 +74,7 @@ fn benches(c: &mut Criterion) {
         g.bench_function(format!("residual_jacobian_100_{label}"), |b| {
             b.iter(|| black_box(residual_jacobian(&start, &d, &free, Some(&mut j))))
         });
-        let fit = fit_frames(&start, &d, &free, &FrameFitOptions::default()).unwrap();
+        let fit = fit_frames(&start, &d, &free, &identify::LmOptions::default()).unwrap();
         eprintln!(
             "{label}: {} unknowns, {} iterations",
             free.len(),
@@ -82,7 +82,7 @@ fn benches(c: &mut Criterion) {
         );
         g.bench_function(format!("fit_100_{label}"), |b| {
             b.iter(|| {
-                black_box(fit_frames(&start, &d, &free, &FrameFitOptions::default()).unwrap())
+                black_box(fit_frames(&start, &d, &free, &identify::LmOptions::default()).unwrap())
             })
         });
     }

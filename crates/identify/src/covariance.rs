@@ -386,3 +386,64 @@ fn covariance_on(
         correlation_flag,
     }))
 }
+
+/// The covariance of every unknown of a least-squares fit from its normal matrix
+/// ([`crate::lm::LsSolution::covariance`]): what the 6-DoF and multi-target fits report,
+/// whose unknowns are all identifiable by construction ([`crate::frames::select_free`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct NormalCovariance {
+    /// Degrees of freedom n − P.
+    pub dof: usize,
+    /// σ̂ = √(cost/dof) (1 when the weights are the true 1/σ); NaN when dof = 0.
+    pub sigma_hat: f64,
+    /// Condition number of the column-scaled Jacobian, √(λ_max/λ_min) of the scaled `JᵀJ`.
+    pub condition_number: f64,
+    /// `σ̂²(JᵀJ)⁻¹`, internal units, the unknowns' order.
+    pub covariance: DMatrix<f64>,
+}
+
+/// `σ̂²(JᵀJ)⁻¹` of the weighted normal matrix `a` at a solution of cost `cost` from
+/// `n_equations` residual rows, through the column-scaled matrix (`S a S`, unit diagonal:
+/// better conditioned) and its Cholesky factor.
+///
+/// # Errors
+/// [`IdentifyError::Singular`] (with `iteration`, μ = 0) when the scaled matrix is not
+/// positive definite.
+pub fn normal_covariance(
+    a: &DMatrix<f64>,
+    cost: f64,
+    n_equations: usize,
+    iteration: usize,
+) -> Result<NormalCovariance, IdentifyError> {
+    let pf = a.nrows();
+    let dof = n_equations.saturating_sub(pf);
+    let sigma_hat = if dof > 0 {
+        (cost / dof as f64).sqrt()
+    } else {
+        f64::NAN
+    };
+    let s: Vec<f64> = (0..pf)
+        .map(|k| 1.0 / a[(k, k)].sqrt().max(1e-300))
+        .collect();
+    let scaled = DMatrix::from_fn(pf, pf, |r, c| a[(r, c)] * s[r] * s[c]);
+    let eig = scaled.clone().symmetric_eigenvalues();
+    let (emax, emin) = (eig.max(), eig.min());
+    let condition_number = if emin > 0.0 {
+        (emax / emin).sqrt()
+    } else {
+        f64::INFINITY
+    };
+    let inv = scaled
+        .cholesky()
+        .ok_or(IdentifyError::Singular { iteration, mu: 0.0 })?
+        .inverse();
+    let covariance = DMatrix::from_fn(pf, pf, |r, c| {
+        inv[(r, c)] * s[r] * s[c] * sigma_hat * sigma_hat
+    });
+    Ok(NormalCovariance {
+        dof,
+        sigma_hat,
+        condition_number,
+        covariance,
+    })
+}

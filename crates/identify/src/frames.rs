@@ -1,9 +1,9 @@
 //! Identification from full-frame (6-DoF) measurements and from several targets per pose
 //! (`docs/model.md` §5 and §6.4).
 //!
-//! The point-only path ([`crate::Problem`], [`crate::solve`]) is untouched: this module is a
-//! separate, dense formulation used when a measurement set carries orientations or named
-//! targets. Its unknowns are
+//! A dense formulation used when a measurement set carries orientations or named targets,
+//! solved by the one damped least-squares solver of the point path ([`crate::lm`]: this
+//! module's problem implements [`crate::LeastSquares`]; [`fit_frames`]). Its unknowns are
 //! - the robot's free parameters (layout indices, the tool point `tool_x/y/z` excluded: the
 //!   targets below replace it),
 //! - the tool orientation `R_tool` (the measured frame's axes in the flange frame), moved by
@@ -30,11 +30,15 @@
 //! Everything is dense and summed in a fixed order (pose by pose, row by row), with plain
 //! multiplications and additions (no fused multiply-add): the same inputs give the same bits.
 
+use kinematics::rotation::{exp_so3, inv_left_jacobian, log_so3, project_so3, rpy_of};
 use kinematics::{Frame, Robot, Unit};
-use nalgebra::{DMatrix, DVector, Matrix3, Rotation3, Vector3};
+use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
 
 use crate::error::IdentifyError;
 use crate::identifiability::{IdentifiabilityOptions, analyze_matrix, free_priority};
+use crate::lm::{
+    Damping, LeastSquares, LmOptions, Redundant, StopReason, TraceEntry, least_squares,
+};
 
 /// Default equivalence of orientation and position residuals: 1° of orientation error
 /// weighs as much as this many mm of position error [5 mm/°: the ratio of the typical σ a
@@ -187,7 +191,7 @@ impl FrameModel {
         let mut r = self.robot.clone();
         r.set_tool_mm(self.targets_mm[0]);
         if orientation {
-            r.set_tool_rotation_rad(Some(rotation_to_euler(&self.tool_rotation)));
+            r.set_tool_rotation_rad(Some(rpy_of(&self.tool_rotation)));
         }
         if target_names.len() > 1 || target_names.first().is_some_and(|n| !n.is_empty()) {
             r.set_targets(Some(
@@ -222,53 +226,6 @@ impl FrameModel {
 }
 
 use std::f64::consts::PI;
-
-/// `[rx, ry, rz]` (rad) with `R = Rz·Ry·Rx` (the base convention of
-/// [`Frame::from_base_pose`]).
-pub fn rotation_to_euler(r: &Matrix3<f64>) -> [f64; 3] {
-    let (rx, ry, rz) = Rotation3::from_matrix_unchecked(*r).euler_angles();
-    [rx, ry, rz]
-}
-
-/// The rotation vector of a rotation matrix (rad): `log` of SO(3), through the unit
-/// quaternion `(w, v)` (`w ≥ 0`): `φ = 2·atan2(‖v‖, w)·v/‖v‖`, accurate to rounding at small
-/// angles too (an `acos` of the trace loses half the digits there).
-pub fn log_so3(r: &Matrix3<f64>) -> Vector3<f64> {
-    let q = nalgebra::UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix_unchecked(*r));
-    let (mut w, mut v) = (q.w, q.imag());
-    if w < 0.0 {
-        w = -w;
-        v = -v;
-    }
-    let n = v.norm();
-    if n < 1e-300 {
-        return v * 2.0;
-    }
-    v * (2.0 * n.atan2(w) / n)
-}
-
-/// `exp` of SO(3): the rotation by the rotation vector `v` (rad).
-pub fn exp_so3(v: &Vector3<f64>) -> Matrix3<f64> {
-    *Rotation3::new(*v).matrix()
-}
-
-fn skew(v: &Vector3<f64>) -> Matrix3<f64> {
-    Matrix3::new(0.0, -v.z, v.y, v.z, 0.0, -v.x, -v.y, v.x, 0.0)
-}
-
-/// The inverse left Jacobian of SO(3) at `φ`:
-/// `J_l⁻¹(φ) = I − ½[φ]× + (1/θ² − (1+cos θ)/(2θ sin θ))[φ]×²` (series `1/12` near θ = 0).
-pub fn inv_left_jacobian(phi: &Vector3<f64>) -> Matrix3<f64> {
-    let t2 = phi.norm_squared();
-    let t = t2.sqrt();
-    let c = if t < 1e-4 {
-        1.0 / 12.0 + t2 / 720.0
-    } else {
-        1.0 / t2 - (1.0 + t.cos()) / (2.0 * t * t.sin())
-    };
-    let k = skew(phi);
-    Matrix3::identity() - k * 0.5 + (k * k) * c
-}
 
 /// Which unknowns move: robot parameters (layout indices, no tool point), the tool
 /// orientation, the targets.
@@ -533,14 +490,6 @@ pub fn closed_form_tool(
     }
 }
 
-/// The rotation nearest to `m` (Frobenius): `U·diag(1,1,det(UVᵀ))·Vᵀ` of its SVD.
-pub fn project_so3(m: &Matrix3<f64>) -> Matrix3<f64> {
-    let svd = m.svd(true, true);
-    let (u, vt) = (svd.u.expect("u"), svd.v_t.expect("v_t"));
-    let d = (u * vt).determinant().signum();
-    u * Matrix3::from_diagonal(&Vector3::new(1.0, 1.0, d)) * vt
-}
-
 /// The identifiable unknowns among `candidates` (robot parameters; the tool point excluded
 /// automatically) plus the tool orientation and the targets, on the weighted Jacobian at
 /// `model`, decided as every other rank decision ([`crate::identifiability`], default
@@ -654,30 +603,6 @@ pub fn screen_poses(
     crate::outliers::screen_blocks(&pose_blocks(&fit.model, data), fit.sigma_hat, k).map(Some)
 }
 
-/// Options of [`fit_frames`]. Defaults in brackets.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct FrameFitOptions {
-    /// Iteration limit \[100\].
-    pub max_iterations: usize,
-    /// Stop when the relative cost decrease of an accepted step is below this \[1e-12\].
-    pub cost_tol: f64,
-    /// Initial Marquardt damping λ (`JᵀJ + λ·diag(JᵀJ)`) \[1e-3\].
-    pub lambda0: f64,
-    /// Stop when every column's gradient cosine `|J_kᵀe|/(‖J_k‖‖e‖)` is below this \[1e-10\].
-    pub gradient_tol: f64,
-}
-
-impl Default for FrameFitOptions {
-    fn default() -> Self {
-        FrameFitOptions {
-            max_iterations: 200,
-            cost_tol: 1e-12,
-            lambda0: 1e-3,
-            gradient_tol: 1e-10,
-        }
-    }
-}
-
 /// One unknown's estimate (display units: deg, mm). The tool orientation's three unknowns
 /// are the components of the rotation vector δ (tool frame) from the start orientation.
 #[derive(Clone, Debug, PartialEq)]
@@ -703,10 +628,19 @@ pub struct FrameFit {
     pub free: FrameFree,
     /// Per unknown: start, value, standard error.
     pub estimates: Vec<FrameEstimate>,
+    /// The schedule used.
+    pub damping: Damping,
     /// Iterations (accepted and rejected).
     pub iterations: usize,
-    /// Whether the cost test stopped it (else the iteration limit).
-    pub converged: bool,
+    /// Accepted steps.
+    pub accepted_steps: usize,
+    /// Why the solver stopped ([`StopReason::converged`] for the three convergence tests; a
+    /// damping blow-up is [`StopReason::TooManyRejections`]).
+    pub stop: StopReason,
+    /// max_k |J_kᵀe| / (‖J_k‖‖e‖) at the solution.
+    pub gradient_cosine: f64,
+    /// Per-iteration trace.
+    pub trace: Vec<TraceEntry>,
     /// Weighted residual sum of squares at the start and at the solution.
     pub cost: (f64, f64),
     /// Equations and degrees of freedom.
@@ -721,15 +655,89 @@ pub struct FrameFit {
     pub covariance: DMatrix<f64>,
 }
 
-/// Identifies `free` from `data`, starting at `start`: Levenberg–Marquardt with Marquardt's
-/// scaling on the residual of the module docs, then the covariance `σ̂²(JᵀJ)⁻¹`.
+/// The 6-DoF / multi-target problem as the one solver ([`crate::lm::least_squares`]) sees
+/// it: the residual of the module docs on the unknowns `free`.
+struct FrameProblem<'d> {
+    data: &'d FrameData,
+    free: &'d FrameFree,
+    jac: DMatrix<f64>,
+}
+
+impl LeastSquares for FrameProblem<'_> {
+    type Model = FrameModel;
+
+    fn n_unknowns(&self) -> usize {
+        self.free.len()
+    }
+
+    fn normal_equations(
+        &mut self,
+        m: &FrameModel,
+        a: &mut DMatrix<f64>,
+        g: &mut DVector<f64>,
+    ) -> f64 {
+        let e = residual_jacobian(m, self.data, self.free, Some(&mut self.jac));
+        let (na, ng) = normal(&self.jac, &e);
+        // The solver's `g` is `−(∂e/∂x)ᵀe` (its `J` is the model's derivative, −∂e/∂x).
+        (*a, *g) = (na, -ng);
+        e.norm_squared()
+    }
+
+    fn cost(&mut self, m: &FrameModel, _likely_accepted: bool) -> f64 {
+        residual_jacobian(m, self.data, self.free, None).norm_squared()
+    }
+
+    fn step(&self, m: &FrameModel, dx: &[f64], out: &mut FrameModel) -> Result<(), IdentifyError> {
+        *out = apply_step(m, self.free, &DVector::from_column_slice(dx))?;
+        Ok(())
+    }
+
+    /// The unknowns' values: the free robot parameters, the tool orientation's rotation
+    /// vector (rad), the targets (mm).
+    fn scaled_norm(&self, m: &FrameModel, s: &[f64]) -> f64 {
+        let x = m.robot.params();
+        let mut values: Vec<f64> = self.free.robot.iter().map(|&k| x[k]).collect();
+        if self.free.rotation {
+            values.extend(log_so3(&m.tool_rotation).iter());
+        }
+        for t in m.targets_mm.iter().take(self.free.n_targets) {
+            values.extend(t.iter());
+        }
+        values
+            .iter()
+            .zip(s)
+            .map(|(v, s)| (v / s).powi(2))
+            .sum::<f64>()
+            .sqrt()
+    }
+}
+
+/// Identifies `free` from `data`, starting at `start`: the one damped least-squares solver
+/// ([`crate::lm::least_squares`], with the schedule and stopping tests of `options`) on the
+/// residual of the module docs, then the covariance `σ̂²(JᵀJ)⁻¹` of its normal matrix.
+///
+/// Redundant unknowns are decided before the fit, once ([`select_free`] holds them):
+/// [`LmOptions::redundant`] must be [`Redundant::Hold`].
+///
+/// # Errors
+/// The data's errors; an option out of range ([`Redundant::Damp`] included); no unknowns or
+/// fewer equations than unknowns; the solver's errors; a singular normal matrix at the
+/// solution.
 pub fn fit_frames(
     start: &FrameModel,
     data: &FrameData,
     free: &FrameFree,
-    options: &FrameFitOptions,
+    options: &LmOptions,
 ) -> Result<FrameFit, IdentifyError> {
     data.check(&start.robot)?;
+    if options.redundant != Redundant::Hold {
+        return Err(IdentifyError::InvalidOption {
+            name: "redundant",
+            value: "damp".into(),
+            reason: "6-DoF and multi-target fits hold the redundant unknowns \
+                     (select_free decides them before the fit): only \"hold\" applies",
+        });
+    }
     let neq = data.n_equations();
     let pf = free.len();
     if pf == 0 {
@@ -743,90 +751,14 @@ pub fn fit_frames(
             needed_poses: pf.div_ceil(neq.div_ceil(data.n_poses().max(1)).max(1)),
         });
     }
-    let mut model = start.clone();
-    let mut jac = DMatrix::zeros(neq, pf);
-    let mut e = residual_jacobian(&model, data, free, Some(&mut jac));
-    let cost0 = e.norm_squared();
-    let mut cost = cost0;
-    let mut lambda = options.lambda0;
-    let mut iterations = 0;
-    let mut converged = false;
-    let (mut a, mut g) = normal(&jac, &e);
-    while iterations < options.max_iterations {
-        iterations += 1;
-        let mut damped = a.clone();
-        for k in 0..pf {
-            damped[(k, k)] += lambda * a[(k, k)].max(1e-300);
-        }
-        // Stationary: every column's gradient cosine |g_k|/(‖J_k‖·‖e‖) below 1e-10.
-        let cosine = (0..pf)
-            .map(|k| g[k].abs() / (a[(k, k)].sqrt() * cost.sqrt()).max(f64::MIN_POSITIVE))
-            .fold(0.0, f64::max);
-        if cosine < options.gradient_tol {
-            converged = true;
-            break;
-        }
-        let Some(ch) = damped.cholesky() else {
-            lambda *= 10.0;
-            continue;
-        };
-        let step = -ch.solve(&g);
-        if step.iter().any(|v| !v.is_finite()) {
-            return Err(IdentifyError::NonFiniteStep {
-                iteration: iterations,
-                what: "step",
-            });
-        }
-        let trial = apply_step(&model, free, &step)?;
-        let et = residual_jacobian(&trial, data, free, None);
-        let ct = et.norm_squared();
-        if ct.is_finite() && ct <= cost {
-            let rel = (cost - ct) / cost.max(f64::MIN_POSITIVE);
-            model = trial;
-            e = residual_jacobian(&model, data, free, Some(&mut jac));
-            cost = e.norm_squared();
-            (a, g) = normal(&jac, &e);
-            lambda = (lambda / 10.0).max(1e-12);
-            if rel < options.cost_tol {
-                converged = true;
-                break;
-            }
-        } else {
-            lambda *= 10.0;
-            if lambda > 1e12 {
-                converged = true;
-                break;
-            }
-        }
-    }
-    let dof = neq - pf;
-    let sigma_hat = if dof > 0 {
-        (cost / dof as f64).sqrt()
-    } else {
-        f64::NAN
+    let mut problem = FrameProblem {
+        data,
+        free,
+        jac: DMatrix::zeros(neq, pf),
     };
-    // Covariance through the column-scaled normal matrix (better conditioned).
-    let s: Vec<f64> = (0..pf)
-        .map(|k| 1.0 / a[(k, k)].sqrt().max(1e-300))
-        .collect();
-    let scaled = DMatrix::from_fn(pf, pf, |r, c| a[(r, c)] * s[r] * s[c]);
-    let eig = scaled.clone().symmetric_eigenvalues();
-    let (emax, emin) = (eig.max(), eig.min());
-    let condition_number = if emin > 0.0 {
-        (emax / emin).sqrt()
-    } else {
-        f64::INFINITY
-    };
-    let inv = scaled
-        .cholesky()
-        .ok_or(IdentifyError::Singular {
-            iteration: iterations,
-            mu: 0.0,
-        })?
-        .inverse();
-    let covariance = DMatrix::from_fn(pf, pf, |r, c| {
-        inv[(r, c)] * s[r] * s[c] * sigma_hat * sigma_hat
-    });
+    let sol = least_squares(&mut problem, start, options)?;
+    let cov = sol.covariance(neq)?;
+    let model = &sol.model;
     let names = free.names(&model.robot, &data.target_names);
     let units = free.units(&model.robot);
     let (x0, x1) = (start.robot.params(), model.robot.params());
@@ -835,7 +767,7 @@ pub fn fit_frames(
     let delta = log_so3(&(start.tool_rotation.transpose() * model.tool_rotation));
     let estimates = (0..pf)
         .map(|c| {
-            let se = covariance[(c, c)].sqrt();
+            let se = cov.covariance[(c, c)].sqrt();
             let (s0, v, se) = if c < nr {
                 let info = layout.get(free.robot[c]);
                 (
@@ -863,16 +795,20 @@ pub fn fit_frames(
         })
         .collect();
     Ok(FrameFit {
-        model,
+        model: sol.model,
         free: free.clone(),
         estimates,
-        iterations,
-        converged,
-        cost: (cost0, cost),
+        damping: sol.damping,
+        iterations: sol.iterations,
+        accepted_steps: sol.accepted_steps,
+        stop: sol.stop,
+        gradient_cosine: sol.gradient_cosine,
+        trace: sol.trace,
+        cost: (sol.initial_cost, sol.cost),
         n_equations: neq,
-        dof,
-        sigma_hat,
-        condition_number,
-        covariance,
+        dof: cov.dof,
+        sigma_hat: cov.sigma_hat,
+        condition_number: cov.condition_number,
+        covariance: cov.covariance,
     })
 }

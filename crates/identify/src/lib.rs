@@ -2,7 +2,11 @@
 //!
 //! * [`Problem`]: a start model, poses, measured points, optional per-row weights, the free
 //!   parameters; residual `e = p^meas − p(x; q)`.
-//! * [`solve`]: damped least squares with the schedules of `docs/model.md` §7 ([`Damping`]: the
+//! * [`LeastSquares`] / [`least_squares`]: the one damped least-squares solver (Levenberg–
+//!   Marquardt): a problem gives its normal equations, cost and step; the solver owns the
+//!   damping, the stopping tests and the covariance. Points ([`solve`]) and frames or several
+//!   targets per pose ([`frames::fit_frames`]) are its two problems.
+//! * [`solve`]: damped least squares on points with the schedules of `docs/model.md` §7 ([`Damping`]: the
 //!   paper's Levenberg, Marquardt, Nielsen), optional column scaling, five stopping tests with
 //!   the reason reported ([`StopReason`]) and a per-iteration trace. Normal equations are
 //!   accumulated per pose from [`kinematics::Robot::point_jacobian_into`] on the free
@@ -71,7 +75,9 @@ pub use compensation::{
     Compensated, CompensationOptions, DEFAULT_FLAG_CHANGE_DEG, FlagReason, compensate,
     compensate_nearest, compensation_target, compensation_target_trig, singularity_reasons,
 };
-pub use covariance::{CorrelatedPair, Covariance, covariance, covariance_at_solution};
+pub use covariance::{
+    CorrelatedPair, Covariance, NormalCovariance, covariance, covariance_at_solution,
+};
 pub use error::IdentifyError;
 pub use fit::{Fit, IdentifyOptions, ParamEstimate, identify};
 pub use generic::{GENERIC_POSE_COUNT, GENERIC_POSE_SEED, generic_poses};
@@ -79,7 +85,10 @@ pub use identifiability::{
     ConfoundTerm, IdentifiabilityOptions, IdentifiabilityReport, Observability, ParamSet,
     Redundancy, analyze, keep_priority,
 };
-pub use lm::{Damping, LmOptions, LmSolution, Redundant, StopReason, TraceEntry, solve};
+pub use lm::{
+    Damping, LeastSquares, LmOptions, LmSolution, LsSolution, Redundant, StopReason, TraceEntry,
+    least_squares, solve,
+};
 pub use outliers::{BlockOutlier, BlockScreen, Outlier, OutlierScreen};
 pub use params::ParamSpec;
 pub use problem::{Problem, SAME_POSE_TOL_RAD};

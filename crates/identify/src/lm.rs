@@ -456,6 +456,26 @@ pub(crate) struct FinalSystem {
     pub poses: Vec<f64>,
 }
 
+/// The column-scaled system `S a S`, `S g` (S = diag(s)) into `sa`, `sg`.
+fn scale_system(
+    a: &DMatrix<f64>,
+    g: &DVector<f64>,
+    s: &[f64],
+    sa: &mut DMatrix<f64>,
+    sg: &mut DVector<f64>,
+) {
+    let p = s.len();
+    let (src, dst) = (a.as_slice(), sa.as_mut_slice());
+    for l in 0..p {
+        let sl = s[l];
+        let (src, dst) = (&src[l * p..(l + 1) * p], &mut dst[l * p..(l + 1) * p]);
+        for ((d, v), sk) in dst.iter_mut().zip(src).zip(s) {
+            *d = sk * v * sl;
+        }
+        sg[l] = sl * g[l];
+    }
+}
+
 /// Reusable buffers of the scaled system.
 struct Scaled {
     a: DMatrix<f64>,
@@ -464,16 +484,7 @@ struct Scaled {
 
 impl Scaled {
     fn set(&mut self, a: &DMatrix<f64>, g: &DVector<f64>, s: &[f64]) {
-        let p = s.len();
-        let (src, dst) = (a.as_slice(), self.a.as_mut_slice());
-        for l in 0..p {
-            let sl = s[l];
-            let (src, dst) = (&src[l * p..(l + 1) * p], &mut dst[l * p..(l + 1) * p]);
-            for ((d, v), sk) in dst.iter_mut().zip(src).zip(s) {
-                *d = sk * v * sl;
-            }
-            self.g[l] = sl * g[l];
-        }
+        scale_system(a, g, s, &mut self.a, &mut self.g);
     }
 
     fn max_diag(&self) -> f64 {
@@ -701,7 +712,7 @@ impl<'p> Assembler<'p> {
     /// column-scaled `sys`; returns the cost (`cost_trial`, computed there by
     /// [`Assembler::trial_cost`]). The fast path takes over the system `trial_cost` assembled
     /// there if it did (the same bits), and skips the full unscaled matrix (the same bits as
-    /// assembling into `a`, `g` and [`Scaled::set`]): `a`, `g` are then stale until
+    /// assembling into `a`, `g` and scaling): `a`, `g` are then stale until
     /// [`Assembler::unscaled`].
     fn accept_scaled(
         &mut self,
@@ -709,7 +720,8 @@ impl<'p> Assembler<'p> {
         a: &mut DMatrix<f64>,
         g: &mut DVector<f64>,
         scale: &[f64],
-        sys: &mut Scaled,
+        sa: &mut DMatrix<f64>,
+        sg: &mut DVector<f64>,
         cost_trial: f64,
     ) -> f64 {
         let speculated = std::mem::take(&mut self.spare_valid);
@@ -722,12 +734,12 @@ impl<'p> Assembler<'p> {
                     }
                     _ => normal.assemble(robot, &self.trig, self.points, self.weights, self.free),
                 };
-                normal.scaled_to(scale, sys.a.as_mut_slice(), sys.g.as_mut_slice());
+                normal.scaled_to(scale, sa.as_mut_slice(), sg.as_mut_slice());
                 cost
             }
             None => {
                 let cost = self.assemble(robot, a, g);
-                sys.set(a, g, scale);
+                scale_system(a, g, scale, sa, sg);
                 cost
             }
         }
@@ -831,6 +843,212 @@ fn solve_speculating(
     solve_free(path, problem, options, &mut asm, (a, g, cost))
 }
 
+/// A damped least-squares problem, as the one solver ([`least_squares`]) sees it: the
+/// problem gives the weighted normal equations, the cost and the step on its unknowns; the
+/// solver owns the damping ([`Damping`]), the column scaling, the stopping tests
+/// ([`StopReason`]), the trace and the covariance ([`LsSolution::covariance`]). Points
+/// ([`solve`], on [`Problem`]) and frames or several targets ([`crate::frames::fit_frames`])
+/// both implement it; which unknowns are free (the restriction to a free set) is part of the
+/// problem's value.
+///
+/// Every quantity is in the problem's internal units; `dx` of [`LeastSquares::step`] and the
+/// columns of `JᵀJ` are ordered as the unknowns.
+pub trait LeastSquares {
+    /// What the unknowns move (the robot; the robot with its tool frame and targets).
+    type Model: Clone;
+
+    /// The number of unknowns P.
+    fn n_unknowns(&self) -> usize;
+
+    /// The weighted normal equations at `m`, `a = JᵀJ` (P × P) and `g = Jᵀe` (P), with `e`
+    /// = measured − model and `J` = ∂model/∂x (= −∂e/∂x), so that the Gauss–Newton step
+    /// `a⁻¹g` is added to the unknowns; returns the cost `‖e‖²`. `a` and `g` may come in with
+    /// any shape.
+    fn normal_equations(
+        &mut self,
+        m: &Self::Model,
+        a: &mut DMatrix<f64>,
+        g: &mut DVector<f64>,
+    ) -> f64;
+
+    /// The cost `‖e‖²` at the trial point `m`, bit for bit what
+    /// [`LeastSquares::normal_equations`] returns there. `likely_accepted`: the solver expects
+    /// the step to be accepted, so a problem may assemble the system at `m` on the way for
+    /// [`LeastSquares::accept`] to take over.
+    fn cost(&mut self, m: &Self::Model, likely_accepted: bool) -> f64;
+
+    /// `m` moved by `dx` (one entry per unknown), written into `out`.
+    fn step(&self, m: &Self::Model, dx: &[f64], out: &mut Self::Model)
+    -> Result<(), IdentifyError>;
+
+    /// `√Σ_c (x_c / s_c)²`, the norm of the unknowns' values at `m` in solver variables
+    /// (column scale `s`), for the small-step test.
+    fn scaled_norm(&self, m: &Self::Model, s: &[f64]) -> f64;
+
+    /// The system at `m`, the point of an accepted step whose cost [`LeastSquares::cost`]
+    /// returned as `cost_trial`, column-scaled (`S a S`, `S g`) into `sa`, `sg`; returns the
+    /// cost. The default assembles it into `a`, `g` and scales it; a problem that writes
+    /// only `sa`, `sg` brings `a`, `g` up to date in [`LeastSquares::unscaled`].
+    #[allow(clippy::too_many_arguments)]
+    fn accept(
+        &mut self,
+        m: &Self::Model,
+        a: &mut DMatrix<f64>,
+        g: &mut DVector<f64>,
+        s: &[f64],
+        sa: &mut DMatrix<f64>,
+        sg: &mut DVector<f64>,
+        cost_trial: f64,
+    ) -> f64 {
+        let _ = cost_trial;
+        let cost = self.normal_equations(m, a, g);
+        scale_system(a, g, s, sa, sg);
+        cost
+    }
+
+    /// Brings `a`, `g` up to date with the last [`LeastSquares::accept`] (nothing to do for
+    /// the default).
+    fn unscaled(&self, a: &mut DMatrix<f64>, g: &mut DVector<f64>) {
+        let _ = (a, g);
+    }
+}
+
+/// What [`least_squares`] returns: the solution, why the iteration stopped, its trace, and
+/// the normal matrix there.
+#[derive(Clone, Debug)]
+pub struct LsSolution<M> {
+    /// The model at the solution.
+    pub model: M,
+    /// The schedule used.
+    pub damping: Damping,
+    /// Iterations made (accepted + rejected).
+    pub iterations: usize,
+    /// Accepted steps.
+    pub accepted_steps: usize,
+    /// Why it stopped (a damping blow-up is [`StopReason::TooManyRejections`], not
+    /// converged).
+    pub stop: StopReason,
+    /// One entry per iteration.
+    pub trace: Vec<TraceEntry>,
+    /// Cost (weighted RSS) at the start.
+    pub initial_cost: f64,
+    /// Cost at the solution.
+    pub cost: f64,
+    /// Column scale s_k of each unknown (1 when scaling is off or the column is zero).
+    pub column_scale: Vec<f64>,
+    /// max_k |J_kᵀe| / (‖J_k‖‖e‖) at the solution (0 for a zero residual).
+    pub gradient_cosine: f64,
+    /// The weighted `JᵀJ` at the solution (unscaled).
+    pub normal_matrix: DMatrix<f64>,
+}
+
+impl<M> LsSolution<M> {
+    /// The covariance of the unknowns at the solution, `σ̂²(JᵀJ)⁻¹` with `σ̂² = cost / (n −
+    /// P)`, for `n_equations` = n residual rows ([`crate::covariance::normal_covariance`]).
+    ///
+    /// # Errors
+    /// [`IdentifyError::Singular`] when `JᵀJ` is not positive definite.
+    pub fn covariance(
+        &self,
+        n_equations: usize,
+    ) -> Result<crate::covariance::NormalCovariance, IdentifyError> {
+        crate::covariance::normal_covariance(
+            &self.normal_matrix,
+            self.cost,
+            n_equations,
+            self.iterations,
+        )
+    }
+}
+
+/// The one damped least-squares solver: Levenberg–Marquardt on `problem` from `start`, with
+/// the damping, scaling and stopping tests of `options` (the module docs; every unknown of
+/// `problem` is solved: [`LmOptions::redundant`] is the caller's to apply, as [`solve`] does
+/// for points).
+///
+/// # Errors
+/// An option out of range, a non-positive-definite damped system
+/// ([`IdentifyError::Singular`]) or a non-finite step or cost
+/// ([`IdentifyError::NonFiniteStep`]).
+pub fn least_squares<P: LeastSquares>(
+    problem: &mut P,
+    start: &P::Model,
+    options: &LmOptions,
+) -> Result<LsSolution<P::Model>, IdentifyError> {
+    options.validate()?;
+    let pf = problem.n_unknowns();
+    let mut a = DMatrix::zeros(pf, pf);
+    let mut g = DVector::zeros(pf);
+    let cost = problem.normal_equations(start, &mut a, &mut g);
+    iterate(Path::Fast, problem, start.clone(), options, (a, g, cost))
+}
+
+/// The point problem as the solver sees it: the assembler of the normal equations on the
+/// free parameters (either path) and their indices.
+struct PointLs<'a, 'p, 'f> {
+    asm: &'a mut Assembler<'p>,
+    free: &'f [usize],
+}
+
+impl LeastSquares for PointLs<'_, '_, '_> {
+    type Model = Robot;
+
+    fn n_unknowns(&self) -> usize {
+        self.free.len()
+    }
+
+    fn normal_equations(&mut self, m: &Robot, a: &mut DMatrix<f64>, g: &mut DVector<f64>) -> f64 {
+        let pf = self.free.len();
+        if a.shape() != (pf, pf) {
+            *a = DMatrix::zeros(pf, pf);
+        }
+        if g.len() != pf {
+            *g = DVector::zeros(pf);
+        }
+        self.asm.assemble(m, a, g)
+    }
+
+    fn cost(&mut self, m: &Robot, likely_accepted: bool) -> f64 {
+        self.asm.trial_cost(m, likely_accepted)
+    }
+
+    fn step(&self, m: &Robot, dx: &[f64], out: &mut Robot) -> Result<(), IdentifyError> {
+        let mut x = m.params();
+        for (c, &k) in self.free.iter().enumerate() {
+            x[k] += dx[c];
+        }
+        out.set_params(&x)?;
+        Ok(())
+    }
+
+    fn scaled_norm(&self, m: &Robot, s: &[f64]) -> f64 {
+        let x = m.params();
+        self.free
+            .iter()
+            .zip(s)
+            .map(|(&k, s)| (x[k] / s).powi(2))
+            .sum::<f64>()
+            .sqrt()
+    }
+
+    fn accept(
+        &mut self,
+        m: &Robot,
+        a: &mut DMatrix<f64>,
+        g: &mut DVector<f64>,
+        s: &[f64],
+        sa: &mut DMatrix<f64>,
+        sg: &mut DVector<f64>,
+        cost_trial: f64,
+    ) -> f64 {
+        self.asm.accept_scaled(m, a, g, s, sa, sg, cost_trial)
+    }
+
+    fn unscaled(&self, a: &mut DMatrix<f64>, g: &mut DVector<f64>) {
+        self.asm.unscaled(a, g);
+    }
+}
+
 /// The damped iteration on every free parameter of `problem`, from the system `start`
 /// (`JᵀJ`, `Jᵀe`, cost) that `asm` assembled at the start model.
 fn solve_free(
@@ -841,12 +1059,54 @@ fn solve_free(
     start: (DMatrix<f64>, DVector<f64>, f64),
 ) -> Result<LmSolution, IdentifyError> {
     let free = problem.free();
-    let pf = free.len();
+    let sol = iterate(
+        path,
+        &mut PointLs { asm, free },
+        problem.robot().clone(),
+        options,
+        start,
+    )?;
+    let system = (path == Path::Fast).then(|| {
+        // Without an accepted step the normal matrix is still the start system (on a subset
+        // of the free parameters, a block of the one assembled on all of them: the same
+        // bits, each entry being its own sum).
+        Arc::new(FinalSystem {
+            trig: std::mem::take(&mut asm.trig),
+            a: sol.normal_matrix,
+            free: free.to_vec(),
+            weights: problem.weights().map(<[f64]>::to_vec),
+            poses: problem.poses_rad().to_vec(),
+        })
+    });
+    Ok(LmSolution {
+        system,
+        params: sol.model.params(),
+        robot: sol.model,
+        iterations: sol.iterations,
+        accepted_steps: sol.accepted_steps,
+        stop: sol.stop,
+        trace: sol.trace,
+        initial_cost: sol.initial_cost,
+        cost: sol.cost,
+        column_scale: sol.column_scale,
+        gradient_cosine: sol.gradient_cosine,
+        held: Vec::new(),
+    })
+}
 
-    let mut robot = problem.robot().clone();
-    let mut trial = robot.clone();
-    let mut x = robot.params();
-    let mut xt = x.clone();
+/// The damped iteration of the module docs on every unknown of `problem`, from `model` and
+/// the system `start` (`JᵀJ`, `Jᵀe`, cost) there.
+fn iterate<P: LeastSquares>(
+    path: Path,
+    problem: &mut P,
+    model: P::Model,
+    options: &LmOptions,
+    start: (DMatrix<f64>, DVector<f64>, f64),
+) -> Result<LsSolution<P::Model>, IdentifyError> {
+    let pf = problem.n_unknowns();
+
+    let mut model = model;
+    let mut trial = model.clone();
 
     let (mut a, mut g, mut cost) = start;
     let initial_cost = cost;
@@ -887,6 +1147,7 @@ fn solve_free(
     let mut work = DMatrix::zeros(0, 0);
     let mut pad = Vec::new();
     let mut step = DVector::zeros(pf);
+    let mut dx = vec![0.0; pf];
     let mut a_step = DVector::zeros(pf);
     let mut trace = Vec::new();
     let mut iterations = 0;
@@ -925,10 +1186,10 @@ fn solve_free(
                 });
             }
 
-            for (c, &k) in free.iter().enumerate() {
-                xt[k] = x[k] + scale[c] * step[c];
+            for (d, (s, v)) in dx.iter_mut().zip(scale.iter().zip(step.iter())) {
+                *d = s * v;
             }
-            trial.set_params(&xt)?;
+            problem.step(&model, &dx, &mut trial)?;
             match path {
                 Path::Fast => {
                     linalg::mat_vec(sys.a.as_slice(), pf, step.as_slice(), a_step.as_mut_slice())
@@ -942,7 +1203,7 @@ fn solve_free(
             // rejected as accepted, and usually ends the solve. (Either choice gives the
             // same bits; this one spares the assembly a rejected last step would waste.)
             let speculate = rejections == 0 && predicted > options.cost_rel_tol * cost;
-            let cost_trial = asm.trial_cost(&trial, speculate);
+            let cost_trial = problem.cost(&trial, speculate);
             if !cost_trial.is_finite() {
                 return Err(IdentifyError::NonFiniteStep {
                     iteration: iterations,
@@ -970,10 +1231,11 @@ fn solve_free(
             if accepted {
                 accepted_steps += 1;
                 rejections = 0;
-                std::mem::swap(&mut x, &mut xt);
-                std::mem::swap(&mut robot, &mut trial);
+                std::mem::swap(&mut model, &mut trial);
                 let cost_old = cost;
-                cost = asm.accept_scaled(&robot, &mut a, &mut g, &scale, &mut sys, cost_trial);
+                cost = problem.accept(
+                    &model, &mut a, &mut g, &scale, &mut sys.a, &mut sys.g, cost_trial,
+                );
                 if !cost.is_finite() || !sys.finite() {
                     return Err(IdentifyError::NonFiniteStep {
                         iteration: iterations,
@@ -989,12 +1251,7 @@ fn solve_free(
                         nu = nu0;
                     }
                 }
-                let x_norm = free
-                    .iter()
-                    .zip(&scale)
-                    .map(|(&k, s)| (x[k] / s).powi(2))
-                    .sum::<f64>()
-                    .sqrt();
+                let x_norm = problem.scaled_norm(&model, &scale);
                 if sys.gradient_cosine(cost) <= options.gradient_tol {
                     break StopReason::SmallGradient;
                 }
@@ -1027,25 +1284,14 @@ fn solve_free(
     };
 
     let gradient_cosine = sys.gradient_cosine(cost);
-    let system = (path == Path::Fast).then(|| {
-        // Without an accepted step `a` is still the start system (on a subset of the free
-        // parameters, a block of the one assembled on all of them: the same bits, each entry
-        // being its own sum), and this assembler has assembled nothing.
-        if accepted_steps > 0 {
-            asm.unscaled(&mut a, &mut g);
-        }
-        Arc::new(FinalSystem {
-            trig: std::mem::take(&mut asm.trig),
-            a,
-            free: free.to_vec(),
-            weights: problem.weights().map(<[f64]>::to_vec),
-            poses: problem.poses_rad().to_vec(),
-        })
-    });
-    Ok(LmSolution {
-        system,
-        robot,
-        params: x,
+    // `a` is the system at the solution: assembled there by the last accepted step, or,
+    // without one, the start system.
+    if accepted_steps > 0 {
+        problem.unscaled(&mut a, &mut g);
+    }
+    Ok(LsSolution {
+        model,
+        damping: options.damping,
         iterations,
         accepted_steps,
         stop,
@@ -1054,7 +1300,7 @@ fn solve_free(
         cost,
         column_scale: scale,
         gradient_cosine,
-        held: Vec::new(),
+        normal_matrix: a,
     })
 }
 

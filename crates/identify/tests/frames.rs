@@ -3,9 +3,11 @@
 //! simulation recovering the tool frame within its standard errors.
 
 use identify::frames::{
-    FrameData, FrameFitOptions, FrameFree, FrameModel, FrameRow, apply_step, closed_form_tool,
-    exp_so3, fit_frames, log_so3, residual_jacobian, select_free,
+    FrameData, FrameFree, FrameModel, FrameRow, apply_step, closed_form_tool, fit_frames,
+    residual_jacobian, select_free,
 };
+use identify::{Damping, IdentifyError, LmOptions, Redundant, StopReason};
+use kinematics::rotation::{exp_so3, log_so3};
 use nalgebra::{DMatrix, DVector, Vector3};
 use rand::SeedableRng;
 use rand::rngs::ChaCha8Rng;
@@ -226,11 +228,13 @@ fn known_truth_tool_frame_z_scores_have_unit_spread() {
         let start = closed_form_tool(&nominal, &data, None, &[None]);
         let all: Vec<usize> = (0..nominal.n_params()).collect();
         let (free, _) = select_free(&start, &data, &all).unwrap();
-        let fit = fit_frames(&start, &data, &free, &FrameFitOptions::default()).unwrap();
+        let fit = fit_frames(&start, &data, &free, &LmOptions::default()).unwrap();
         assert!(
-            fit.converged,
-            "trial {trial}: {} iterations, cost {:?}",
-            fit.iterations, fit.cost
+            fit.stop.converged(),
+            "trial {trial}: {} after {} iterations, cost {:?}",
+            fit.stop,
+            fit.iterations,
+            fit.cost
         );
         assert!((fit.sigma_hat - 1.0).abs() < 0.25, "σ̂ = {}", fit.sigma_hat);
         let nr = free.robot.len();
@@ -326,7 +330,7 @@ fn a_gross_pose_is_flagged_as_a_block() {
         let known: Vec<Option<Vector3<f64>>> = vec![None; data.target_names.len()];
         let start = closed_form_tool(&truth.robot, &data, None, &known);
         let (free, _) = select_free(&start, &data, &all).unwrap();
-        let fit = fit_frames(&start, &data, &free, &FrameFitOptions::default()).unwrap();
+        let fit = fit_frames(&start, &data, &free, &LmOptions::default()).unwrap();
         let screen = identify::frames::screen_poses(&fit, &data, 3.0)
             .unwrap()
             .unwrap();
@@ -337,4 +341,131 @@ fn a_gross_pose_is_flagged_as_a_block() {
         assert_eq!(screen.outliers[0].threshold, threshold);
         assert!(screen.outliers[0].ratio > 3.0);
     }
+}
+
+/// Issue 42: the 6-DoF fit runs the one solver with the caller's schedule. The first
+/// iteration damps with the schedule's μ0 (column-scaled: Nielsen's τ·max diag = τ), the
+/// schedules' traces differ, and all converge to the same solution. (Column-scaled,
+/// diag(Ã) = 1, so Marquardt's schedule is Levenberg's.)
+#[test]
+fn frame_fit_honours_the_schedule() {
+    let nominal = kr1000(TOOL);
+    let truth = truth_model(0, 41);
+    let q = poses(&nominal, 30, 42);
+    let data = measure(&truth, &q, true, 0, (0.02, 0.005), 43);
+    let start = closed_form_tool(&nominal, &data, None, &[None]);
+    let all: Vec<usize> = (0..nominal.n_params()).collect();
+    let (free, _) = select_free(&start, &data, &all).unwrap();
+    let schedules = [
+        (Damping::levenberg(), 1e-3),
+        (
+            Damping::Levenberg {
+                mu0: 0.5,
+                decrease: 3.0,
+                increase: 4.0,
+            },
+            0.5,
+        ),
+        (
+            Damping::Nielsen {
+                tau: 0.25,
+                nu0: 2.0,
+            },
+            0.25,
+        ),
+    ];
+    let fits: Vec<_> = schedules
+        .iter()
+        .map(|&(d, _)| fit_frames(&start, &data, &free, &LmOptions::with_damping(d)).unwrap())
+        .collect();
+    for (fit, &(damping, mu0)) in fits.iter().zip(&schedules) {
+        assert!(fit.stop.converged(), "{damping:?}: {}", fit.stop);
+        assert_eq!(fit.damping, damping);
+        assert_eq!(fit.trace.len(), fit.iterations);
+        assert!(
+            (fit.trace[0].mu - mu0).abs() <= 1e-12 * mu0,
+            "{damping:?}: μ {}",
+            fit.trace[0].mu
+        );
+    }
+    let mus = |f: &identify::frames::FrameFit| f.trace.iter().map(|t| t.mu).collect::<Vec<_>>();
+    for i in 0..fits.len() {
+        for j in i + 1..fits.len() {
+            assert_ne!(mus(&fits[i]), mus(&fits[j]), "schedules {i} and {j}");
+            // The same minimum: every estimate within 1e-3 of its standard error.
+            for (a, b) in fits[i].estimates.iter().zip(&fits[j].estimates) {
+                assert!(
+                    (a.value - b.value).abs() < 1e-3 * a.std_error,
+                    "{}: {} vs {} (σ {})",
+                    a.name,
+                    a.value,
+                    b.value,
+                    a.std_error
+                );
+            }
+        }
+    }
+    // Redundant unknowns are held by `select_free`: damping them is refused, not ignored.
+    let damp = LmOptions {
+        redundant: Redundant::Damp,
+        ..LmOptions::default()
+    };
+    assert!(matches!(
+        fit_frames(&start, &data, &free, &damp),
+        Err(IdentifyError::InvalidOption {
+            name: "redundant",
+            ..
+        })
+    ));
+}
+
+/// Issue 42: a damping blow-up — every step rejected while μ grows, until the rejection
+/// limit — is reported as not converged (`too_many_rejections`); the hand-written loop this
+/// solver replaced reported it as converged. A start 45° off on every free angle and 300 mm
+/// on every free length makes the nearly undamped steps overshoot; a schedule that barely
+/// raises μ after a rejection keeps rejecting them.
+#[test]
+fn frame_fit_reports_a_damping_blow_up_as_not_converged() {
+    let nominal = kr1000(TOOL);
+    let truth = truth_model(0, 51);
+    let q = poses(&nominal, 30, 52);
+    let data = measure(&truth, &q, true, 0, (0.02, 0.005), 53);
+    let mut start = closed_form_tool(&nominal, &data, None, &[None]);
+    let all: Vec<usize> = (0..nominal.n_params()).collect();
+    let (free, _) = select_free(&start, &data, &all).unwrap();
+    let mut x = start.robot.params();
+    for (i, &k) in free.robot.iter().enumerate() {
+        let sign = if i % 2 == 0 { 1.0 } else { -1.0 };
+        x[k] += sign
+            * match nominal.layout().get(k).unit {
+                kinematics::Unit::Deg => 45f64.to_radians(),
+                _ => 300.0,
+            };
+    }
+    start.robot = start.robot.with_params(&x).unwrap();
+    let options = LmOptions {
+        max_rejections: 5,
+        ..LmOptions::with_damping(Damping::Levenberg {
+            mu0: 1e-9,
+            decrease: 10.0,
+            increase: 1.000001,
+        })
+    };
+    let fit = fit_frames(&start, &data, &free, &options).unwrap();
+    let marks: String = fit
+        .trace
+        .iter()
+        .map(|t| if t.accepted { 'A' } else { 'r' })
+        .collect();
+    assert_eq!(fit.stop, StopReason::TooManyRejections, "{marks}");
+    assert!(!fit.stop.converged());
+    assert!(marks.ends_with("rrrrr"), "{marks}");
+    // The same start under the default schedule (μ ×10 per rejection) gets further.
+    let default = fit_frames(&start, &data, &free, &LmOptions::default()).unwrap();
+    assert!(
+        default.cost.1 < fit.cost.1,
+        "{} vs {}",
+        default.cost.1,
+        fit.cost.1
+    );
 }

@@ -1,7 +1,7 @@
 //! Rigid transforms: [`Frame`], and the one Euler-angle convention of the workspace
 //! ([`Frame::from_base_pose`]: the robot's base and the tracker's base-frame residual).
 
-use nalgebra::{Matrix3, Rotation3, Vector3};
+use nalgebra::{Matrix3, Vector3};
 
 /// A rigid transform `x ↦ rot · x + pos_mm` (rotation matrix and translation in mm).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -41,9 +41,8 @@ impl Frame {
     /// base-frame residual, so that the six base parameters can absorb the latter exactly).
     /// The one Euler → frame conversion of the workspace.
     pub fn from_base_pose(r_rad: [f64; 3], d_mm: [f64; 3]) -> Frame {
-        let [rx, ry, rz] = r_rad;
         Frame {
-            rot: *Rotation3::from_euler_angles(rx, ry, rz).matrix(),
+            rot: crate::rotation::from_rpy(r_rad),
             pos_mm: Vector3::from(d_mm),
         }
     }

@@ -16,6 +16,7 @@ use nalgebra::{Matrix3, Rotation3, Vector3, Vector6};
 use crate::frame::Frame;
 use crate::model::MAX_JOINTS;
 use crate::robot::Robot;
+use crate::rotation::log_so3;
 use crate::trig::joint_sin_cos;
 
 /// What the IK must reach: a point fixed in the flange frame at a position, with the flange at
@@ -126,36 +127,6 @@ pub enum IkError {
         /// Best orientation error reached, rad.
         rot_err_rad: f64,
     },
-}
-
-/// Rotation vector (axis · angle) of `r`, accurate for small angles (uses the skew part
-/// rather than `acos` of the trace, which loses half the digits near zero).
-fn log_so3(r: &Matrix3<f64>) -> Vector3<f64> {
-    let v = Vector3::new(
-        r[(2, 1)] - r[(1, 2)],
-        r[(0, 2)] - r[(2, 0)],
-        r[(1, 0)] - r[(0, 1)],
-    ) * 0.5;
-    let s = v.norm();
-    let c = ((r.trace() - 1.0) * 0.5).clamp(-1.0, 1.0);
-    let angle = s.atan2(c);
-    if s > 1e-8 || c > 0.0 {
-        if s == 0.0 {
-            return Vector3::zeros();
-        }
-        if angle < 1e-6 {
-            // sin θ ≈ θ: v itself is the rotation vector to machine precision.
-            return v * (1.0 + angle * angle / 6.0);
-        }
-        return v * (angle / s);
-    }
-    // Near π: axis from the symmetric part, R + I = 2 a aᵀ (for θ = π).
-    let b = (r + Matrix3::identity()) * 0.5;
-    let k = (0..3)
-        .max_by(|&i, &j| b[(i, i)].total_cmp(&b[(j, j)]))
-        .unwrap_or(0);
-    let axis = b.column(k).into_owned() / b[(k, k)].max(1e-300).sqrt();
-    axis.normalize() * angle
 }
 
 /// Damping beyond which steps are too small to matter: the solve has stalled.
@@ -973,23 +944,5 @@ mod tests {
             }
         }
         assert!(outcomes.iter().all(|n| *n > 1000), "{outcomes:?}");
-    }
-
-    #[test]
-    fn log_so3_matches_axis_angle_small_medium_and_near_pi() {
-        for (axis, angle) in [
-            (Vector3::new(1.0, 2.0, 3.0), 1e-11),
-            (Vector3::new(-1.0, 0.5, 0.2), 1e-4),
-            (Vector3::new(0.3, -0.2, 0.9), 1.3),
-            (Vector3::new(0.0, 1.0, 1.0), std::f64::consts::PI - 1e-7),
-        ] {
-            let v = axis.normalize() * angle;
-            let r = Rotation3::new(v);
-            let back = log_so3(r.matrix());
-            assert!(
-                (back - v).norm() <= 1e-12 * angle.max(1e-3) + 1e-15,
-                "angle {angle}: {back:?} vs {v:?}"
-            );
-        }
     }
 }

@@ -7,7 +7,8 @@
 //! Random poses within the joint limits that are admissible for measuring (away from the
 //! wrist and other singularities) come from [`sampling`], the one pose sampler, with a
 //! generator the caller supplies: the crate draws nothing of its own and does no I/O but the
-//! model file. Internally angles are radians and lengths
+//! model file. Rotation maths (log/exp of SO(3), the inverse left Jacobian, projection on
+//! SO(3), roll-pitch-yaw) live in [`rotation`], the one place of the workspace. Internally angles are radians and lengths
 //! millimetres; interfaces (files, reports) use degrees and millimetres.
 
 mod error;
@@ -17,6 +18,7 @@ mod ik;
 mod model;
 mod params;
 mod robot;
+pub mod rotation;
 pub mod sampling;
 pub mod simd;
 pub mod trig;

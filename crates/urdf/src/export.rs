@@ -6,7 +6,7 @@ use std::fmt::Write as _;
 use kinematics::{BaseSpec, Frame, JointSpec, Robot, RobotSpec};
 
 use crate::UrdfError;
-use crate::rot::rpy_of;
+use kinematics::rotation::rpy_of;
 
 /// Names of the exported URDF's elements.
 #[derive(Clone, Debug, Default, PartialEq)]

@@ -8,7 +8,7 @@ use nalgebra::{Matrix3, Vector3};
 use urdf_rs::JointType;
 
 use crate::UrdfError;
-use crate::rot::{from_rpy, rpy_of};
+use kinematics::rotation::{from_rpy, rpy_of};
 
 /// Axes closer to parallel than this (degrees) are converted with Hayati's β (d = 0) instead
 /// of the common normal, which is ill-defined there; it is the robot file's own threshold

@@ -15,7 +15,6 @@
 mod error;
 mod export;
 mod import;
-mod rot;
 
 pub use error::UrdfError;
 pub use export::{

@@ -11,10 +11,9 @@
 //! identifiable ones.
 
 use identify::frames::{
-    DEFAULT_MM_PER_DEG, FrameData, FrameFitOptions, FrameModel, FrameRow, fit_frames,
-    residual_jacobian, select_free,
+    DEFAULT_MM_PER_DEG, FrameData, FrameModel, FrameRow, fit_frames, residual_jacobian, select_free,
 };
-use identify::{Observability, ParamSet, StopReason};
+use identify::{Observability, ParamSet};
 use kinematics::Robot;
 use nalgebra::DMatrix;
 use virtual_robot::World;
@@ -91,42 +90,32 @@ pub(super) fn identify_frames(
         _ => (0..nominal.n_params()).collect(),
     };
     let (free, _) = select_free(&start, &data, &candidates).map_err(ident)?;
-    let options = FrameFitOptions::default();
+    // The scenario's solver options (the one solver of points and frames); redundant
+    // unknowns were held by `select_free`.
+    let options = identify::LmOptions {
+        redundant: identify::Redundant::Hold,
+        ..ctx.id_options.lm
+    };
     let fit = fit_frames(&start, &data, &free, &options).map_err(ident)?;
-    // Figures of the fit: position RMS per axis, the gradient cosine at the solution.
-    let mut jac = DMatrix::zeros(0, 0);
-    let e = residual_jacobian(&fit.model, &data, &free, Some(&mut jac));
-    let en = e.norm();
-    let gradient_cosine = (0..jac.ncols())
-        .map(|k| {
-            let col = jac.column(k);
-            col.dot(&e).abs() / (col.norm() * en).max(f64::MIN_POSITIVE)
-        })
-        .fold(0.0, f64::max);
+    // Figures of the fit: position RMS per axis.
     let errors = fit.model.errors(&data);
     let rms_mm = (errors.iter().map(|(p, _)| p.norm_squared()).sum::<f64>()
         / (3 * errors.len()).max(1) as f64)
         .sqrt();
-    let stop = if !fit.converged {
-        StopReason::MaxIterations
-    } else if gradient_cosine < options.gradient_tol {
-        StopReason::SmallGradient
-    } else {
-        StopReason::SmallCostChange
-    };
     // O1–O5 on the nominal model's rows (unit-norm columns: the weights' scale cancels).
+    let mut jac = DMatrix::zeros(0, 0);
     residual_jacobian(&start, &data, &free, Some(&mut jac));
     let observability = design::observability(&(jac.transpose() * &jac), data.n_poses());
     Ok(FrameIdentification {
         robot: fit.model.to_robot(&names, orientation),
         summary: FitSummary {
             iterations: fit.iterations,
-            stop,
-            converged: fit.converged,
+            stop: fit.stop,
+            converged: fit.stop.converged(),
             rms_mm,
             free: free.len(),
             rank: Some(free.len()),
-            gradient_cosine,
+            gradient_cosine: fit.gradient_cosine,
         },
         observability,
         unmeasurable,

@@ -95,10 +95,10 @@ pub fn summary(c: &FrameCalibration) -> String {
         c.fit.n_equations,
         fixed(c.fit.sigma_hat, 3),
         fixed(c.fit.condition_number, 1),
-        if c.fit.converged {
-            "converged"
+        if c.fit.stop.converged() {
+            "converged".to_string()
         } else {
-            "iteration limit"
+            format!("not converged ({})", c.fit.stop)
         },
         c.fit.iterations,
         fixed(c.elapsed_ms, 1)
