@@ -61,6 +61,7 @@ mod generic;
 pub mod identifiability;
 mod linalg;
 pub mod lm;
+mod options_str;
 pub mod outliers;
 pub mod params;
 mod problem;
@@ -80,6 +81,7 @@ pub use identifiability::{
     Redundancy, analyze, keep_priority,
 };
 pub use lm::{Damping, LmOptions, LmSolution, Redundant, StopReason, TraceEntry, solve};
+pub use options_str::{UnknownName, parse_name};
 pub use outliers::{BlockOutlier, BlockScreen, Outlier, OutlierScreen};
 pub use params::ParamSpec;
 pub use problem::{Problem, SAME_POSE_TOL_RAD};
