@@ -113,6 +113,19 @@ impl CalibrateError {
             source: Box::new(self),
         }
     }
+
+    /// The plausibility check that refused ([`Refusal::Implausible`]), under any context:
+    /// the check whose name, given to [`crate::IdentifyRequest::allow`] (`--allow`,
+    /// Python's `allow=`), overrides the refusal. `None` for every other error.
+    pub fn refused_check(&self) -> Option<crate::Check> {
+        match self {
+            CalibrateError::Refused(Refusal::Implausible { check, .. }) => Some(*check),
+            CalibrateError::Context { source, .. } | CalibrateError::TooFewRows { source, .. } => {
+                source.refused_check()
+            }
+            _ => None,
+        }
+    }
 }
 
 /// Why a request or its inputs cannot be used. Each variant names the request field or the
@@ -317,4 +330,35 @@ pub type Result<T, E = CalibrateError> = std::result::Result<T, E>;
 pub(crate) fn id_err(context: impl Into<String>) -> impl FnOnce(IdentifyError) -> CalibrateError {
     let context = context.into();
     move |source| CalibrateError::Identify { context, source }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::Check;
+
+    #[test]
+    fn a_refusal_names_its_check_under_any_context() {
+        let refusal = || {
+            CalibrateError::from(Refusal::Implausible {
+                check: Check::Mirror,
+                evidence: "a reflection fits".to_string(),
+                remedy: "check the frame".to_string(),
+            })
+        };
+        assert_eq!(refusal().refused_check(), Some(Check::Mirror));
+        let wrapped = refusal().context("identifying").context("calibrating");
+        assert_eq!(wrapped.refused_check(), Some(Check::Mirror));
+        assert!(wrapped.to_string().contains("calibrating"));
+        assert_eq!(
+            CalibrateError::from(Refusal::EveryZero).refused_check(),
+            None
+        );
+        assert_eq!(
+            CalibrateError::from(Refusal::EveryZero)
+                .context("splitting")
+                .refused_check(),
+            None
+        );
+    }
 }

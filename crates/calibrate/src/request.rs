@@ -230,3 +230,58 @@ impl IdentifyRequest {
         }
     }
 }
+
+impl JointUnits {
+    /// `deg` and `rad`, the names [`JointUnits::name`] gives and `FromStr` accepts.
+    pub const NAMES: &'static [&'static str] = &["deg", "rad"];
+}
+
+impl std::str::FromStr for JointUnits {
+    type Err = identify::UnknownName;
+
+    /// `deg` or `rad`.
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        identify::parse_name(s, JointUnits::NAMES, &[JointUnits::Deg, JointUnits::Rad])
+    }
+}
+
+impl LengthUnits {
+    /// `mm`, `m` and `in`, the names [`LengthUnits::name`] gives and `FromStr` accepts.
+    pub const NAMES: &'static [&'static str] = &["mm", "m", "in"];
+}
+
+impl std::str::FromStr for LengthUnits {
+    type Err = identify::UnknownName;
+
+    /// `mm`, `m` or `in`.
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        identify::parse_name(
+            s,
+            LengthUnits::NAMES,
+            &[LengthUnits::Mm, LengthUnits::M, LengthUnits::In],
+        )
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn units_parse_by_their_names_and_refuse_others() {
+        for u in [JointUnits::Deg, JointUnits::Rad] {
+            assert_eq!(u.name().parse::<JointUnits>(), Ok(u));
+        }
+        for u in [LengthUnits::Mm, LengthUnits::M, LengthUnits::In] {
+            assert_eq!(u.name().parse::<LengthUnits>(), Ok(u));
+        }
+        assert_eq!(
+            "degrees".parse::<JointUnits>().unwrap_err().to_string(),
+            "unknown value \"degrees\" (deg, rad)"
+        );
+        assert_eq!(
+            "MM".parse::<LengthUnits>().unwrap_err().to_string(),
+            "unknown value \"MM\" (mm, m, in)"
+        );
+    }
+}

@@ -109,6 +109,30 @@ pub fn design_plan(
     opts: &DesignOptions,
     random_sets: usize,
 ) -> Result<(measurements::MeasurementSet, DesignComparison), DesignError> {
+    let (selected, rep) = design_selection(
+        robot,
+        candidates,
+        workspace,
+        params,
+        measure,
+        opts,
+        random_sets,
+    )?;
+    Ok((candidates.plan(&selected, &candidates.source), rep))
+}
+
+/// [`design_plan`]'s choice as indices into `candidates` (in the order [`select`] gives
+/// them), with the same comparison: for a front end that wants the rows rather than a plan
+/// file (the Python binding's `design`).
+pub fn design_selection(
+    robot: &Robot,
+    candidates: &Candidates,
+    workspace: Option<&Candidates>,
+    params: Option<&[String]>,
+    measure: Measure,
+    opts: &DesignOptions,
+    random_sets: usize,
+) -> Result<(Vec<usize>, DesignComparison), DesignError> {
     let params = params.map(|p| robot.layout().select(p)).transpose()?;
     let model = InfoModel::with_measure(
         robot,
@@ -139,7 +163,7 @@ pub fn design_plan(
         };
         rep.point_unknowns = Some(point);
     }
-    Ok((candidates.plan(&d.selected, &candidates.source), rep))
+    Ok((d.selected, rep))
 }
 
 /// Adds the candidate's id and source line to a bad-pose error.

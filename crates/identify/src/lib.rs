@@ -65,6 +65,7 @@ mod generic;
 pub mod identifiability;
 mod linalg;
 pub mod lm;
+mod options_str;
 pub mod outliers;
 pub mod params;
 mod problem;
@@ -89,6 +90,7 @@ pub use lm::{
     Damping, LeastSquares, LmOptions, LmSolution, LsSolution, Redundant, StopReason, TraceEntry,
     least_squares, solve,
 };
+pub use options_str::{UnknownName, parse_name};
 pub use outliers::{BlockOutlier, BlockScreen, Outlier, OutlierScreen};
 pub use params::ParamSpec;
 pub use problem::{Problem, SAME_POSE_TOL_RAD};

@@ -171,6 +171,82 @@ def test_design_equals_the_cli(tmp_path):
         assert np.array_equal(np.sort(q[idx], axis=0), np.sort(q_plan, axis=0))
 
 
+def test_design_measure_equals_the_cli(tmp_path):
+    """`measure=` is `--measure`: a 6-DoF frame per pose (the tool frame's unknowns join the
+    robot's) chooses other poses than a point, the CLI's; targets without targets in the
+    robot file are refused as the CLI refuses them."""
+    q = ur10_data()[0][:300]
+    cand = tmp_path / "cand.csv"
+    cand.write_text(
+        "q1,q2,q3,q4,q5,q6\n" + "".join(",".join(repr(float(v)) for v in r) + "\n" for r in q)
+    )
+    robot = kincal.Robot.load(ROBOTS / "ur10.json")
+    point = kincal.design(robot, q, 10)
+    frame = kincal.design(robot, q, 10, measure="frame")
+    assert not np.array_equal(np.sort(point), np.sort(frame))
+    run_cli(
+        "design", "--robot", ROBOTS / "ur10.json", "--candidates", cand, "--poses", 10,
+        "--measure", "frame", "--out", tmp_path / "plan.csv",
+    )
+    plan = read_csv(tmp_path / "plan.csv")
+    q_plan = np.array([[float(r[f"q{i + 1}"]) for i in range(6)] for r in plan])
+    assert np.array_equal(np.sort(q[frame], axis=0), np.sort(q_plan, axis=0))
+    assert np.array_equal(kincal.design(robot, q, 10, measure="point"), point)
+    refused = subprocess.run(
+        cli_command() + ["design", "--robot", str(ROBOTS / "ur10.json"), "--candidates",
+                         str(cand), "--poses", "8", "--measure", "targets",
+                         "--out", str(tmp_path / "no.csv")],
+        cwd=REPO, capture_output=True, text=True)
+    assert refused.returncode != 0
+    with pytest.raises(kincal.KincalError) as e:
+        kincal.design(robot, q, 8, measure="targets")
+    assert message(e).startswith("measure targets: ")
+    assert message(e).split(": ", 1)[1].split(":")[0] in refused.stderr
+    with pytest.raises(kincal.KincalError) as e:
+        kincal.design(robot, q, 8, measure="frames")
+    assert 'measure: unknown measurement "frames" (point, frame, targets)' == message(e)
+
+
+def test_a_refusal_names_its_check_and_allow_retries_with_it():
+    """`except kincal.Refused as e`: `e.check` is the check's name, the value of `allow=`
+    that passes over it; retrying with each refusal's check reaches the next check, and
+    other errors are plain KincalErrors."""
+    robot = kincal.Robot.load(ROBOTS / "ur10.json")
+    q, p = ur10_data()
+    for args, kw, check in [
+        ((np.radians(q), p), {}, "joint-units"),
+        ((q, p / 1000), {}, "length-units"),
+        ((q, p[:, [1, 0, 2]]), {}, "mirror"),
+        ((q, p[:, [1, 0, 2]]), {"allow": "mirror"}, "parameters"),
+        ((q, p), {"outlier_k": 1.0}, "outliers"),
+    ]:
+        with pytest.raises(kincal.Refused) as e:
+            kincal.identify(robot, *args, every=15, **kw)
+        assert isinstance(e.value, kincal.KincalError) and isinstance(e.value, ValueError)
+        assert e.value.check == check, (kw, message(e))
+        assert f"allow {check}" in message(e)
+    # The retry the attribute is for: each refusal's check allowed in turn.
+    allowed = []
+    while True:
+        try:
+            retried = kincal.identify(robot, q, p / 1000, every=15, allow=allowed)
+            break
+        except kincal.Refused as e:
+            assert e.check not in allowed
+            allowed.append(e.check)
+    # Metres taken as millimetres: then a robot of metre-size links cannot fit them, so its
+    # parameters go far from the nominal; both allowed, the fit is returned.
+    assert allowed == ["length-units", "parameters"]
+    assert np.isfinite(retried.rms_mm)
+    assert retried.parameters == kincal.identify(
+        robot, q, p / 1000, every=15, allow=["parameters", "length-units"]).parameters
+    for kw in [{"schedule": "fast"}, {"every": 0}, {"allow": "nope"}]:
+        with pytest.raises(kincal.KincalError) as e:
+            kincal.identify(robot, q, p, **kw)
+        assert not isinstance(e.value, kincal.Refused), kw
+        assert not hasattr(e.value, "check"), kw
+
+
 @pytest.fixture(scope="module")
 def cli_campaign(tmp_path_factory):
     out = tmp_path_factory.mktemp("campaign") / "c"

@@ -246,12 +246,13 @@ def test_from_urdf_refuses_a_millimetre_urdf_as_the_cli(tmp_path):
         repr(float(v) * 1000) for v in m.group(1).split()) + '"', text)
     mm = tmp_path / "ur10-mm.urdf"
     mm.write_text(scaled)
-    with pytest.raises(kincal.KincalError) as e:
+    with pytest.raises(kincal.Refused) as e:
         kincal.Robot.from_urdf(mm, "base_link", "tool0")
     assert "look like millimetres" in str(e.value) and "allow" in str(e.value)
+    assert e.value.check == "length-units"
     with pytest.raises(kincal.KincalError, match="only length-units"):
         kincal.Robot.from_urdf(mm, "base_link", "tool0", allow="mirror")
-    big = kincal.Robot.from_urdf(mm, "base_link", "tool0", allow="length-units")
+    big = kincal.Robot.from_urdf(mm, "base_link", "tool0", allow=e.value.check)
     metre = kincal.Robot.from_urdf(URDF_FIXTURES / "ur10.urdf", "base_link", "tool0")
     q = joints_within_limits("ur10.json", 20, seed=3)
     assert np.allclose(big.fk(q), 1000 * metre.fk(q), rtol=1e-12, atol=1e-6)

@@ -2,7 +2,9 @@
 
 Angles are in degrees and lengths in millimetres, as everywhere in kincal; arrays are numpy
 float64. Errors of the library raise :class:`KincalError` (a ``ValueError``) with the
-library's message, which names the file, line and field.
+library's message, which names the file, line and field; a refusal by a plausibility check
+raises its subclass :class:`Refused`, whose ``check`` is the ``allow=`` value that
+overrides it.
 
 :class:`Robot` (load, from_urdf, save, to_urdf, fk, parameters), :func:`identify` →
 :class:`Calibration`, :func:`identify_frames` (6-DoF, several targets) →
@@ -14,6 +16,7 @@ from ._kincal import (
     Calibration,
     FrameCalibration,
     KincalError,
+    Refused,
     Robot,
     __version__,
     campaign,
@@ -28,6 +31,7 @@ __all__ = [
     "Calibration",
     "FrameCalibration",
     "KincalError",
+    "Refused",
     "Robot",
     "__version__",
     "campaign",

@@ -3,7 +3,8 @@
 Units everywhere: angles in degrees, lengths in millimetres; arrays are numpy float64.
 
 This stub is the contract of the package's API (issue 32): ``Robot``, ``identify`` →
-``Calibration``, ``compensate``, ``design``, ``campaign``, ``simulate``, ``KincalError``.
+``Calibration``, ``compensate``, ``design``, ``campaign``, ``simulate``, ``KincalError``,
+``Refused``.
 mypy's stubtest checks it against the compiled module.
 """
 
@@ -20,6 +21,7 @@ __all__ = [
     "Calibration",
     "FrameCalibration",
     "KincalError",
+    "Refused",
     "Robot",
     "__version__",
     "campaign",
@@ -37,6 +39,25 @@ class KincalError(ValueError):
     """An error of kincal: a malformed or unreadable file, an invalid value or an array of the
     wrong shape. Its message is the library's and names the file, line and field, e.g.
     ``robot.json: field `joints[2].d_mm`: invalid type: string "abc", expected f64``."""
+
+class Refused(KincalError):
+    """A refusal by a plausibility check: the data or the result look wrong (joints that look
+    like radians, points that look like metres or inches, a mirrored measurement frame,
+    outliers, identified parameters far from the nominal, validation worse than before, a
+    URDF whose reach is not a robot arm's). The message says why and names the override;
+    ``check`` is the check's name, which is also the value of ``allow=`` that overrides it::
+
+        try:
+            cal = kincal.identify(robot, q, p)
+        except kincal.Refused as e:
+            cal = kincal.identify(robot, q, p, allow=e.check)
+    """
+
+    check: Literal[
+        "joint-units", "length-units", "mirror", "outliers", "parameters", "validation"
+    ]
+    """The check that refused: ``joint-units``, ``length-units``, ``mirror``, ``outliers``,
+    ``parameters`` or ``validation``."""
 
 class ParameterRecord(TypedDict):
     """One entry of :attr:`Robot.parameters`."""
@@ -75,8 +96,9 @@ class Robot:
         expanded first) into a robot, exactly, as ``kincal urdf import`` does (docs/urdf.md):
         ``base``'s frame becomes the measurement frame and the measured point is ``tool_mm`` in
         ``tip``'s frame; ``name`` defaults to the URDF's robot name. A robot whose reach is
-        outside 20 mm … 50 m (a URDF written in millimetres) is refused unless ``allow``
-        names ``"length-units"`` (``--allow length-units``).
+        outside 20 mm … 50 m (a URDF written in millimetres) is refused (:class:`Refused`,
+        ``check == "length-units"``) unless ``allow`` names ``"length-units"`` (``--allow
+        length-units``).
 
         Raises KincalError naming the file and the element on an unreadable URDF, a missing
         link or a chain that is not serial and revolute.
@@ -279,11 +301,11 @@ def identify(
     values (errors name ``identification arrays:ROW``, rows counted from 1). Then the
     plausibility checks of ``kincal identify``: joints that look like radians, points that
     look like metres or inches, a mirrored measurement frame, outliers, identified
-    parameters far from the nominal, validation worse than before. Each refuses with
-    KincalError, saying why and naming its override: ``allow="mirror"`` (or a list of
-    check names: ``joint-units``, ``length-units``, ``mirror``, ``outliers``,
-    ``parameters``, ``validation``) is ``--allow``. Raises KincalError with the library's
-    message. The GIL is released during the work.
+    parameters far from the nominal, validation worse than before. Each raises
+    :class:`Refused` (a KincalError), saying why and naming its override in ``e.check``:
+    ``allow="mirror"`` (or a list of check names: ``joint-units``, ``length-units``,
+    ``mirror``, ``outliers``, ``parameters``, ``validation``) is ``--allow``. Other errors
+    raise KincalError with the library's message. The GIL is released during the work.
     """
 
 class FrameParameter(TypedDict):
@@ -401,8 +423,8 @@ def identify_frames(
     target names with ``pose_ids`` ``(n,)`` (the rows with the same id are one pose, with
     equal joints). ``orientation_weight`` is ``--orientation-weight`` (mm per degree, default
     5); ``validate=(q_deg, points_mm[, orientations_wxyz[, targets[, pose_ids]]])``. The
-    other options, the checks and ``allow`` are :func:`identify`'s. Raises KincalError with
-    the library's message. The GIL is released during the work."""
+    other options, the checks (:class:`Refused`) and ``allow`` are :func:`identify`'s.
+    Raises KincalError with the library's message. The GIL is released during the work."""
 
 def compensate(calibration: Calibration, q_deg: ArrayLike) -> NDArray[np.float64]:
     """The joints ``(n, N)`` (degrees) that make the calibrated robot reach the points the
@@ -420,10 +442,14 @@ def design(
     params: str | Sequence[str] | None = None,
     seed: int = 1,
     restarts: int = 0,
+    measure: Literal["point", "frame", "targets"] = "point",
 ) -> NDArray[np.int64]:
     """Indices into ``candidates_q_deg`` of the ``n`` poses a design criterion chooses
     (``"d"``, ``"a"``, ``"e"``, ``"i"``, ``"o1"``, ``"o3"``, ``"o5"``; ``params`` ``None``
-    = ``"minimal"``), as ``kincal design --candidates`` does (docs/design.md)."""
+    = ``"minimal"``), each pose measuring ``measure``: ``"point"`` (one reflector),
+    ``"frame"`` (a 6-DoF probe: the tool frame's unknowns join the robot's) or
+    ``"targets"`` (every target of the robot file's ``targets``), as ``kincal design
+    --candidates --measure`` does (docs/design.md)."""
 
 def campaign(
     scenario: _Path | Mapping[str, Any],

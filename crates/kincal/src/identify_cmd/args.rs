@@ -7,7 +7,9 @@ use calibrate::{CalibrateError, IdentifyRequest, JointUnits, LengthUnits, Refusa
 use clap::Args;
 use identify::ParamSpec;
 
-use crate::solver_args::{RedundantArg, RegistrationArg, Schedule};
+use identify::{Damping, Redundant, RegistrationPolicy};
+
+use crate::solver_args::library_names;
 
 /// Arguments of `identify`.
 #[allow(rustdoc::broken_intra_doc_links, rustdoc::invalid_html_tags)] // clap help text
@@ -56,16 +58,26 @@ pub struct IdentifyArgs {
     /// `minimal+compliance_2,compliance_3`. identified.json then has an `extended` section.
     #[arg(long, default_value = "paper")]
     pub(crate) params: ParamSpec,
-    /// Damping schedule.
-    #[arg(long, value_enum, default_value_t = Schedule::Levenberg)]
-    pub(crate) schedule: Schedule,
-    /// Free parameters exactly redundant at the start (e.g. 10 of the UR10's 35): held at
-    /// their start values, or kept in the damped system as the paper does.
-    #[arg(long, value_enum, default_value_t = RedundantArg::Hold)]
-    pub(crate) redundant: RedundantArg,
-    /// Registration of the measurement frame.
-    #[arg(long, value_enum, default_value_t = RegistrationArg::Auto)]
-    pub(crate) registration: RegistrationArg,
+    /// Damping schedule (docs/model.md §7): levenberg, the paper's (JᵀJ + μI), μ0 = 1e-3,
+    /// ÷10 / ×10; marquardt, (JᵀJ + μ diag JᵀJ) with the same updates; nielsen, Nielsen's
+    /// gain-ratio schedule.
+    #[arg(long, default_value = "levenberg", value_parser = library_names::<Damping>(Damping::NAMES))]
+    pub(crate) schedule: Damping,
+    /// Free parameters exactly redundant at the start (e.g. 10 of the UR10's 35): hold, held
+    /// at their start values while the identifiable rest is solved [the solve is well posed
+    /// and converges in a few iterations]; damp, kept in the damped system as the paper does.
+    #[arg(long, default_value = "hold", value_parser = library_names::<Redundant>(Redundant::NAMES))]
+    pub(crate) redundant: Redundant,
+    /// Registration of the measurement frame onto the robot base before identifying: auto,
+    /// when the nominal model misses the points by more than 10 mm on average [geometric
+    /// errors are millimetres, a tracker frame is metres away]; always; never (the paper's
+    /// procedure: LM from the nominal model).
+    #[arg(
+        long,
+        default_value = "auto",
+        value_parser = library_names::<RegistrationPolicy>(RegistrationPolicy::NAMES)
+    )]
+    pub(crate) registration: RegistrationPolicy,
     /// Drop the outliers found after the first fit and refit (without it they are only
     /// reported).
     #[arg(long)]
@@ -78,12 +90,22 @@ pub struct IdentifyArgs {
     pub(crate) worst: usize,
     /// Units of the joint columns of --data and --validate: deg (the format's) or rad
     /// (converted to degrees on reading).
-    #[arg(long, value_enum, default_value_t = JointUnitsArg::Deg, value_name = "UNITS")]
-    pub(crate) joint_units: JointUnitsArg,
+    #[arg(
+        long,
+        default_value = "deg",
+        value_name = "UNITS",
+        value_parser = library_names::<JointUnits>(JointUnits::NAMES)
+    )]
+    pub(crate) joint_units: JointUnits,
     /// Units of the x, y, z columns: mm (the format's), m or in (converted to millimetres on
     /// reading).
-    #[arg(long, value_enum, default_value_t = LengthUnitsArg::Mm, value_name = "UNITS")]
-    pub(crate) length_units: LengthUnitsArg,
+    #[arg(
+        long,
+        default_value = "mm",
+        value_name = "UNITS",
+        value_parser = library_names::<LengthUnits>(LengthUnits::NAMES)
+    )]
+    pub(crate) length_units: LengthUnits,
     /// Pass over a plausibility check (docs/calibrating-real-data.md, "Checks"), repeatable:
     /// joint-units, length-units, mirror, outliers, parameters, validation.
     #[arg(long, value_name = "CHECK")]
@@ -122,21 +144,14 @@ impl IdentifyArgs {
                 (None, None) => Split::All,
             },
             params: self.params.clone(),
-            damping: self.schedule.into(),
-            redundant: self.redundant.into(),
-            registration: self.registration.into(),
+            damping: self.schedule,
+            redundant: self.redundant,
+            registration: self.registration,
             reject_outliers: self.reject_outliers,
             outlier_k: self.outlier_k,
             worst: self.worst,
-            joint_units: match self.joint_units {
-                JointUnitsArg::Deg => JointUnits::Deg,
-                JointUnitsArg::Rad => JointUnits::Rad,
-            },
-            length_units: match self.length_units {
-                LengthUnitsArg::Mm => LengthUnits::Mm,
-                LengthUnitsArg::M => LengthUnits::M,
-                LengthUnitsArg::In => LengthUnits::In,
-            },
+            joint_units: self.joint_units,
+            length_units: self.length_units,
             allow: self.allow.clone(),
             ..IdentifyRequest::new(&self.robot, &self.data)
         }
@@ -250,24 +265,4 @@ impl OrientationWeight {
             },
         }
     }
-}
-
-/// `--joint-units`.
-#[derive(Clone, Copy, Debug, clap::ValueEnum)]
-pub(crate) enum JointUnitsArg {
-    /// Degrees.
-    Deg,
-    /// Radians.
-    Rad,
-}
-
-/// `--length-units`.
-#[derive(Clone, Copy, Debug, clap::ValueEnum)]
-pub(crate) enum LengthUnitsArg {
-    /// Millimetres.
-    Mm,
-    /// Metres.
-    M,
-    /// Inches.
-    In,
 }

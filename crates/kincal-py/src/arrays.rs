@@ -1,0 +1,185 @@
+//! Conversion of arrays: numpy arguments checked for shape into rows and measurement sets,
+//! and rows back into numpy arrays. Errors name the argument and the shape expected.
+
+use numpy::ndarray::{Array1, Array2};
+use numpy::{
+    AllowTypeChange, IntoPyArray, PyArray1, PyArray2, PyArrayDyn, PyArrayLikeDyn,
+    PyUntypedArrayMethods,
+};
+use pyo3::prelude::*;
+
+use crate::errors::refuse;
+
+/// A numpy-convertible float64 array of any shape (lists are converted).
+pub(crate) type ArrayArg<'py> = PyArrayLikeDyn<'py, f64, AllowTypeChange>;
+
+fn shape_text(shape: &[usize]) -> String {
+    match shape {
+        [k] => format!("({k},)"),
+        _ => format!(
+            "({})",
+            shape
+                .iter()
+                .map(|k| k.to_string())
+                .collect::<Vec<_>>()
+                .join(", ")
+        ),
+    }
+}
+
+/// The joint angles of `q_deg` (degrees), checked to be `(n, N)` or `(N,)` for an N-joint
+/// robot: the flat values and whether it was one pose.
+pub(crate) fn joints_arg(q_deg: &ArrayArg<'_>, n: usize, name: &str) -> PyResult<(Vec<f64>, bool)> {
+    let shape = q_deg.shape().to_vec();
+    let single = match shape[..] {
+        [k] if k == n => true,
+        [_, k] if k == n => false,
+        _ => {
+            return Err(refuse(format!(
+                "{name}: expected shape (n, {n}) or ({n},) (joint angles in degrees of this \
+                 {n}-joint robot), got {}",
+                shape_text(&shape)
+            )));
+        }
+    };
+    Ok((q_deg.as_array().iter().copied().collect(), single))
+}
+
+/// `(n, N)` joints (`(N,)` is one row) as rows of N values.
+pub(crate) fn joint_rows(q_deg: &ArrayArg<'_>, n: usize, name: &str) -> PyResult<Vec<Vec<f64>>> {
+    let (flat, _) = joints_arg(q_deg, n, name)?;
+    Ok(flat.chunks_exact(n).map(<[f64]>::to_vec).collect())
+}
+
+/// `(n, 3)` points as rows, `n` rows expected (`what` names the joints they go with).
+pub(crate) fn point_rows(
+    points: &ArrayArg<'_>,
+    rows: usize,
+    name: &str,
+    what: &str,
+) -> PyResult<Vec<[f64; 3]>> {
+    fixed_rows(points, rows, name, "point in mm", what)
+}
+
+/// `(n, K)` values as rows of K, `n` rows expected; the error says what each row is (`each`)
+/// and names the joints they go with (`what`).
+pub(crate) fn fixed_rows<const K: usize>(
+    a: &ArrayArg<'_>,
+    rows: usize,
+    name: &str,
+    each: &str,
+    what: &str,
+) -> PyResult<Vec<[f64; K]>> {
+    let shape = a.shape().to_vec();
+    if shape[..] != [rows, K] {
+        return Err(refuse(format!(
+            "{name}: expected shape ({rows}, {K}) (one {each} per row of {what}), got {}",
+            shape_text(&shape)
+        )));
+    }
+    let flat: Vec<f64> = a.as_array().iter().copied().collect();
+    Ok(flat
+        .chunks_exact(K)
+        .map(|r| std::array::from_fn(|k| r[k]))
+        .collect())
+}
+
+/// `n` strings (target names or pose ids), or an error naming `name`.
+pub(crate) fn string_rows(v: &Bound<'_, PyAny>, rows: usize, name: &str) -> PyResult<Vec<String>> {
+    let v: Vec<String> = v
+        .extract()
+        .map_err(|_| refuse(format!("{name}: expected a sequence of {rows} strings")))?;
+    if v.len() != rows {
+        return Err(refuse(format!(
+            "{name}: expected {rows} strings (one per row), got {}",
+            v.len()
+        )));
+    }
+    Ok(v)
+}
+
+/// A measurement set of joint rows (and points) built in memory, named `source`.
+pub(crate) fn memory_set(
+    source: &str,
+    n: usize,
+    q: Vec<Vec<f64>>,
+    points: Option<Vec<[f64; 3]>>,
+) -> measurements::MeasurementSet {
+    let rows = match points {
+        Some(p) => q
+            .into_iter()
+            .zip(p)
+            .map(|(q, p)| measurements::Measurement::new(q, Some(p)))
+            .collect(),
+        None => q
+            .into_iter()
+            .map(|q| measurements::Measurement::new(q, None))
+            .collect(),
+    };
+    measurements::MeasurementSet::new(source, n, rows)
+}
+
+/// Forward kinematics of `robot` on `q_deg` as a numpy array (see `Robot.fk`).
+pub(crate) fn fk_array<'py>(
+    py: Python<'py>,
+    robot: &kinematics::Robot,
+    q_deg: ArrayArg<'py>,
+) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
+    let n = robot.n_joints();
+    let (flat_deg, single) = joints_arg(&q_deg, n, "q_deg")?;
+    if let Some(k) = flat_deg.iter().position(|v| !v.is_finite()) {
+        let at = if single {
+            format!("{k}")
+        } else {
+            format!("{}, {}", k / n, k % n)
+        };
+        return Err(refuse(format!(
+            "q_deg[{at}] is {}: joint angles must be finite",
+            flat_deg[k]
+        )));
+    }
+    let q_rad: Vec<f64> = flat_deg.iter().map(|d| d.to_radians()).collect();
+    let flat: Vec<f64> = py.detach(|| {
+        robot
+            .points(&q_rad)
+            .iter()
+            .flat_map(|p| [p.x, p.y, p.z])
+            .collect()
+    });
+    let out = if single {
+        Array1::from(flat).into_dyn()
+    } else {
+        Array2::from_shape_vec((flat.len() / 3, 3), flat)
+            .expect("three coordinates per pose")
+            .into_dyn()
+    };
+    Ok(out.into_pyarray(py))
+}
+
+/// `(n, k)` rows as a 2-D array.
+pub(crate) fn rows_array<'py, const K: usize>(
+    py: Python<'py>,
+    rows: &[[f64; K]],
+) -> Bound<'py, PyArray2<f64>> {
+    let flat: Vec<f64> = rows.iter().flatten().copied().collect();
+    Array2::from_shape_vec((rows.len(), K), flat)
+        .expect("K values per row")
+        .into_pyarray(py)
+}
+
+/// Variable-length rows of equal length `k` as a 2-D array.
+pub(crate) fn vec_rows_array<'py>(
+    py: Python<'py>,
+    rows: &[Vec<f64>],
+    k: usize,
+) -> Bound<'py, PyArray2<f64>> {
+    let flat: Vec<f64> = rows.iter().flatten().copied().collect();
+    Array2::from_shape_vec((rows.len(), k), flat)
+        .expect("k values per row")
+        .into_pyarray(py)
+}
+
+/// Indices as a 1-D int64 array.
+pub(crate) fn index_array(py: Python<'_>, indices: Vec<usize>) -> Bound<'_, PyArray1<i64>> {
+    Array1::from(indices.into_iter().map(|i| i as i64).collect::<Vec<_>>()).into_pyarray(py)
+}

@@ -1,0 +1,355 @@
+//! `kincal.identify` → `kincal.Calibration` (the point calibration of `kincal identify`), and
+//! `kincal.compensate` with it.
+
+use std::path::PathBuf;
+
+use numpy::{IntoPyArray, PyArray1, PyArray2, PyArrayDyn, PyArrayMethods};
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+
+use crate::arrays::{
+    ArrayArg, fk_array, joint_rows, joints_arg, memory_set, point_rows, rows_array, vec_rows_array,
+};
+use crate::errors::{kincal_error, save_outputs};
+use crate::options::{Shared, identify_request};
+use crate::robot::PyRobot;
+
+/// Registers `Calibration`, `identify` and `compensate`.
+pub(crate) fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_class::<PyCalibration>()?;
+    m.add_function(wrap_pyfunction!(py_identify, m)?)?;
+    m.add_function(wrap_pyfunction!(py_compensate, m)?)?;
+    Ok(())
+}
+
+/// The result of `kincal.identify`: the calibration the CLI's `kincal identify` computes on
+/// the same data, with its calibrated robot, residuals, parameter table, covariance and
+/// validation; `save(dir)` writes the files of `kincal identify --out`.
+#[pyclass(module = "kincal", name = "Calibration", frozen)]
+pub(crate) struct PyCalibration {
+    cal: calibrate::Calibration,
+    /// The calibrated robot as written to (and read back from) `identified.json`.
+    identified: calibrate::LoadedRobot,
+    /// The nominal robot in the data's frame, as `registered-nominal.json`.
+    registered: calibrate::LoadedRobot,
+    /// Wall time of the library call `calibrate::calibrate`, ms.
+    library_ms: f64,
+}
+
+#[pymethods]
+impl PyCalibration {
+    /// The calibrated robot, as `identified.json` holds it (the same numbers as
+    /// `kincal.Robot.load("OUT/identified.json")`).
+    #[getter]
+    fn robot(&self) -> PyRobot {
+        PyRobot {
+            loaded: self.identified.clone(),
+        }
+    }
+
+    /// The nominal robot in the data's measurement frame (after registration), as
+    /// `registered-nominal.json` holds it: the targets of compensation.
+    #[getter]
+    fn registered_nominal(&self) -> PyRobot {
+        PyRobot {
+            loaded: self.registered.clone(),
+        }
+    }
+
+    /// Points `(n, 3)` (mm, the measurement frame) of the calibrated robot at `q_deg`
+    /// (`(n, N)`, or `(N,)` → `(3,)`): `calibration.robot.fk(q_deg)`.
+    fn predict<'py>(
+        &self,
+        py: Python<'py>,
+        q_deg: ArrayArg<'py>,
+    ) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
+        fk_array(py, &self.identified.robot, q_deg)
+    }
+
+    /// Residuals `measured − calibrated` `(n, 3)` (mm) on the identification rows (all of
+    /// them, outliers included even when rejected; the rows of `identification_rows`).
+    #[getter]
+    fn residuals_mm<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
+        let (_, after) = self.cal.screened_residuals();
+        rows_array(py, &after)
+    }
+
+    /// Indices (0-based, into the `q_deg` given to `identify`) of the identification rows,
+    /// in order: all rows, or those an `every`/`select` split chose.
+    #[getter]
+    fn identification_rows<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<i64>> {
+        // A row's line is 1-based: the index of the row in the arrays given, plus one.
+        let idx: Vec<i64> = self
+            .cal
+            .screened_rows
+            .iter()
+            .map(|r| r.line as i64 - 1)
+            .collect();
+        numpy::ndarray::Array1::from(idx).into_pyarray(py)
+    }
+
+    /// Every parameter of the robot (the order of docs/model.md §3) as a list of records
+    /// `{"name", "unit", "free", "nominal", "start", "identified", "std_error",
+    /// "identifiable"}` in display units: the rows of `parameters.json`
+    /// (`pandas.DataFrame(cal.parameters)` makes the table).
+    #[getter]
+    fn parameters<'py>(&self, py: Python<'py>) -> PyResult<Vec<Bound<'py, PyDict>>> {
+        let o = &self.cal;
+        let layout = o.start.layout();
+        let (xn, xs) = (o.nominal.robot.params(), o.start.params());
+        let cov = o.fit.covariance.as_ref();
+        layout
+            .params()
+            .iter()
+            .enumerate()
+            .map(|(k, info)| {
+                let d = PyDict::new(py);
+                d.set_item("name", &info.name)?;
+                d.set_item("unit", info.unit.as_str())?;
+                d.set_item("free", o.free.contains(&k))?;
+                d.set_item("nominal", info.to_display(xn[k]))?;
+                d.set_item("start", info.to_display(xs[k]))?;
+                d.set_item("identified", info.to_display(o.fit.params[k]))?;
+                d.set_item("std_error", cov.and_then(|c| c.std_error(&info.name)))?;
+                d.set_item(
+                    "identifiable",
+                    match cov {
+                        Some(c) => c.parameters.contains(&info.name),
+                        None => o.analysis.identifiable.contains(&info.name),
+                    },
+                )?;
+                Ok(d)
+            })
+            .collect()
+    }
+
+    /// Numerical rank of the identification Jacobian at the solution (the identifiable
+    /// parameters' count).
+    #[getter]
+    fn rank(&self) -> usize {
+        self.cal.analysis.rank
+    }
+
+    /// Covariance `(r, r)` of the identifiable free parameters (display units: deg², deg·mm,
+    /// mm²), in the order of `covariance_parameters`; `None` without degrees of freedom.
+    #[getter]
+    fn covariance<'py>(&self, py: Python<'py>) -> Option<Bound<'py, PyArray2<f64>>> {
+        self.cal.fit.covariance.as_ref().map(|c| {
+            let r = c.parameters.len();
+            vec_rows_array(py, &c.covariance, r)
+        })
+    }
+
+    /// The names of the rows and columns of `covariance` (empty without one).
+    #[getter]
+    fn covariance_parameters(&self) -> Vec<String> {
+        self.cal
+            .fit
+            .covariance
+            .as_ref()
+            .map_or_else(Vec::new, |c| c.parameters.clone())
+    }
+
+    /// RMS 3-D point error of the fit on the rows it used, mm.
+    #[getter]
+    fn rms_mm(&self) -> f64 {
+        self.cal.fit.rms_mm
+    }
+
+    /// σ̂, the fit's residual scale (mm per axis); `None` without degrees of freedom.
+    #[getter]
+    fn sigma_hat_mm(&self) -> Option<f64> {
+        self.cal.fit.sigma_hat
+    }
+
+    /// Indices (into `identification_rows`) of the outliers the screen flagged
+    /// (‖residual‖ > k·σ̂₃); excluded from the final fit with `reject_outliers=True`.
+    #[getter]
+    fn outliers(&self) -> Vec<usize> {
+        self.cal
+            .screen
+            .as_ref()
+            .map_or_else(Vec::new, |s| s.indices())
+    }
+
+    /// Whether the measurement frame was registered onto the robot base first.
+    #[getter]
+    fn registered(&self) -> bool {
+        self.cal.registered()
+    }
+
+    /// 3-D errors on the validation rows (`validate=` or the rows an `every`/`select` split
+    /// held out), mm: `{"n_poses", "before_mean_mm", "before_max_mm", "before_rms_mm",
+    /// "before_p95_mm", "after_mean_mm", …}` (before: the nominal after registration;
+    /// after: the calibrated robot), the figures `kincal identify` prints; `None` without
+    /// validation rows.
+    #[getter]
+    fn validation<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyDict>>> {
+        let Some(v) = &self.cal.validation else {
+            return Ok(None);
+        };
+        let d = PyDict::new(py);
+        d.set_item("n_poses", v.rows.len())?;
+        for (when, s) in [
+            ("before", &v.table.before.norm),
+            ("after", &v.table.after.norm),
+        ] {
+            d.set_item(format!("{when}_mean_mm"), s.mean_mm)?;
+            d.set_item(format!("{when}_max_mm"), s.max_mm)?;
+            d.set_item(format!("{when}_rms_mm"), s.rms_mm)?;
+            d.set_item(format!("{when}_p95_mm"), s.p95_mm)?;
+        }
+        Ok(Some(d))
+    }
+
+    /// Wall time (ms) of the library call `calibrate::calibrate` inside `identify`, timed in
+    /// Rust: what `identify` costs without the binding (array conversion, the rows' checks,
+    /// the result's construction). `docs/python.md` compares the two.
+    #[getter]
+    fn library_ms(&self) -> f64 {
+        self.library_ms
+    }
+
+    /// The console summary `kincal identify` prints for this calibration.
+    fn summary(&self) -> String {
+        report::calibration::summary(&self.cal)
+    }
+
+    /// Writes the files of `kincal identify --out` into `directory` as the CLI does (created
+    /// if missing; the set replaced as a whole under the directory's lock):
+    /// `identified.json`, `registered-nominal.json`, `parameters.json`, `report.md`,
+    /// `report.html` and its plots.
+    fn save(&self, py: Python<'_>, directory: PathBuf) -> PyResult<()> {
+        py.detach(|| save_outputs(&directory, report::calibration::render(&self.cal)))
+    }
+
+    fn __repr__(&self) -> String {
+        format!(
+            "Calibration({:?}, rows={}, free={}, rank={}, rms_mm={:.4})",
+            self.cal.nominal.robot.name(),
+            self.cal.used.len(),
+            self.cal.free.len(),
+            self.cal.analysis.rank,
+            self.cal.fit.rms_mm
+        )
+    }
+}
+
+/// Identifies the robot's parameters from measured points `(n, 3)` (mm) at joints `(n, N)`
+/// (degrees), as `kincal identify` does on a file with the same rows. `joint_units` ("deg",
+/// "rad") and `length_units` ("mm", "m", "in") declare other units. The plausibility checks
+/// (radians, metres, a mirrored frame, outliers, far parameters, worse validation) refuse
+/// with KincalError; `allow` (a check's name or a list of names) overrides them, as
+/// `--allow` does.
+#[pyfunction(name = "identify")]
+#[pyo3(signature = (
+    robot, q_deg, points_mm, *, params = None, validate = None, reject_outliers = false,
+    every = None, offset = 0, select = None, criterion = "d", schedule = "levenberg",
+    redundant = "hold", registration = "auto", outlier_k = 3.0, worst = 10,
+    joint_units = "deg", length_units = "mm", allow = None
+))]
+#[allow(clippy::too_many_arguments)]
+fn py_identify<'py>(
+    py: Python<'py>,
+    robot: &PyRobot,
+    q_deg: ArrayArg<'py>,
+    points_mm: ArrayArg<'py>,
+    params: Option<Bound<'py, PyAny>>,
+    validate: Option<(ArrayArg<'py>, ArrayArg<'py>)>,
+    reject_outliers: bool,
+    every: Option<usize>,
+    offset: usize,
+    select: Option<usize>,
+    criterion: &str,
+    schedule: &str,
+    redundant: &str,
+    registration: &str,
+    outlier_k: f64,
+    worst: usize,
+    joint_units: &str,
+    length_units: &str,
+    allow: Option<Bound<'py, PyAny>>,
+) -> PyResult<PyCalibration> {
+    let nominal = robot.loaded.clone();
+    let n = nominal.robot.n_joints();
+    let q = joint_rows(&q_deg, n, "q_deg")?;
+    let p = point_rows(&points_mm, q.len(), "points_mm", "q_deg")?;
+    let data = memory_set("identification arrays", n, q, Some(p));
+    let validate = validate
+        .map(|(vq, vp)| -> PyResult<_> {
+            let q = joint_rows(&vq, n, "validate[0] (q_deg)")?;
+            let p = point_rows(&vp, q.len(), "validate[1] (points_mm)", "validate[0]")?;
+            Ok(memory_set("validation arrays", n, q, Some(p)))
+        })
+        .transpose()?;
+    let request = identify_request(
+        &nominal.path,
+        &data.source,
+        validate.as_ref().map(|v| v.source.as_str()),
+        Shared {
+            params,
+            reject_outliers,
+            every,
+            offset,
+            select,
+            criterion,
+            schedule,
+            redundant,
+            registration,
+            outlier_k,
+            worst,
+            joint_units,
+            length_units,
+            allow,
+        },
+    )?;
+    py.detach(|| {
+        let err = |e: calibrate::CalibrateError| kincal_error(&e);
+        let inputs =
+            calibrate::Inputs::from_sets(&request, nominal, data, validate).map_err(err)?;
+        let started = std::time::Instant::now();
+        let cal = calibrate::calibrate(&request, inputs).map_err(err)?;
+        let library_ms = started.elapsed().as_secs_f64() * 1e3;
+        let written = |r: kinematics::Robot, label: &str| {
+            calibrate::LoadedRobot::from_spec(r.to_spec(), label, "robot").map_err(err)
+        };
+        let identified = written(cal.identified_robot(), "identified.json")?;
+        let registered = written(cal.registered_robot(), "registered-nominal.json")?;
+        Ok(PyCalibration {
+            cal,
+            identified,
+            registered,
+            library_ms,
+        })
+    })
+}
+
+/// The joints `(n, N)` (degrees) to command so that the calibrated robot reaches the points
+/// the nominal robot (in the data's frame) reaches at `q_deg`, as `kincal compensate` with
+/// the calibration's `identified.json` and `registered-nominal.json`.
+#[pyfunction(name = "compensate")]
+fn py_compensate<'py>(
+    py: Python<'py>,
+    calibration: &PyCalibration,
+    q_deg: ArrayArg<'py>,
+) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
+    let nominal = &calibration.registered;
+    let n = nominal.robot.n_joints();
+    let (_, single) = joints_arg(&q_deg, n, "q_deg")?;
+    let set = memory_set("q_deg", n, joint_rows(&q_deg, n, "q_deg")?, None);
+    let rows = py.detach(|| {
+        let set = nominal
+            .check_set(set, false, "target joints")
+            .map_err(|e| kincal_error(&e))?;
+        calibrate::compensate_set(&calibration.identified, nominal, &set)
+            .map_err(|e| kincal_error(&e))
+    })?;
+    let out = vec_rows_array(py, &rows, n);
+    Ok(if single {
+        out.reshape(vec![n])?
+            .into_any()
+            .cast_into::<PyArrayDyn<f64>>()?
+    } else {
+        out.into_any().cast_into::<PyArrayDyn<f64>>()?
+    })
+}
