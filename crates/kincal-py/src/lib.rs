@@ -404,6 +404,15 @@ struct PyCalibration {
     library_ms: f64,
 }
 
+impl PyCalibration {
+    /// The calibration from points (`identify` gives points only).
+    fn points(&self) -> &calibrate::PointCalibration {
+        self.cal
+            .points()
+            .expect("identify calibrates points: its arrays have no orientations or targets")
+    }
+}
+
 #[pymethods]
 impl PyCalibration {
     /// The calibrated robot, as `identified.json` holds it (the same numbers as
@@ -438,7 +447,7 @@ impl PyCalibration {
     /// them, outliers included even when rejected; the rows of `identification_rows`).
     #[getter]
     fn residuals_mm<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
-        let (_, after) = self.cal.screened_residuals();
+        let (_, after) = self.points().screened_residuals();
         rows_array(py, &after)
     }
 
@@ -447,7 +456,7 @@ impl PyCalibration {
     #[getter]
     fn identification_rows<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<i64>> {
         let idx: Vec<i64> = self
-            .cal
+            .points()
             .screened_rows
             .iter()
             .map(|r| r.line as i64 - 1)
@@ -461,7 +470,7 @@ impl PyCalibration {
     /// (`pandas.DataFrame(cal.parameters)` makes the table).
     #[getter]
     fn parameters<'py>(&self, py: Python<'py>) -> PyResult<Vec<Bound<'py, PyDict>>> {
-        let o = &self.cal;
+        let o = self.points();
         let layout = o.start.layout();
         let (xn, xs) = (o.nominal.robot.params(), o.start.params());
         let cov = o.fit.covariance.as_ref();
@@ -494,14 +503,14 @@ impl PyCalibration {
     /// parameters' count).
     #[getter]
     fn rank(&self) -> usize {
-        self.cal.analysis.rank
+        self.points().analysis.rank
     }
 
     /// Covariance `(r, r)` of the identifiable free parameters (display units: deg², deg·mm,
     /// mm²), in the order of `covariance_parameters`; `None` without degrees of freedom.
     #[getter]
     fn covariance<'py>(&self, py: Python<'py>) -> Option<Bound<'py, PyArray2<f64>>> {
-        self.cal.fit.covariance.as_ref().map(|c| {
+        self.points().fit.covariance.as_ref().map(|c| {
             let r = c.parameters.len();
             vec_rows_array(py, &c.covariance, r)
         })
@@ -510,7 +519,7 @@ impl PyCalibration {
     /// The names of the rows and columns of `covariance` (empty without one).
     #[getter]
     fn covariance_parameters(&self) -> Vec<String> {
-        self.cal
+        self.points()
             .fit
             .covariance
             .as_ref()
@@ -520,20 +529,20 @@ impl PyCalibration {
     /// RMS 3-D point error of the fit on the rows it used, mm.
     #[getter]
     fn rms_mm(&self) -> f64 {
-        self.cal.fit.rms_mm
+        self.points().fit.rms_mm
     }
 
     /// σ̂, the fit's residual scale (mm per axis); `None` without degrees of freedom.
     #[getter]
     fn sigma_hat_mm(&self) -> Option<f64> {
-        self.cal.fit.sigma_hat
+        self.points().fit.sigma_hat
     }
 
     /// Indices (into `identification_rows`) of the outliers the screen flagged
     /// (‖residual‖ > k·σ̂₃); excluded from the final fit with `reject_outliers=True`.
     #[getter]
     fn outliers(&self) -> Vec<usize> {
-        self.cal
+        self.points()
             .screen
             .as_ref()
             .map_or_else(Vec::new, |s| s.indices())
@@ -542,7 +551,7 @@ impl PyCalibration {
     /// Whether the measurement frame was registered onto the robot base first.
     #[getter]
     fn registered(&self) -> bool {
-        self.cal.registered()
+        self.points().registered()
     }
 
     /// 3-D errors on the validation rows (`validate=` or the rows an `every`/`select` split
@@ -552,7 +561,7 @@ impl PyCalibration {
     /// validation rows.
     #[getter]
     fn validation<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyDict>>> {
-        let Some(v) = &self.cal.validation else {
+        let Some(v) = &self.points().validation else {
             return Ok(None);
         };
         let d = PyDict::new(py);
@@ -593,11 +602,11 @@ impl PyCalibration {
     fn __repr__(&self) -> String {
         format!(
             "Calibration({:?}, rows={}, free={}, rank={}, rms_mm={:.4})",
-            self.cal.nominal.robot.name(),
-            self.cal.used.len(),
-            self.cal.free.len(),
-            self.cal.analysis.rank,
-            self.cal.fit.rms_mm
+            self.points().nominal.robot.name(),
+            self.points().used.len(),
+            self.points().free.len(),
+            self.points().analysis.rank,
+            self.points().fit.rms_mm
         )
     }
 }
@@ -1026,17 +1035,25 @@ fn py_identify_frames<'py>(
             allow,
         },
     )?;
-    let options = calibrate::frames::FrameOptions {
-        mm_per_deg: orientation_weight,
-        sigma: false,
+    let request = calibrate::IdentifyRequest {
+        weighting: calibrate::Weighting {
+            mm_per_deg: orientation_weight,
+            sigma: false,
+        },
+        ..request
     };
     py.detach(|| {
         let err = |e: calibrate::CalibrateError| kincal_error(&e);
         let inputs =
             calibrate::Inputs::from_sets(&request, nominal, data, validate).map_err(err)?;
         let started = std::time::Instant::now();
-        let cal = calibrate::frames::calibrate_frames(&request, inputs, &options).map_err(err)?;
+        let cal = calibrate::calibrate(&request, inputs).map_err(err)?;
         let library_ms = started.elapsed().as_secs_f64() * 1e3;
+        if cal.tool_frame().is_none() {
+            return Err(KincalError::new_err(
+                "identify_frames: the arrays give neither orientations nor targets (use identify)",
+            ));
+        }
         let identified = calibrate::LoadedRobot::from_spec(
             cal.identified_robot().to_spec(),
             "identified.json",
@@ -1054,7 +1071,7 @@ fn py_identify_frames<'py>(
 /// The errors of a model on a set of poses, as a dict.
 fn frame_errors<'py>(
     py: Python<'py>,
-    e: &calibrate::frames::FrameErrors,
+    e: &calibrate::tool_frame::PoseErrors,
 ) -> PyResult<Bound<'py, PyDict>> {
     let d = PyDict::new(py);
     d.set_item("n_poses", e.poses)?;
@@ -1071,11 +1088,18 @@ fn frame_errors<'py>(
 /// files of `kincal identify --out`.
 #[pyclass(module = "kincal", name = "FrameCalibration", frozen)]
 struct PyFrameCalibration {
-    cal: calibrate::frames::FrameCalibration,
+    cal: calibrate::Calibration,
     /// The calibrated robot as written to `identified.json`.
     identified: calibrate::LoadedRobot,
-    /// Wall time of the library call `calibrate::frames::calibrate_frames`, ms.
+    /// Wall time of the library call `calibrate::calibrate`, ms.
     library_ms: f64,
+}
+
+impl PyFrameCalibration {
+    /// The calibration from 6-DoF or multi-target data (checked by `identify_frames`).
+    fn tool(&self) -> &calibrate::ToolFrameCalibration {
+        self.cal.tool_frame().expect("checked by identify_frames")
+    }
 }
 
 #[pymethods]
@@ -1094,7 +1118,7 @@ impl PyFrameCalibration {
     /// the start orientation): the table of `report.md`.
     #[getter]
     fn parameters<'py>(&self, py: Python<'py>) -> PyResult<Vec<Bound<'py, PyDict>>> {
-        self.cal
+        self.tool()
             .fit
             .estimates
             .iter()
@@ -1114,7 +1138,7 @@ impl PyFrameCalibration {
     /// parameters (names).
     #[getter]
     fn held(&self) -> Vec<String> {
-        self.cal.held.clone()
+        self.tool().held.clone()
     }
 
     /// Errors on the identification poses: `{"start": {...}, "identified": {...}}`, each
@@ -1123,8 +1147,8 @@ impl PyFrameCalibration {
     #[getter]
     fn fit_errors<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         let d = PyDict::new(py);
-        d.set_item("start", frame_errors(py, &self.cal.fit_errors.0)?)?;
-        d.set_item("identified", frame_errors(py, &self.cal.fit_errors.1)?)?;
+        d.set_item("start", frame_errors(py, &self.tool().fit_errors.0)?)?;
+        d.set_item("identified", frame_errors(py, &self.tool().fit_errors.1)?)?;
         Ok(d)
     }
 
@@ -1133,7 +1157,7 @@ impl PyFrameCalibration {
     /// frame); `None` without validation poses.
     #[getter]
     fn validation<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyDict>>> {
-        let Some((_, start, identified)) = &self.cal.validation else {
+        let Some((_, start, identified)) = &self.tool().validation else {
             return Ok(None);
         };
         let d = PyDict::new(py);
@@ -1148,7 +1172,7 @@ impl PyFrameCalibration {
     /// `reject_outliers=True`.
     #[getter]
     fn outliers<'py>(&self, py: Python<'py>) -> PyResult<Vec<Bound<'py, PyDict>>> {
-        self.cal
+        self.tool()
             .outlier_poses()
             .iter()
             .map(|o| {
@@ -1165,10 +1189,10 @@ impl PyFrameCalibration {
     /// σ̂ of the weighted fit.
     #[getter]
     fn sigma_hat(&self) -> f64 {
-        self.cal.fit.sigma_hat
+        self.tool().fit.sigma_hat
     }
 
-    /// Wall time (ms) of the library call `calibrate::frames::calibrate_frames` inside
+    /// Wall time (ms) of the library call `calibrate::calibrate` inside
     /// `identify_frames`, timed in Rust.
     #[getter]
     fn library_ms(&self) -> f64 {
@@ -1177,23 +1201,24 @@ impl PyFrameCalibration {
 
     /// The console summary `kincal identify` prints for this calibration.
     fn summary(&self) -> String {
-        report::calibration::frames::summary(&self.cal)
+        report::calibration::summary(&self.cal)
     }
 
     /// Writes the files of `kincal identify --out` on the same data into `directory` as the
     /// CLI does (created if missing; the set replaced as a whole under the directory's
-    /// lock): `identified.json`, `report.md`, `report.html` and its plots.
+    /// lock): `identified.json`, `registered-nominal.json`, `parameters.json`, `report.md`,
+    /// `report.html` and its plots.
     fn save(&self, py: Python<'_>, directory: PathBuf) -> PyResult<()> {
-        py.detach(|| save_outputs(&directory, report::calibration::frames::render(&self.cal)))
+        py.detach(|| save_outputs(&directory, report::calibration::render(&self.cal)))
     }
 
     fn __repr__(&self) -> String {
         format!(
             "FrameCalibration({:?}, poses={}, unknowns={}, sigma_hat={:.4})",
-            self.cal.nominal_name,
-            self.cal.data.n_poses(),
-            self.cal.fit.estimates.len(),
-            self.cal.fit.sigma_hat
+            self.tool().nominal.robot.name(),
+            self.tool().data.n_poses(),
+            self.tool().fit.estimates.len(),
+            self.tool().fit.sigma_hat
         )
     }
 }

@@ -138,6 +138,9 @@ impl IdentifyArgs {
                 LengthUnitsArg::In => LengthUnits::In,
             },
             allow: self.allow.clone(),
+            euler: self.euler,
+            weighting: OrientationWeight::options(self.orientation_weight),
+            points_only: self.points_only,
             ..IdentifyRequest::new(&self.robot, &self.data)
         }
     }
@@ -237,14 +240,14 @@ impl std::str::FromStr for OrientationWeight {
 
 impl OrientationWeight {
     /// The calibration's options for this weighting.
-    pub(crate) fn options(this: Option<Self>) -> calibrate::frames::FrameOptions {
+    pub(crate) fn options(this: Option<Self>) -> calibrate::Weighting {
         match this {
-            None => calibrate::frames::FrameOptions::default(),
-            Some(OrientationWeight::Sigma) => calibrate::frames::FrameOptions {
+            None => calibrate::Weighting::default(),
+            Some(OrientationWeight::Sigma) => calibrate::Weighting {
                 sigma: true,
                 ..Default::default()
             },
-            Some(OrientationWeight::MmPerDeg(w)) => calibrate::frames::FrameOptions {
+            Some(OrientationWeight::MmPerDeg(w)) => calibrate::Weighting {
                 mm_per_deg: Some(w),
                 sigma: false,
             },
