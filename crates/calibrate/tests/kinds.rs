@@ -130,7 +130,7 @@ fn calibrate(
     request: &IdentifyRequest,
     rows: Vec<Measurement>,
     validate: Option<Vec<Measurement>>,
-) -> Result<Calibration, CalibrateError> {
+) -> Result<Calibration, Box<CalibrateError>> {
     let set = |name: &str, rows| MeasurementSet::new(name, 6, rows);
     let inputs = Inputs::from_sets(
         request,
@@ -138,7 +138,7 @@ fn calibrate(
         set("id.csv", rows),
         validate.map(|v| set("val.csv", v)),
     )?;
-    let cal = calibrate::calibrate(request, inputs)?;
+    let cal = calibrate::calibrate(request, inputs).map_err(Box::new)?;
     let expected = match kind {
         Data::Points => MeasurementKind::Points,
         Data::SixDof => MeasurementKind::SixDof { targets: 1 },
