@@ -14,7 +14,8 @@
 //! parameter a candidate, the confounded ones held), with the default weighting (1/mm,
 //! 5 mm per degree).
 
-use calibrate::frames::{FrameOptions, frame_data, start_model};
+use calibrate::Weighting;
+use calibrate::tool_frame::{frame_data, start_model};
 use identify::frames::{FrameData, FrameModel, FrameRow, fit_frames, select_free};
 use kinematics::Robot;
 use measurements::{ReadOptions, read_file};
@@ -153,7 +154,7 @@ fn main() {
         &ReadOptions::new(6),
     )
     .expect("data");
-    let (all, weighting) = frame_data(&set, &FrameOptions::default());
+    let (all, weighting) = frame_data(&set, &Weighting::default());
     let m = all.n_poses();
     let draws = 7;
     println!("weighting: {weighting}; {m} poses; medians of {draws} draws\n");

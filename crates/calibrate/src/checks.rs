@@ -3,7 +3,7 @@
 //! [`Refusal::Implausible`] naming it and the [`Check`] that overrides it, and runs before
 //! anything is written (`docs/calibrating-real-data.md`, "Checks").
 
-use identify::{Fit, IdentifiabilityReport, proper_and_improper_rms};
+use identify::proper_and_improper_rms;
 use kinematics::{ParamKind, Robot};
 use measurements::Measurement;
 use nalgebra::Vector3;
@@ -170,17 +170,18 @@ pub fn mirror(source: &str, nominal: &Robot, rows: &[Measurement]) -> Result<(),
     Ok(())
 }
 
-/// Identified parameters far from their start values, by name (identifiable geometric ones;
-/// the base is the frame, anywhere).
+/// Identified parameters far from their start values, by name (the `identifiable` ones,
+/// layout indices, that are geometric; the base is the frame, anywhere): for every kind of
+/// measurement, `identified` the fitted robot.
 pub fn parameters(
     start: &Robot,
-    fit: &Fit,
-    analysis: &IdentifiabilityReport,
+    identified: &Robot,
+    identifiable: &[usize],
 ) -> Result<(), Refusal> {
-    let (x0, x1) = (start.params(), fit.robot.params());
+    let (x0, x1) = (start.params(), identified.params());
     let layout = start.layout();
     let mut far = Vec::new();
-    for &k in &analysis.identifiable_indices {
+    for &k in identifiable {
         let p = layout.get(k);
         let d = p.to_display(x1[k]) - p.to_display(x0[k]);
         let limit = match p.kind {

@@ -2,8 +2,9 @@
 //! other programs): the steps an engineer runs on a robot file and tracker exports.
 //!
 //! ```text
-//! robot.json + data.csv ─► register ─► identify ─► screen outliers ─► validate ─► Calibration
-//!                                                                        (workflow)
+//! robot.json + data.csv ─► check ─► split ─► register ─► identify ─► screen outliers
+//!     ─► check the result ─► validate ─► Calibration          (workflow, pipeline: one
+//!        pipeline for points, 6-DoF and multi-target data, MeasurementKind)
 //! identified.json + joints.csv ─► predict                                  (joints)
 //! identified.json + registered-nominal.json + targets.csv ─► compensate   (joints)
 //! ```
@@ -17,10 +18,11 @@
 pub mod checks;
 mod error;
 mod files;
-pub mod frames;
 mod joints;
 mod memory;
+mod pipeline;
 mod request;
+pub mod tool_frame;
 mod workflow;
 
 pub use error::{CalibrateError, Refusal, Result};
@@ -32,8 +34,10 @@ pub use joints::{
     compensate_targets, predict,
 };
 pub use memory::compensate_set;
-pub use request::{Check, IdentifyRequest, JointUnits, LengthUnits, Split};
+pub use pipeline::{MAX_REJECTION_PASSES, MeasurementKind};
+pub use request::{Check, IdentifyRequest, JointUnits, LengthUnits, Split, Weighting};
+pub use tool_frame::ToolFrameCalibration;
 pub use workflow::{
-    Calibration, Inputs, MAX_REJECTION_PASSES, STILL_JOINT_DEG, Validation, calibrate, mean_max,
-    norms, residuals, run,
+    Calibration, Inputs, PointCalibration, STILL_JOINT_DEG, Validation, calibrate, mean_max, norms,
+    residuals, run,
 };

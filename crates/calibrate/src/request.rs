@@ -77,6 +77,31 @@ pub struct IdentifyRequest {
     /// Plausibility checks to pass over (`crate::checks`) \[none: a wrong robot must not
     /// leave the calibration unremarked\].
     pub allow: Vec<Check>,
+    /// Euler convention of orientation columns `rx,ry,rz` (degrees), converted on reading
+    /// \[none: quaternions `qw,qx,qy,qz` need none; a file of Euler angles without it is
+    /// refused\].
+    pub euler: Option<measurements::EulerConvention>,
+    /// How the rows of 6-DoF and multi-target data weigh against each other.
+    pub weighting: Weighting,
+    /// Calibrate from the points alone, ignoring the data's orientations (the
+    /// [`crate::MeasurementKind::Points`] fit of 6-DoF data, for comparison) \[no\].
+    pub points_only: bool,
+}
+
+/// How the rows of 6-DoF and multi-target data are weighted (`docs/model.md` §6.4); the
+/// report states which.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Weighting {
+    /// Weigh orientation against position by this ratio: 1° of orientation residual weighs
+    /// as `mm_per_deg` mm of position residual, position rows 1/mm [`None`:
+    /// [`identify::frames::DEFAULT_MM_PER_DEG`]].
+    pub mm_per_deg: Option<f64>,
+    /// Weigh every row by the file's σ instead (where every row gives them) [false: on real
+    /// data the model's unmodelled errors (≈0.3 mm, 0.05°) dwarf the tracker's σ (≈0.01 mm,
+    /// 0.002°), so per-row σ weights mostly reshuffle rows: on the UR10 of `data/ur10-ipa`
+    /// they raise the held-out position error (0.505 mm against 0.422 mm with the ratio,
+    /// `--every 15`)].
+    pub sigma: bool,
 }
 
 /// Units of joint columns; values are converted to degrees on loading.
@@ -213,6 +238,9 @@ impl IdentifyRequest {
             joint_units: JointUnits::Deg,
             length_units: LengthUnits::Mm,
             allow: Vec::new(),
+            euler: None,
+            weighting: Weighting::default(),
+            points_only: false,
         }
     }
 

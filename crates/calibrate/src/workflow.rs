@@ -1,10 +1,14 @@
-//! The calibration workflow on a measurement file (`docs/model.md` §5):
+//! The calibration of a measurement file (`docs/model.md` §5), whatever its kind:
+//! [`run`] reads it ([`Inputs::load`]), [`calibrate`] chooses the kind of measurement from
+//! the data ([`MeasurementKind::of`]) and runs the one pipeline (`crate::pipeline`) →
+//! a [`Calibration`], the values every output is rendered from (by the `report` crate's
+//! `report::calibration`; the front ends write the files).
 //!
-//! read → (split) → register the base if the data are in another frame → identify → screen
-//! outliers (refit without them on request) → analyse identifiability at the solution →
-//! validate → a [`Calibration`], the values every output is rendered from (by the `report`
-//! crate's `report::calibration`; the front ends write the files).
+//! This module also holds the point kind's stages: register the base if the data are in
+//! another frame, resolve the free set, identify, screen outlier rows, analyse
+//! identifiability at the solution, validate ([`PointCalibration`]).
 
+use std::cell::Cell;
 use std::path::Path;
 use std::time::Instant;
 
@@ -21,7 +25,9 @@ use nalgebra::Vector3;
 use crate::checks;
 use crate::error::{CalibrateError, Refusal, Result, id_err};
 use crate::files::{LoadedRobot, file_name, points_mm, poses_rad};
+use crate::pipeline::{self, Held, Kind, MeasurementKind, Units};
 use crate::request::{Check, IdentifyRequest, Split};
+use crate::tool_frame::ToolFrameCalibration;
 
 /// Validation of the nominal and identified models on one measurement set.
 #[derive(Clone, Debug)]
@@ -40,12 +46,23 @@ pub struct Validation {
     pub self_registered: Option<(f64, f64)>,
 }
 
-/// A finished calibration: everything the outputs are rendered from.
+/// A finished calibration of any kind of measurement: everything the outputs are rendered
+/// from (`report::calibration::render` writes the same set of files for every kind).
 #[derive(Clone, Debug)]
-pub struct Calibration {
+pub enum Calibration {
+    /// From points ([`MeasurementKind::Points`]).
+    Points(Box<PointCalibration>),
+    /// From 6-DoF or multi-target data ([`MeasurementKind::SixDof`],
+    /// [`MeasurementKind::Targets`]): the tool frame and the targets are unknowns.
+    ToolFrame(Box<ToolFrameCalibration>),
+}
+
+/// A finished calibration from points: everything the outputs are rendered from.
+#[derive(Clone, Debug)]
+pub struct PointCalibration {
     /// What was asked. Its paths are those of the files read by [`run`]; a calibration of
-    /// [`Inputs`] built in memory ([`calibrate`]) names its sources by [`Calibration::data_source`]
-    /// and the nominal's [`LoadedRobot::path`].
+    /// [`Inputs`] built in memory ([`calibrate`]) names its sources by
+    /// [`PointCalibration::data_source`] and the nominal's [`LoadedRobot::path`].
     pub request: IdentifyRequest,
     /// The nominal robot file.
     pub nominal: LoadedRobot,
@@ -90,34 +107,18 @@ pub struct Calibration {
     pub warnings: Vec<String>,
 }
 
-/// Passes of outlier rejection at most [10: each pass drops what the fit on the others
-/// flags; a clean recording needs one or two].
-pub const MAX_REJECTION_PASSES: usize = 10;
-
 /// Joint range of motion below which a joint is said not to move, degrees [1: a joint that
 /// moves less than a degree leaves its axis's parameters unseen].
 pub const STILL_JOINT_DEG: f64 = 1.0;
 
 /// One registration and fit.
+#[derive(Clone)]
 struct Pass {
     start: Robot,
     registration: Option<RegistrationReport>,
     decision: String,
     free: Vec<usize>,
     fit: Fit,
-}
-
-/// Rows of `val` equal to a row of `id` (joints and point bit for bit).
-fn overlapping(id: &[Measurement], val: &[Measurement]) -> usize {
-    let key = |r: &Measurement| {
-        let mut k: Vec<u64> = r.q_deg.iter().map(|v| v.to_bits()).collect();
-        if let Some(p) = r.point_mm {
-            k.extend(p.iter().map(|v| v.to_bits()));
-        }
-        k
-    };
-    let ids: std::collections::BTreeSet<Vec<u64>> = id.iter().map(key).collect();
-    val.iter().filter(|r| ids.contains(&key(r))).count()
 }
 
 /// Weak data: joints whose range of motion in `rows` is below [`STILL_JOINT_DEG`], and the
@@ -225,8 +226,9 @@ pub fn residuals(robot: &Robot, rows: &[Measurement]) -> Vec<[f64; 3]> {
 }
 
 /// The registration decision with its evidence: the start model, the report (`None` when
-/// never considered) and a sentence saying what was decided and why.
-fn register(
+/// never considered) and a sentence saying what was decided and why. For every kind: the
+/// points are those of the rows (the mean of a pose's targets for multi-target data).
+pub(crate) fn register(
     nominal: &Robot,
     poses: &[f64],
     points: &[Vector3<f64>],
@@ -342,122 +344,6 @@ pub(crate) fn check(request: &IdentifyRequest) -> Result<()> {
         .map_err(id_err("the solver options"))
 }
 
-/// The identification rows, the validation rows (with where they come from) and which rows
-/// identify, in words.
-type SplitRows = (Vec<Measurement>, Option<(String, Vec<Measurement>)>, String);
-
-/// Splits the rows of `data` as `request.split` says; `free` and `min_rows` for the refusals.
-fn split_rows(
-    request: &IdentifyRequest,
-    nominal: &LoadedRobot,
-    data: &MeasurementSet,
-    validate: Option<MeasurementSet>,
-    (free, min_rows): (usize, usize),
-) -> Result<SplitRows> {
-    let n_file_rows = data.rows.len();
-    let too_few = |source: CalibrateError| CalibrateError::TooFewRows {
-        free,
-        spec: request.params.to_string(),
-        needed: min_rows,
-        source: Box::new(source),
-    };
-    Ok(match request.split {
-        Split::Every { every: k, offset } => {
-            let (mut sel, mut rest) = (Vec::new(), Vec::new());
-            for (i, r) in data.rows.iter().enumerate() {
-                if i % k == offset {
-                    sel.push(r.clone());
-                } else {
-                    rest.push(r.clone());
-                }
-            }
-            if sel.len() < min_rows {
-                return Err(too_few(
-                    Refusal::EveryTooFew {
-                        every: k,
-                        offset,
-                        selected: sel.len(),
-                        rows: n_file_rows,
-                        source: Box::new(MeasurementError::TooFewRows {
-                            file: data.source.clone(),
-                            found: sel.len(),
-                            needed: min_rows,
-                        }),
-                    }
-                    .into(),
-                ));
-            }
-            let text = format!(
-                "{} of {n_file_rows} rows (data rows {offset}, {}, {}, … — every {k}th from \
-                 {offset})",
-                sel.len(),
-                offset + k,
-                offset + 2 * k,
-            );
-            let val = (!rest.is_empty()).then(|| {
-                (
-                    format!("{} (the {} other rows)", data.source, rest.len()),
-                    rest,
-                )
-            });
-            (sel, val, text)
-        }
-        Split::Select { poses, criterion } => {
-            if poses < min_rows {
-                return Err(Refusal::SelectTooFew {
-                    poses,
-                    free,
-                    spec: request.params.to_string(),
-                    needed: min_rows,
-                }
-                .into());
-            }
-            if poses >= n_file_rows {
-                return Err(Refusal::SelectTooMany {
-                    poses,
-                    file: data.source.clone(),
-                    rows: n_file_rows,
-                }
-                .into());
-            }
-            let q_deg: Vec<f64> = data.rows.iter().flat_map(|r| r.q_deg.clone()).collect();
-            let chosen = design::select_rows(&nominal.robot, &q_deg, poses, criterion, None)
-                .map_err(|source| CalibrateError::Design {
-                    context: format!(
-                        "choosing {poses} rows of {} by the {} criterion",
-                        data.source,
-                        criterion.as_str()
-                    ),
-                    source: Box::new(source),
-                })?;
-            let (mut sel, mut rest) = (Vec::new(), Vec::new());
-            for (i, r) in data.rows.iter().enumerate() {
-                if chosen.binary_search(&i).is_ok() {
-                    sel.push(r.clone());
-                } else {
-                    rest.push(r.clone());
-                }
-            }
-            let lines: Vec<String> = sel.iter().take(3).map(|r| r.line.to_string()).collect();
-            let text = format!(
-                "{} of {n_file_rows} rows chosen by the {} criterion on their joints (lines {}, …)",
-                sel.len(),
-                criterion.as_str().to_uppercase(),
-                lines.join(", "),
-            );
-            let val = Some((
-                format!("{} (the {} other rows)", data.source, rest.len()),
-                rest,
-            ));
-            (sel, val, text)
-        }
-        Split::All => {
-            let val = validate.map(|v| (v.source, v.rows));
-            (data.rows.clone(), val, format!("all {n_file_rows} rows"))
-        }
-    })
-}
-
 /// Validation of the start model and the identified one on `rows`.
 fn validate(
     nominal: &Robot,
@@ -515,25 +401,23 @@ impl Inputs {
             request.joint_units.deg_per_unit(),
             request.length_units.mm_per_unit(),
         );
-        let as_degrees = |path: &std::path::Path| {
-            nominal
-                .read_set_in(path, true, (0, None), "data", (1.0, units.1))
-                .ok()
+        // Points need a row per three free parameters, checked on reading; 6-DoF and
+        // multi-target data one row (the fit says when their equations are too few).
+        let min_rows = if request.euler.is_some() || header_names_poses(&request.data) {
+            1
+        } else {
+            min_rows
         };
-        let data = nominal
-            .read_set_in(
-                &request.data,
-                true,
-                (min_rows, None),
-                "identification data",
-                units,
-            )
+        let read = |path: &Path, min: usize, what: &str, units: (f64, f64)| {
+            nominal.read_set_with(path, true, (min, None), what, units, request.euler)
+        };
+        let as_degrees = |path: &Path| read(path, 0, "data", (1.0, units.1)).ok();
+        let data = read(&request.data, min_rows, "identification data", units)
             .map_err(|e| declared_radians(request, e, || as_degrees(&request.data)))
             .map_err(|e| too_few_rows(request, n_free, min_rows, e))?;
         let validate = match (&request.validate, &request.split) {
             (Some(path), Split::All) => {
-                let set = nominal
-                    .read_set_in(path, true, (0, None), "validation data", units)
+                let set = read(path, 0, "validation data", units)
                     .map_err(|e| declared_radians(request, e, || as_degrees(path)))?;
                 Some(with_rows(set, "validation")?)
             }
@@ -545,6 +429,23 @@ impl Inputs {
             validate,
         })
     }
+}
+
+/// Whether the measurement file's header names orientation or target columns (`qw`, `rx`,
+/// `target`): the first line that is neither blank nor a `#` comment. False when the file
+/// cannot be read (the reader then reports why).
+pub(crate) fn header_names_poses(path: &Path) -> bool {
+    let Ok(text) = std::fs::read_to_string(path) else {
+        return false;
+    };
+    text.lines()
+        .map(str::trim)
+        .find(|l| !l.is_empty() && !l.starts_with('#'))
+        .is_some_and(|h| {
+            h.split(',')
+                .map(|c| c.trim().to_ascii_lowercase())
+                .any(|c| c == "qw" || c == "rx" || c == "target")
+        })
 }
 
 /// A read in declared radians that failed (`err`): when the rows read cleanly as degrees
@@ -631,29 +532,27 @@ pub fn run(request: &IdentifyRequest) -> Result<Calibration> {
 }
 
 /// Calibrates loaded `inputs` with the options of `request` (its paths are not read: the
-/// sources are named by the inputs).
+/// sources are named by the inputs): the kind of measurement is the data's
+/// ([`MeasurementKind::of`]), and every kind goes through the same stages and checks.
 ///
 /// # Errors
 /// As [`run`], without the reading errors; too few identification rows is
 /// [`CalibrateError::TooFewRows`] as when reading.
 pub fn calibrate(request: &IdentifyRequest, inputs: Inputs) -> Result<Calibration> {
     check(request)?;
-    let args = request;
+    let kind = MeasurementKind::of(&inputs.data, request.points_only);
     let Inputs {
         mut nominal,
         data,
         validate: validation_set,
     } = inputs;
-    let spec_err = |source| CalibrateError::Params {
-        spec: args.params.to_string(),
-        source,
-    };
     let (robot, n_free, min_rows) = extended(request, &nominal)?;
     // The extended parameters after `+` join the geometric ones.
     nominal.robot = robot;
     let nom = &nominal.robot;
-    let id_opts = IdentifiabilityOptions::default();
-    if data.rows.len() < min_rows {
+    // Each row gives at least three equations: point data need free / 3 rows (the other
+    // kinds' fit says when its equations are too few).
+    if kind.is_points() && data.rows.len() < min_rows {
         let e = CalibrateError::Read {
             context: format!(
                 "reading the identification data {} for {} ({} joints)",
@@ -673,42 +572,112 @@ pub fn calibrate(request: &IdentifyRequest, inputs: Inputs) -> Result<Calibratio
     if let Some(v) = &validation_set {
         notices.extend(v.notices.iter().cloned());
     }
-    let (id_rows, val_rows, selection) =
-        split_rows(args, &nominal, &data, validation_set, (n_free, min_rows))?;
-
-    // Plausibility of the data, before any fit: units and handedness.
-    let source = data.source.clone();
-    if !args.allows(Check::JointUnits) {
-        checks::joint_units(&source, &id_rows, &nominal.limits_deg())?;
-    }
-    if !args.allows(Check::LengthUnits) {
-        checks::length_units(&source, nom, &id_rows)?;
-    }
-    if !args.allows(Check::Mirror) {
-        checks::mirror(&source, nom, &id_rows)?;
-    }
-    let overlap = val_rows
-        .as_ref()
-        .map_or(0, |(_, rows)| overlapping(&id_rows, rows));
-
-    // The time of the passes alone (registration, free set, fit; summed over the rejection
-    // passes): the checks, the analyses and validation after them are not the fit's time.
-    let fit_ms = std::cell::Cell::new(0.0_f64);
-    let options = IdentifyOptions {
-        lm: args.lm_options(),
-        registration: RegistrationPolicy::Never,
-        ..IdentifyOptions::default()
+    // The units the split and the screen take or drop whole: rows, or poses.
+    let units: Vec<Vec<usize>> = if kind.is_points() {
+        (0..data.rows.len()).map(|i| vec![i]).collect()
+    } else {
+        data.poses()
     };
-    // One pass: register on `rows`, resolve the free set at the registered start (the base
-    // free where registered), fit.
-    let pass = |rows: &[Measurement]| -> Result<Pass> {
+    let split = pipeline::split(
+        request,
+        nom,
+        &data,
+        validation_set,
+        (kind, &units),
+        (n_free, min_rows),
+    )?;
+    let id_rows = pipeline::rows_of(&data, &units, &split.id);
+    // Plausibility of the data, before any fit: units and handedness.
+    pipeline::check_data(request, &data.source, nom, &nominal.limits_deg(), &id_rows)?;
+    let overlap = split.val.as_ref().map_or(0, |(_, held)| match held {
+        Held::Rest(rest) => {
+            pipeline::overlapping(&id_rows, &pipeline::rows_of(&data, &units, rest))
+        }
+        Held::File(set) => pipeline::overlapping(&id_rows, &set.rows),
+    });
+    let overlap_warning = (overlap > 0).then(|| {
+        format!(
+            "{overlap} validation rows are also identification rows (same joints and point): \
+             validation on them is not independent"
+        )
+    });
+    let common = Common {
+        request,
+        nominal,
+        data,
+        units,
+        split,
+        kind,
+        notices,
+        overlap_warning,
+    };
+    if kind.is_points() {
+        calibrate_points(common, id_rows).map(|c| Calibration::Points(Box::new(c)))
+    } else {
+        crate::tool_frame::calibrate(common).map(|c| Calibration::ToolFrame(Box::new(c)))
+    }
+}
+
+/// What every kind's calibration starts from after the split and the data's checks.
+pub(crate) struct Common<'a> {
+    pub request: &'a IdentifyRequest,
+    /// The nominal, extended by the request's parameters.
+    pub nominal: LoadedRobot,
+    pub data: MeasurementSet,
+    /// The units (rows or poses) of `data`, each as the indices of its rows.
+    pub units: Vec<Vec<usize>>,
+    pub split: Units,
+    pub kind: MeasurementKind,
+    pub notices: Vec<String>,
+    /// The warning that validation rows are identification rows, if they are.
+    pub overlap_warning: Option<String>,
+}
+
+/// The point kind's stages (`crate::pipeline::Kind`).
+struct PointKind<'a> {
+    request: &'a IdentifyRequest,
+    nominal: &'a LoadedRobot,
+    source: &'a str,
+    id_opts: IdentifiabilityOptions,
+    options: IdentifyOptions,
+    /// The time of the passes alone (registration, free set, fit; summed over the rejection
+    /// passes): the checks, the analyses and validation after them are not the fit's time.
+    fit_ms: Cell<f64>,
+}
+
+impl Kind for PointKind<'_> {
+    const UNIT: &'static str = "row";
+    type Data = Vec<Measurement>;
+    type Pass = Pass;
+    type Screen = OutlierScreen;
+    /// Identifiability at the solution, and the weak-data warnings.
+    type Analysis = (IdentifiabilityReport, Vec<String>);
+    type Held = Vec<Measurement>;
+    type Validation = Validation;
+
+    fn subset(&self, data: &Vec<Measurement>, keep: &[usize]) -> Vec<Measurement> {
+        keep.iter().map(|&i| data[i].clone()).collect()
+    }
+
+    fn units(&self, data: &Vec<Measurement>) -> usize {
+        data.len()
+    }
+
+    /// One pass: register on `rows`, resolve the free set at the registered start (the base
+    /// free where registered), fit.
+    fn pass(&self, rows: &Vec<Measurement>) -> Result<Pass> {
+        let (args, nom) = (self.request, &self.nominal.robot);
+        let spec_err = |source| CalibrateError::Params {
+            spec: args.params.to_string(),
+            source,
+        };
         let started = Instant::now();
         let (p, x) = (poses_rad(rows), points_mm(rows));
         let (start, registration, decision) = register(nom, &p, &x, args.registration)
-            .map_err(|e| e.context(format!("identification data {}", data.source)))?;
+            .map_err(|e| e.context(format!("identification data {}", self.source)))?;
         let mut free = args
             .params
-            .resolve(&start, &p, None, &id_opts)
+            .resolve(&start, &p, None, &self.id_opts)
             .map_err(spec_err)?;
         // `minimal` already holds every base parameter identifiable at the registered start;
         // the others are redundant there (base_rz with theta1 for most arms).
@@ -722,15 +691,13 @@ pub fn calibrate(request: &IdentifyRequest, inputs: Inputs) -> Result<Calibratio
             }
             free.sort_unstable();
         }
-        let problem = Problem::new(&start, &p, &x, free.clone()).map_err(id_err(format!(
-            "setting up the identification on {}",
-            data.source
-        )))?;
-        let mut fit = identify(&problem, &options).map_err(id_err(format!(
-            "identifying {} on {}",
-            nom.name(),
-            data.source
-        )))?;
+        let mut fit = fit_points(
+            &start,
+            (&p, &x),
+            free.clone(),
+            &self.options,
+            (nom.name(), self.source),
+        )?;
         // An extended model evaluates its gravity torques on the geometry it was extended
         // from (the nominal, during the fit). `identified.json` re-extends its own geometry
         // when it is read, so the model validated and reported is that one: what every
@@ -739,11 +706,12 @@ pub fn calibrate(request: &IdentifyRequest, inputs: Inputs) -> Result<Calibratio
             fit.robot =
                 Robot::from_spec(&fit.robot.to_spec()).map_err(|source| CalibrateError::Robot {
                     what: "identified robot",
-                    path: nominal.path.clone(),
+                    path: self.nominal.path.clone(),
                     source,
                 })?;
         }
-        fit_ms.set(fit_ms.get() + started.elapsed().as_secs_f64() * 1e3);
+        self.fit_ms
+            .set(self.fit_ms.get() + started.elapsed().as_secs_f64() * 1e3);
         Ok(Pass {
             start,
             registration,
@@ -751,107 +719,157 @@ pub fn calibrate(request: &IdentifyRequest, inputs: Inputs) -> Result<Calibratio
             free,
             fit,
         })
-    };
-    let poses = poses_rad(&id_rows);
-    let points = points_mm(&id_rows);
-    let screen_of = |fit: &Fit| -> Result<Option<OutlierScreen>> {
+    }
+
+    fn screen(&self, pass: &Pass, rows: &Vec<Measurement>) -> Result<Option<OutlierScreen>> {
+        let fit = &pass.fit;
         fit.sigma_hat
             .map(|s| {
-                outliers::screen(&fit.robot, &poses, &points, s, args.outlier_k)
-                    .map_err(id_err("screening outliers"))
+                outliers::screen(
+                    &fit.robot,
+                    &poses_rad(rows),
+                    &points_mm(rows),
+                    s,
+                    self.request.outlier_k,
+                )
+                .map_err(id_err("screening outliers"))
             })
             .transpose()
-    };
-    let mut current = pass(&id_rows)?;
-    let first = current.fit.clone();
-    let first_decision = current.decision.clone();
-    let mut screen = screen_of(&first)?;
-    let mut kept: Vec<usize> = (0..id_rows.len()).collect();
-    let mut rejected = false;
-    let mut rejection_passes = 0;
-    // Rejection to a fixed point: every identification row is screened against the fit on
-    // the rows kept, until the kept rows are those the screen passes (so that the result
-    // with a rejected row is the result without it); registration is redone each time.
-    while args.reject_outliers && rejection_passes <= MAX_REJECTION_PASSES {
-        let flagged = screen.as_ref().map_or_else(Vec::new, |s| s.indices());
-        let next: Vec<usize> = (0..id_rows.len())
-            .filter(|i| flagged.binary_search(i).is_err())
-            .collect();
-        if next == kept || rejection_passes == MAX_REJECTION_PASSES {
-            break;
-        }
-        if !args.allows(Check::Outliers) {
-            checks::rejected_fraction(&source, flagged.len(), id_rows.len(), args.outlier_k)?;
-        }
-        if 3 * next.len() < current.free.len() {
-            return Err(Refusal::TooManyOutliers {
-                file: data.source.clone(),
-                outliers: flagged.len(),
-                rows: id_rows.len(),
-                kept: next.len(),
-                free: current.free.len(),
-            }
-            .into());
-        }
-        kept = next;
-        rejected = true;
-        rejection_passes += 1;
-        let rows: Vec<Measurement> = kept.iter().map(|&i| id_rows[i].clone()).collect();
-        current = pass(&rows).map_err(|e| e.context("refitting without the outliers"))?;
-        screen = screen_of(&current.fit)?;
     }
-    let used: Vec<Measurement> = kept.iter().map(|&i| id_rows[i].clone()).collect();
-    let Pass {
-        start,
-        registration,
-        mut decision,
-        free,
-        fit,
-    } = current;
-    if rejected {
-        decision = format!(
-            "{decision} — decided on the {} rows kept after rejecting the outliers (on all {} \
-             rows: {first_decision})",
-            used.len(),
-            id_rows.len()
-        );
+
+    fn flagged(screen: &OutlierScreen) -> Vec<usize> {
+        screen.indices()
     }
-    let analysis = analyze(&fit.robot, &poses_rad(&used), None, &free, &id_opts)
+
+    fn n_free(pass: &Pass) -> usize {
+        pass.free.len()
+    }
+
+    fn determines(&self, rows: &Vec<Measurement>, n_free: usize) -> bool {
+        3 * rows.len() >= n_free
+    }
+
+    fn decision(pass: &mut Pass) -> &mut String {
+        &mut pass.decision
+    }
+
+    fn analyse(&self, pass: &Pass, used: &Vec<Measurement>) -> Result<Self::Analysis> {
+        let analysis = analyze(
+            &pass.fit.robot,
+            &poses_rad(used),
+            None,
+            &pass.free,
+            &self.id_opts,
+        )
         .map_err(id_err("identifiability at the solution"))?;
-    let weak = weak_data(&start, &used, &free, &analysis, &id_opts);
-    if !args.allows(Check::Parameters) {
-        checks::parameters(&start, &fit, &analysis)?;
+        let weak = weak_data(&pass.start, used, &pass.free, &analysis, &self.id_opts);
+        Ok((analysis, weak))
     }
-    let validation = val_rows
-        .map(|(source, rows)| validate(nom, &start, &fit.robot, source, rows))
-        .transpose()?;
-    if let Some(v) = &validation
-        && !args.allows(Check::Validation)
-    {
-        checks::validation(
+
+    fn moved<'a>(
+        pass: &'a Pass,
+        analysis: &'a Self::Analysis,
+    ) -> (&'a Robot, &'a Robot, &'a [usize]) {
+        (
+            &pass.start,
+            &pass.fit.robot,
+            &analysis.0.identifiable_indices,
+        )
+    }
+
+    fn validate(&self, pass: &Pass, source: String, rows: Vec<Measurement>) -> Result<Validation> {
+        validate(
+            &self.nominal.robot,
+            &pass.start,
+            &pass.fit.robot,
+            source,
+            rows,
+        )
+    }
+
+    fn validated(v: &Validation) -> (&str, f64, f64) {
+        (
             &v.source,
             v.table.before.norm.mean_mm,
             v.table.after.norm.mean_mm,
-        )?;
+        )
     }
-    let mut warnings = weak;
-    if overlap > 0 {
-        warnings.push(format!(
-            "{overlap} validation rows are also identification rows (same joints and point): \
-             validation on them is not independent"
-        ));
-    }
-    let elapsed_ms = fit_ms.get();
-    Ok(Calibration {
+}
+
+/// The point fit: identification of `free` on `poses` and `points` from `start` (errors
+/// naming the robot and the data's source). The one place the point kind calls the solver.
+fn fit_points(
+    start: &Robot,
+    (poses, points): (&[f64], &[Vector3<f64>]),
+    free: Vec<usize>,
+    options: &IdentifyOptions,
+    (robot, source): (&str, &str),
+) -> Result<Fit> {
+    let problem = Problem::new(start, poses, points, free)
+        .map_err(id_err(format!("setting up the identification on {source}")))?;
+    identify(&problem, options).map_err(id_err(format!("identifying {robot} on {source}")))
+}
+
+/// The point kind after the split: the pipeline's stages, then the result.
+fn calibrate_points(common: Common<'_>, id_rows: Vec<Measurement>) -> Result<PointCalibration> {
+    let Common {
+        request,
+        nominal,
+        data,
+        units,
+        split,
+        kind: _,
+        notices,
+        overlap_warning,
+    } = common;
+    let kind = PointKind {
+        request,
+        nominal: &nominal,
+        source: &data.source,
+        id_opts: IdentifiabilityOptions::default(),
+        options: IdentifyOptions {
+            lm: request.lm_options(),
+            registration: RegistrationPolicy::Never,
+            ..IdentifyOptions::default()
+        },
+        fit_ms: Cell::new(0.0),
+    };
+    let val = split.val.map(|(source, held)| {
+        let rows = match held {
+            Held::Rest(rest) => pipeline::rows_of(&data, &units, &rest),
+            Held::File(set) => set.rows,
+        };
+        (source, rows)
+    });
+    let out = pipeline::fit_and_check(&kind, request, &data.source, &id_rows, val)?;
+    let pipeline::Outcome {
+        first,
+        last,
+        screen,
+        used,
+        rejected,
+        analysis: (analysis, mut warnings),
+        validation,
+    } = out;
+    let Pass {
+        start,
+        registration,
+        decision,
+        free,
+        fit,
+    } = last;
+    warnings.extend(overlap_warning);
+    let elapsed_ms = kind.fit_ms.get();
+    Ok(PointCalibration {
         request: request.clone(),
         data_source: data.source.clone(),
         nominal: nominal.clone(),
         start,
         registration,
-        selection,
+        selection: split.text,
         used,
         free,
-        first,
+        first: first.fit,
         screen,
         screened_rows: id_rows,
         rejected,
@@ -866,6 +884,97 @@ pub fn calibrate(request: &IdentifyRequest, inputs: Inputs) -> Result<Calibratio
 }
 
 impl Calibration {
+    /// The kind of measurement calibrated from.
+    pub fn kind(&self) -> MeasurementKind {
+        match self {
+            Calibration::Points(_) => MeasurementKind::Points,
+            Calibration::ToolFrame(c) => c.kind,
+        }
+    }
+
+    /// The calibration from points, if it is one.
+    pub fn points(&self) -> Option<&PointCalibration> {
+        match self {
+            Calibration::Points(c) => Some(c),
+            Calibration::ToolFrame(_) => None,
+        }
+    }
+
+    /// The calibration from 6-DoF or multi-target data, if it is one.
+    pub fn tool_frame(&self) -> Option<&ToolFrameCalibration> {
+        match self {
+            Calibration::Points(_) => None,
+            Calibration::ToolFrame(c) => Some(c),
+        }
+    }
+
+    /// What was asked.
+    pub fn request(&self) -> &IdentifyRequest {
+        match self {
+            Calibration::Points(c) => &c.request,
+            Calibration::ToolFrame(c) => &c.request,
+        }
+    }
+
+    /// The nominal robot file (extended by the request's parameters).
+    pub fn nominal(&self) -> &LoadedRobot {
+        match self {
+            Calibration::Points(c) => &c.nominal,
+            Calibration::ToolFrame(c) => &c.nominal,
+        }
+    }
+
+    /// Where the identification data come from.
+    pub fn data_source(&self) -> &str {
+        match self {
+            Calibration::Points(c) => &c.data_source,
+            Calibration::ToolFrame(c) => &c.data_source,
+        }
+    }
+
+    /// Reader notices (ignored columns), in reading order.
+    pub fn notices(&self) -> &[String] {
+        match self {
+            Calibration::Points(c) => &c.notices,
+            Calibration::ToolFrame(c) => &c.notices,
+        }
+    }
+
+    /// Warnings about the data, to show prominently.
+    pub fn warnings(&self) -> &[String] {
+        match self {
+            Calibration::Points(c) => &c.warnings,
+            Calibration::ToolFrame(c) => &c.warnings,
+        }
+    }
+
+    /// Wall-clock time of the fit alone (ms), summed over the outlier-rejection passes.
+    pub fn elapsed_ms(&self) -> f64 {
+        match self {
+            Calibration::Points(c) => c.elapsed_ms,
+            Calibration::ToolFrame(c) => c.elapsed_ms,
+        }
+    }
+
+    /// The calibrated robot as it is written (`identified.json`).
+    pub fn identified_robot(&self) -> Robot {
+        match self {
+            Calibration::Points(c) => c.identified_robot(),
+            Calibration::ToolFrame(c) => c.identified_robot(),
+        }
+    }
+
+    /// The nominal robot in the data's measurement frame (`registered-nominal.json`, the
+    /// targets of compensation).
+    pub fn registered_robot(&self) -> Robot {
+        match self {
+            Calibration::Points(c) => c.registered_robot(),
+            Calibration::ToolFrame(c) => c.registered_robot(),
+        }
+    }
+}
+
+impl PointCalibration {
     /// Whether the measurement frame was registered onto the robot base (the start model is
     /// then the nominal one moved into the data's frame).
     pub fn registered(&self) -> bool {

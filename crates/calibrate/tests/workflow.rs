@@ -6,7 +6,15 @@
 
 use std::path::PathBuf;
 
-use calibrate::{CalibrateError, IdentifyRequest, Refusal, Split};
+use calibrate::{CalibrateError, IdentifyRequest, PointCalibration, Refusal, Split};
+
+/// The point calibration of `cal` (these data are points).
+fn points(cal: calibrate::Calibration) -> PointCalibration {
+    match cal {
+        calibrate::Calibration::Points(c) => *c,
+        other => panic!("not a point calibration: {:?}", other.kind()),
+    }
+}
 
 fn root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..")
@@ -27,7 +35,7 @@ fn ur10_request() -> IdentifyRequest {
 
 #[test]
 fn ur10_every_15th_row_matches_the_independent_fit() {
-    let cal = calibrate::run(&ur10_request()).unwrap();
+    let cal = points(calibrate::run(&ur10_request()).unwrap());
     assert_eq!(cal.used.len(), 100);
     let v = cal.validation.as_ref().expect("the other rows validate");
     assert_eq!(v.rows.len(), 1395);
@@ -74,7 +82,7 @@ fn select_identifies_on_the_designed_rows_and_validates_on_the_rest() {
         poses: 20,
         criterion: design::Criterion::D,
     };
-    let cal = calibrate::run(&r).unwrap();
+    let cal = points(calibrate::run(&r).unwrap());
     assert_eq!(cal.used.len(), 20);
     let v = cal.validation.as_ref().unwrap();
     assert_eq!(v.rows.len(), 1495 - 20);
@@ -224,8 +232,8 @@ fn a_rejected_row_gives_the_result_without_it() {
     let mut req = ur10_request();
     req.split = Split::All;
     req.reject_outliers = true;
-    let a = calibrate::calibrate(&req, in_memory(&robot, moved, None)).unwrap();
-    let b = calibrate::calibrate(&req, in_memory(&robot, without, None)).unwrap();
+    let a = points(calibrate::calibrate(&req, in_memory(&robot, moved, None)).unwrap());
+    let b = points(calibrate::calibrate(&req, in_memory(&robot, without, None)).unwrap());
     assert!(a.rejected && a.used.len() == 98, "{}", a.used.len());
     assert_eq!(
         a.used.iter().map(|r| r.line).collect::<Vec<_>>(),
@@ -299,7 +307,7 @@ fn unit_and_frame_corruptions_are_refused_and_units_convert() {
         180.0 / std::f64::consts::PI
     );
     assert_eq!(calibrate::LengthUnits::In.mm_per_unit(), 25.4);
-    let clean = calibrate::calibrate(&req, in_memory(&robot, rows.clone(), None)).unwrap();
+    let clean = points(calibrate::calibrate(&req, in_memory(&robot, rows.clone(), None)).unwrap());
     assert!(clean.warnings.is_empty(), "{:?}", clean.warnings);
 }
 
@@ -341,7 +349,7 @@ fn files_in_radians_and_metres_read_with_their_units() {
     assert_eq!(refused_by(&e), Some(Check::LengthUnits), "{e}");
     assert!(e.to_string().contains("metres"), "{e}");
     r.length_units = calibrate::LengthUnits::M;
-    let cal = calibrate::run(&r).unwrap();
+    let cal = points(calibrate::run(&r).unwrap());
     let mut plain = ur10_request();
     plain.data = root().join("data/ur10-ipa/series-b-joint-configurations.csv");
     let v = cal.validation.unwrap();
@@ -366,7 +374,10 @@ fn outlier_thresholds_that_reject_good_data_are_refused() {
             assert_eq!(refused_by(&e), Some(Check::Outliers), "{e}");
             assert!(e.to_string().contains("more than 10 %"), "{e}");
         }
-        Ok(cal) => assert!(cal.screened_rows.len() - cal.used.len() <= 10),
+        Ok(cal) => {
+            let cal = points(cal);
+            assert!(cal.screened_rows.len() - cal.used.len() <= 10)
+        }
     }
     // Overridden, rejection at k = 0.5 runs to its fixed point and leaves too few rows: still
     // no silent result.
@@ -407,7 +418,7 @@ fn empty_and_overlapping_validation_files_say_so() {
         .collect();
     let mut r = ur10_request();
     r.split = Split::All;
-    let cal = calibrate::calibrate(&r, in_memory(&robot, rows, Some(val))).unwrap();
+    let cal = points(calibrate::calibrate(&r, in_memory(&robot, rows, Some(val))).unwrap());
     assert!(
         cal.warnings
             .iter()
@@ -481,14 +492,14 @@ fn kr1000_simulated(
 fn data_moving_only_joint_1_say_so() {
     let (robot, rows, _) = kr1000_simulated(40, &[0]);
     let r = IdentifyRequest::new("kr1000.json", "id.csv");
-    let cal = calibrate::calibrate(&r, in_memory(&robot, rows, None)).unwrap();
+    let cal = points(calibrate::calibrate(&r, in_memory(&robot, rows, None)).unwrap());
     let w = cal.warnings.join("\n");
     assert!(w.contains("joints q2, q3, q4, q5, q6 never move"), "{w}");
     assert!(w.contains("not identifiable from these data"), "{w}");
     assert!(w.contains("a2"), "{w}");
     // All joints moving: no warning.
     let (robot, rows, _) = kr1000_simulated(40, &[0, 1, 2, 3, 4, 5]);
-    let cal = calibrate::calibrate(&r, in_memory(&robot, rows, None)).unwrap();
+    let cal = points(calibrate::calibrate(&r, in_memory(&robot, rows, None)).unwrap());
     assert!(cal.warnings.is_empty(), "{:?}", cal.warnings);
     assert!(
         cal.registration_decision.starts_with("registered"),
@@ -514,9 +525,8 @@ fn implausible_parameters_and_worse_validation_are_refused() {
     // Validation rows whose points carry the opposite of the geometric errors.
     let val = rows.split_off(30);
     let nom = &robot.robot;
-    let start = calibrate::calibrate(&r, in_memory(&robot, rows.clone(), None))
-        .unwrap()
-        .start;
+    let start =
+        points(calibrate::calibrate(&r, in_memory(&robot, rows.clone(), None)).unwrap()).start;
     let flipped: Vec<Measurement> = val
         .iter()
         .map(|m| {
@@ -591,7 +601,7 @@ mod corruption {
             apply(c, &mut rows);
             let r = IdentifyRequest::new("robot.json", "id.csv");
             match calibrate::calibrate(&r, in_memory(&robot, rows, None)) {
-                Ok(cal) => prop_assert!(false, "{c:?} calibrated: {}", cal.registration_decision),
+                Ok(cal) => prop_assert!(false, "{c:?} calibrated: {}", points(cal).registration_decision),
                 Err(e) => prop_assert!(refused_by(&e).is_some(), "{c:?}: {e}"),
             }
         }

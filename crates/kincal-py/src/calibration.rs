@@ -36,6 +36,15 @@ pub(crate) struct PyCalibration {
     library_ms: f64,
 }
 
+impl PyCalibration {
+    /// The calibration from points (`identify` gives points only).
+    fn points(&self) -> &calibrate::PointCalibration {
+        self.cal
+            .points()
+            .expect("identify calibrates points: its arrays have no orientations or targets")
+    }
+}
+
 #[pymethods]
 impl PyCalibration {
     /// The calibrated robot, as `identified.json` holds it (the same numbers as
@@ -70,7 +79,7 @@ impl PyCalibration {
     /// them, outliers included even when rejected; the rows of `identification_rows`).
     #[getter]
     fn residuals_mm<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
-        let (_, after) = self.cal.screened_residuals();
+        let (_, after) = self.points().screened_residuals();
         rows_array(py, &after)
     }
 
@@ -80,7 +89,7 @@ impl PyCalibration {
     fn identification_rows<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<i64>> {
         // A row's line is 1-based: the index of the row in the arrays given, plus one.
         let idx: Vec<i64> = self
-            .cal
+            .points()
             .screened_rows
             .iter()
             .map(|r| r.line as i64 - 1)
@@ -94,7 +103,7 @@ impl PyCalibration {
     /// (`pandas.DataFrame(cal.parameters)` makes the table).
     #[getter]
     fn parameters<'py>(&self, py: Python<'py>) -> PyResult<Vec<Bound<'py, PyDict>>> {
-        let o = &self.cal;
+        let o = self.points();
         let layout = o.start.layout();
         let (xn, xs) = (o.nominal.robot.params(), o.start.params());
         let cov = o.fit.covariance.as_ref();
@@ -127,14 +136,14 @@ impl PyCalibration {
     /// parameters' count).
     #[getter]
     fn rank(&self) -> usize {
-        self.cal.analysis.rank
+        self.points().analysis.rank
     }
 
     /// Covariance `(r, r)` of the identifiable free parameters (display units: deg², deg·mm,
     /// mm²), in the order of `covariance_parameters`; `None` without degrees of freedom.
     #[getter]
     fn covariance<'py>(&self, py: Python<'py>) -> Option<Bound<'py, PyArray2<f64>>> {
-        self.cal.fit.covariance.as_ref().map(|c| {
+        self.points().fit.covariance.as_ref().map(|c| {
             let r = c.parameters.len();
             vec_rows_array(py, &c.covariance, r)
         })
@@ -143,7 +152,7 @@ impl PyCalibration {
     /// The names of the rows and columns of `covariance` (empty without one).
     #[getter]
     fn covariance_parameters(&self) -> Vec<String> {
-        self.cal
+        self.points()
             .fit
             .covariance
             .as_ref()
@@ -153,20 +162,20 @@ impl PyCalibration {
     /// RMS 3-D point error of the fit on the rows it used, mm.
     #[getter]
     fn rms_mm(&self) -> f64 {
-        self.cal.fit.rms_mm
+        self.points().fit.rms_mm
     }
 
     /// σ̂, the fit's residual scale (mm per axis); `None` without degrees of freedom.
     #[getter]
     fn sigma_hat_mm(&self) -> Option<f64> {
-        self.cal.fit.sigma_hat
+        self.points().fit.sigma_hat
     }
 
     /// Indices (into `identification_rows`) of the outliers the screen flagged
     /// (‖residual‖ > k·σ̂₃); excluded from the final fit with `reject_outliers=True`.
     #[getter]
     fn outliers(&self) -> Vec<usize> {
-        self.cal
+        self.points()
             .screen
             .as_ref()
             .map_or_else(Vec::new, |s| s.indices())
@@ -175,7 +184,7 @@ impl PyCalibration {
     /// Whether the measurement frame was registered onto the robot base first.
     #[getter]
     fn registered(&self) -> bool {
-        self.cal.registered()
+        self.points().registered()
     }
 
     /// 3-D errors on the validation rows (`validate=` or the rows an `every`/`select` split
@@ -185,7 +194,7 @@ impl PyCalibration {
     /// validation rows.
     #[getter]
     fn validation<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyDict>>> {
-        let Some(v) = &self.cal.validation else {
+        let Some(v) = &self.points().validation else {
             return Ok(None);
         };
         let d = PyDict::new(py);
@@ -226,11 +235,11 @@ impl PyCalibration {
     fn __repr__(&self) -> String {
         format!(
             "Calibration({:?}, rows={}, free={}, rank={}, rms_mm={:.4})",
-            self.cal.nominal.robot.name(),
-            self.cal.used.len(),
-            self.cal.free.len(),
-            self.cal.analysis.rank,
-            self.cal.fit.rms_mm
+            self.points().nominal.robot.name(),
+            self.points().used.len(),
+            self.points().free.len(),
+            self.points().analysis.rank,
+            self.points().fit.rms_mm
         )
     }
 }

@@ -185,17 +185,25 @@ fn py_identify_frames<'py>(
             allow,
         },
     )?;
-    let options = calibrate::frames::FrameOptions {
-        mm_per_deg: orientation_weight,
-        sigma: false,
+    let request = calibrate::IdentifyRequest {
+        weighting: calibrate::Weighting {
+            mm_per_deg: orientation_weight,
+            sigma: false,
+        },
+        ..request
     };
     py.detach(|| {
         let err = |e: calibrate::CalibrateError| kincal_error(&e);
         let inputs =
             calibrate::Inputs::from_sets(&request, nominal, data, validate).map_err(err)?;
         let started = std::time::Instant::now();
-        let cal = calibrate::frames::calibrate_frames(&request, inputs, &options).map_err(err)?;
+        let cal = calibrate::calibrate(&request, inputs).map_err(err)?;
         let library_ms = started.elapsed().as_secs_f64() * 1e3;
+        if cal.tool_frame().is_none() {
+            return Err(refuse(
+                "identify_frames: the arrays give neither orientations nor targets (use identify)",
+            ));
+        }
         let identified = calibrate::LoadedRobot::from_spec(
             cal.identified_robot().to_spec(),
             "identified.json",
@@ -213,7 +221,7 @@ fn py_identify_frames<'py>(
 /// The errors of a model on a set of poses, as a dict.
 fn frame_errors<'py>(
     py: Python<'py>,
-    e: &calibrate::frames::FrameErrors,
+    e: &calibrate::tool_frame::PoseErrors,
 ) -> PyResult<Bound<'py, PyDict>> {
     let d = PyDict::new(py);
     d.set_item("n_poses", e.poses)?;
@@ -230,11 +238,18 @@ fn frame_errors<'py>(
 /// files of `kincal identify --out`.
 #[pyclass(module = "kincal", name = "FrameCalibration", frozen)]
 pub(crate) struct PyFrameCalibration {
-    cal: calibrate::frames::FrameCalibration,
+    cal: calibrate::Calibration,
     /// The calibrated robot as written to `identified.json`.
     identified: calibrate::LoadedRobot,
-    /// Wall time of the library call `calibrate::frames::calibrate_frames`, ms.
+    /// Wall time of the library call `calibrate::calibrate`, ms.
     library_ms: f64,
+}
+
+impl PyFrameCalibration {
+    /// The calibration from 6-DoF or multi-target data (checked by `identify_frames`).
+    fn tool(&self) -> &calibrate::ToolFrameCalibration {
+        self.cal.tool_frame().expect("checked by identify_frames")
+    }
 }
 
 #[pymethods]
@@ -253,7 +268,7 @@ impl PyFrameCalibration {
     /// the start orientation): the table of `report.md`.
     #[getter]
     fn parameters<'py>(&self, py: Python<'py>) -> PyResult<Vec<Bound<'py, PyDict>>> {
-        self.cal
+        self.tool()
             .fit
             .estimates
             .iter()
@@ -273,7 +288,7 @@ impl PyFrameCalibration {
     /// parameters (names).
     #[getter]
     fn held(&self) -> Vec<String> {
-        self.cal.held.clone()
+        self.tool().held.clone()
     }
 
     /// Errors on the identification poses: `{"start": {...}, "identified": {...}}`, each
@@ -282,8 +297,8 @@ impl PyFrameCalibration {
     #[getter]
     fn fit_errors<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         let d = PyDict::new(py);
-        d.set_item("start", frame_errors(py, &self.cal.fit_errors.0)?)?;
-        d.set_item("identified", frame_errors(py, &self.cal.fit_errors.1)?)?;
+        d.set_item("start", frame_errors(py, &self.tool().fit_errors.0)?)?;
+        d.set_item("identified", frame_errors(py, &self.tool().fit_errors.1)?)?;
         Ok(d)
     }
 
@@ -292,7 +307,7 @@ impl PyFrameCalibration {
     /// frame); `None` without validation poses.
     #[getter]
     fn validation<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyDict>>> {
-        let Some((_, start, identified)) = &self.cal.validation else {
+        let Some((_, start, identified)) = &self.tool().validation else {
             return Ok(None);
         };
         let d = PyDict::new(py);
@@ -307,7 +322,7 @@ impl PyFrameCalibration {
     /// `reject_outliers=True`.
     #[getter]
     fn outliers<'py>(&self, py: Python<'py>) -> PyResult<Vec<Bound<'py, PyDict>>> {
-        self.cal
+        self.tool()
             .outlier_poses()
             .iter()
             .map(|o| {
@@ -324,10 +339,10 @@ impl PyFrameCalibration {
     /// σ̂ of the weighted fit.
     #[getter]
     fn sigma_hat(&self) -> f64 {
-        self.cal.fit.sigma_hat
+        self.tool().fit.sigma_hat
     }
 
-    /// Wall time (ms) of the library call `calibrate::frames::calibrate_frames` inside
+    /// Wall time (ms) of the library call `calibrate::calibrate` inside
     /// `identify_frames`, timed in Rust.
     #[getter]
     fn library_ms(&self) -> f64 {
@@ -336,23 +351,24 @@ impl PyFrameCalibration {
 
     /// The console summary `kincal identify` prints for this calibration.
     fn summary(&self) -> String {
-        report::calibration::frames::summary(&self.cal)
+        report::calibration::summary(&self.cal)
     }
 
     /// Writes the files of `kincal identify --out` on the same data into `directory` as the
     /// CLI does (created if missing; the set replaced as a whole under the directory's
-    /// lock): `identified.json`, `report.md`, `report.html` and its plots.
+    /// lock): `identified.json`, `registered-nominal.json`, `parameters.json`, `report.md`,
+    /// `report.html` and its plots.
     fn save(&self, py: Python<'_>, directory: PathBuf) -> PyResult<()> {
-        py.detach(|| save_outputs(&directory, report::calibration::frames::render(&self.cal)))
+        py.detach(|| save_outputs(&directory, report::calibration::render(&self.cal)))
     }
 
     fn __repr__(&self) -> String {
         format!(
             "FrameCalibration({:?}, poses={}, unknowns={}, sigma_hat={:.4})",
-            self.cal.nominal_name,
-            self.cal.data.n_poses(),
-            self.cal.fit.estimates.len(),
-            self.cal.fit.sigma_hat
+            self.tool().nominal.robot.name(),
+            self.tool().data.n_poses(),
+            self.tool().fit.estimates.len(),
+            self.tool().fit.sigma_hat
         )
     }
 }

@@ -5,7 +5,6 @@
 use std::path::Path;
 
 use anyhow::{Context, Result};
-use calibrate::IdentifyRequest;
 use report::calibration::{
     PARAMETERS_FILE, REGISTERED_FILE, REPORT_FILE, REPORT_HTML_FILE, ROBOT_FILE,
 };
@@ -35,7 +34,9 @@ pub fn write_outputs(dir: &Path, files: &[(String, String)]) -> Result<()> {
     write_outputs_into(&lock_out(dir)?, files)
 }
 
-/// `kincal identify`.
+/// `kincal identify`: the library reads the data and calibrates them as what they measure
+/// (points, 6-DoF poses, several targets per pose: [`calibrate::MeasurementKind`]); every
+/// kind writes the same set of files.
 pub fn run(args: &IdentifyArgs) -> Result<()> {
     let mut inputs = vec![("--robot", args.robot.as_path()), ("--data", &args.data)];
     inputs.extend(args.validate.as_deref().map(|p| ("--validate", p)));
@@ -52,18 +53,8 @@ pub fn run(args: &IdentifyArgs) -> Result<()> {
     )?;
     let out = lock_out(&args.out)?;
     let request = args.request();
-    let cal = if args.euler.is_some() || calibrate::frames::header_has_frames(&args.data) {
-        let inputs =
-            calibrate::frames::load_inputs(&request, args.euler).map_err(|e| args.flagged(e))?;
-        if !args.points_only && calibrate::frames::applies(&inputs.data) {
-            return run_frames(args, &request, inputs, &out);
-        }
-        calibrate::calibrate(&request, inputs)
-    } else {
-        calibrate::run(&request)
-    }
-    .map_err(|e| args.flagged(e))?;
-    for notice in &cal.notices {
+    let cal = calibrate::run(&request).map_err(|e| args.flagged(e))?;
+    for notice in cal.notices() {
         crate::errln!("note: {notice}");
     }
     let files = report::calibration::render(&cal)
@@ -71,35 +62,18 @@ pub fn run(args: &IdentifyArgs) -> Result<()> {
     write_outputs_into(&out, &files)?;
     drop(out);
     crate::out!("{}", report::calibration::summary(&cal));
+    let (robot, plots) = if cal.kind().is_points() {
+        ("the calibrated robot", "with its plots")
+    } else {
+        (
+            "the calibrated robot with its tool frame",
+            "with its plots: position and orientation errors",
+        )
+    };
     crate::outln!(
-        "→ {}: {ROBOT_FILE} (the calibrated robot), {REGISTERED_FILE} (the nominal robot in \
-         the same frame: compensation targets), {PARAMETERS_FILE} (parameter table), \
-         {REPORT_FILE} and {REPORT_HTML_FILE} (the report, with its plots)",
-        args.out.display(),
-    );
-    Ok(())
-}
-
-/// `kincal identify` on 6-DoF or multi-target data.
-fn run_frames(
-    args: &IdentifyArgs,
-    request: &IdentifyRequest,
-    inputs: calibrate::Inputs,
-    out: &measurements::OutputDir,
-) -> Result<()> {
-    let options = args::OrientationWeight::options(args.orientation_weight);
-    let cal = calibrate::frames::calibrate_frames(request, inputs, &options)
-        .map_err(|e| args.flagged(e))?;
-    for notice in &cal.notices {
-        crate::errln!("note: {notice}");
-    }
-    let files = report::calibration::frames::render(&cal)
-        .with_context(|| format!("drawing the plots of {REPORT_HTML_FILE}"))?;
-    write_outputs_into(out, &files)?;
-    crate::out!("{}", report::calibration::frames::summary(&cal));
-    crate::outln!(
-        "→ {}: {ROBOT_FILE} (the calibrated robot with its tool frame), {REPORT_FILE} and \
-         {REPORT_HTML_FILE} (the report, with its plots: position and orientation errors)",
+        "→ {}: {ROBOT_FILE} ({robot}), {REGISTERED_FILE} (the nominal robot in the same frame: \
+         compensation targets), {PARAMETERS_FILE} (parameter table), {REPORT_FILE} and \
+         {REPORT_HTML_FILE} (the report, {plots})",
         args.out.display(),
     );
     Ok(())

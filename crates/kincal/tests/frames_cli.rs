@@ -68,6 +68,99 @@ fn six_dof_and_points_only_keep_the_documented_figures() {
     assert!(!robot.contains("tool_rotation_deg"));
 }
 
+/// Issue 37: 6-DoF `identify --out` writes the same set of files as point `identify` on the
+/// same poses (the orientation error's plot besides), runs the same checks (a far parameter
+/// is refused on both), and its `parameters.json` is the same table, naming the measurement.
+#[test]
+fn six_dof_identify_writes_the_files_of_point_identify() {
+    let tmp = tempfile::tempdir().unwrap();
+    let names = |dir: &Path| -> std::collections::BTreeSet<String> {
+        std::fs::read_dir(dir)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect()
+    };
+    ok(&identify(SIX, &tmp.path().join("six"), &["--every", "15"]));
+    let points = "data/ur10-ipa/series-b-joint-configurations.csv";
+    ok(&identify(
+        points,
+        &tmp.path().join("points"),
+        &["--every", "15"],
+    ));
+    let (six, pts) = (
+        names(&tmp.path().join("six")),
+        names(&tmp.path().join("points")),
+    );
+    for f in [
+        "identified.json",
+        "registered-nominal.json",
+        "parameters.json",
+        "report.md",
+        "report.html",
+        "pose-errors.svg",
+        "error-cdf.svg",
+        "residuals-per-axis.svg",
+        "outliers.svg",
+    ] {
+        assert!(pts.contains(f), "{f} not in {pts:?}");
+    }
+    let extra: Vec<&String> = six.difference(&pts).collect();
+    assert!(pts.is_subset(&six), "{pts:?} ⊄ {six:?}");
+    assert_eq!(extra, ["orientation-error-cdf.svg"]);
+    let table: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(tmp.path().join("six/parameters.json")).unwrap(),
+    )
+    .unwrap();
+    assert_eq!(table["format"], "kincal-parameters/1");
+    assert_eq!(
+        table["measurement"],
+        "6-DoF (point and orientation per pose)"
+    );
+    let names: Vec<&str> = table["parameters"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|p| p["name"].as_str().unwrap())
+        .collect();
+    assert!(
+        names.contains(&"a2") && names.contains(&"tool_rx"),
+        "{names:?}"
+    );
+    let registered =
+        std::fs::read_to_string(tmp.path().join("six/registered-nominal.json")).unwrap();
+    assert!(
+        registered.contains("base registered on series-b-6dof.csv"),
+        "{registered}"
+    );
+    // The same refusal on both kinds: a robot file whose a2 is 150 mm off.
+    let mut robot: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(crate::common::root().join(ROBOT)).unwrap())
+            .unwrap();
+    let a2 = robot["joints"][1]["a_mm"].as_f64().unwrap();
+    robot["joints"][1]["a_mm"] = serde_json::json!(a2 - 150.0);
+    let far = tmp.path().join("far.json");
+    std::fs::write(&far, robot.to_string()).unwrap();
+    for data in [SIX, points] {
+        let dir = tmp.path().join("far");
+        let out = kincal(&[
+            "identify",
+            "--robot",
+            s(&far),
+            "--data",
+            data,
+            "--every",
+            "15",
+            "--out",
+            s(&dir),
+        ]);
+        fails_naming(
+            &out,
+            &dir,
+            &["parameters check", "--allow parameters", "a2 +1"],
+        );
+    }
+}
+
 #[test]
 fn orientation_weight_is_a_typed_value() {
     let tmp = tempfile::tempdir().unwrap();

@@ -153,6 +153,9 @@ impl IdentifyArgs {
             joint_units: self.joint_units,
             length_units: self.length_units,
             allow: self.allow.clone(),
+            euler: self.euler,
+            weighting: OrientationWeight::options(self.orientation_weight),
+            points_only: self.points_only,
             ..IdentifyRequest::new(&self.robot, &self.data)
         }
     }
@@ -252,14 +255,14 @@ impl std::str::FromStr for OrientationWeight {
 
 impl OrientationWeight {
     /// The calibration's options for this weighting.
-    pub(crate) fn options(this: Option<Self>) -> calibrate::frames::FrameOptions {
+    pub(crate) fn options(this: Option<Self>) -> calibrate::Weighting {
         match this {
-            None => calibrate::frames::FrameOptions::default(),
-            Some(OrientationWeight::Sigma) => calibrate::frames::FrameOptions {
+            None => calibrate::Weighting::default(),
+            Some(OrientationWeight::Sigma) => calibrate::Weighting {
                 sigma: true,
                 ..Default::default()
             },
-            Some(OrientationWeight::MmPerDeg(w)) => calibrate::frames::FrameOptions {
+            Some(OrientationWeight::MmPerDeg(w)) => calibrate::Weighting {
                 mm_per_deg: Some(w),
                 sigma: false,
             },

@@ -2,7 +2,7 @@
 
 use std::fmt::Write as _;
 
-use calibrate::{Calibration, mean_max, norms};
+use calibrate::{PointCalibration, mean_max, norms};
 use evaluate::{AxisStats, ErrorStats, Table4, improvement_pct};
 use identify::RegistrationPolicy;
 use measurements::Measurement;
@@ -78,7 +78,7 @@ fn worst_md(out: &mut String, rows: &[Measurement], errors: &[[f64; 3]], n: usiz
 /// parameters, solver, registration, model), the fit residuals, identifiability at the
 /// solution, the parameter table, correlations above 0.9, the outliers, the worst points, and
 /// the validation (Table 4 before and after, the worst validation points).
-pub fn markdown(o: &Calibration) -> String {
+pub fn markdown(o: &PointCalibration) -> String {
     let a = &o.request;
     let nom = &o.nominal.robot;
     let mut s = String::new();

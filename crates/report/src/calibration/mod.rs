@@ -1,6 +1,8 @@
 //! Everything a real-data calibration shows (`kincal identify`): a [`calibrate::Calibration`]
-//! rendered as the files of the output directory ([`render`]) and the console summary
-//! ([`summary`]).
+//! of any kind of measurement rendered as the files of the output directory ([`render`]) and
+//! the console summary ([`summary`]). Every kind writes the same set of files (6-DoF data
+//! add the orientation error's plot, [`tool_frame::ORIENTATION_CDF_FILE`]); [`points`] and
+//! [`tool_frame`] render each kind.
 //!
 //! | file | what | by |
 //! |---|---|---|
@@ -15,17 +17,13 @@
 //! fixed notation (a `-0.000` kept, an explicit `+`), the text keeps it: those cells are
 //! marked `signed` below.
 
-pub mod frames;
 mod markdown;
 mod parameters;
 pub mod plots;
 mod summary;
+pub mod tool_frame;
 
-pub use markdown::markdown;
-pub use parameters::parameters_json;
-pub use summary::summary;
-
-use calibrate::{Calibration, file_name, row_label};
+use calibrate::{Calibration, PointCalibration};
 
 use crate::plot::PlotError;
 
@@ -40,59 +38,112 @@ pub const REPORT_FILE: &str = "report.md";
 /// The report as a self-contained HTML page with the plots inline.
 pub const REPORT_HTML_FILE: &str = "report.html";
 
-/// Renders the output files of `cal` in memory, as `(file name, contents)` in writing order:
-/// [`ROBOT_FILE`], [`REGISTERED_FILE`], [`PARAMETERS_FILE`], [`REPORT_FILE`], then
-/// [`REPORT_HTML_FILE`] with the plots of [`plots::identify_plots`] (errors of the start model
-/// and of the identified one on the screened identification rows and on the validation rows;
-/// the outlier screen) inline, and those plots as SVG files. The caller writes them (all or
-/// nothing: `measurements::write_all_atomically`).
+/// Renders the output files of `cal`, of any kind, in memory, as `(file name, contents)` in
+/// writing order: [`ROBOT_FILE`], [`REGISTERED_FILE`], [`PARAMETERS_FILE`], [`REPORT_FILE`],
+/// [`REPORT_HTML_FILE`], then the plots ([`plots::IDENTIFY_PLOT_FILES`], and
+/// [`tool_frame::ORIENTATION_CDF_FILE`] where orientation was measured). The caller writes
+/// them (all or nothing).
 ///
 /// # Errors
 /// [`PlotError`] when an error is not finite (nothing can be drawn).
 pub fn render(cal: &Calibration) -> Result<Vec<(String, String)>, PlotError> {
-    let nom = &cal.nominal.robot;
-    let data = file_name(std::path::Path::new(&cal.data_source));
-    let report_md = markdown(cal);
-    let (id_before, id_after) = cal.screened_residuals();
-    let flagged = cal.screen.as_ref().map_or_else(Vec::new, |s| s.indices());
-    let labels: Vec<String> = flagged
-        .iter()
-        .map(|&i| row_label(&cal.screened_rows[i]))
-        .collect();
-    let plots = plots::identify_plots(&plots::IdentifyPlotData {
-        robot: nom.name(),
-        identification_before_mm: &id_before,
-        identification_after_mm: &id_after,
-        validation_before_mm: cal.validation.as_ref().map(|v| v.before.as_slice()),
-        validation_after_mm: cal.validation.as_ref().map(|v| v.after.as_slice()),
-        outlier_threshold: cal.screen.as_ref().map(|s| (s.threshold_mm, s.k)),
-        outliers: &flagged,
-        outlier_labels: &labels,
-    })?;
-    let html = plots::identify_page(
-        &format!("Calibration of {} on {data}", nom.name()),
-        &report_md,
-        &plots,
-    );
-    let mut files = vec![
-        (
-            ROBOT_FILE.to_string(),
-            cal.identified_robot().to_spec().to_json_string(),
-        ),
-        (
-            REGISTERED_FILE.to_string(),
-            cal.registered_robot().to_spec().to_json_string(),
-        ),
-        (PARAMETERS_FILE.to_string(), parameters_json(cal)),
-        (REPORT_FILE.to_string(), report_md),
-        (REPORT_HTML_FILE.to_string(), html),
-    ];
-    files.extend(plots);
-    Ok(files)
+    match cal {
+        Calibration::Points(c) => points::render(c),
+        Calibration::ToolFrame(c) => tool_frame::render(c),
+    }
+}
+
+/// The console summary of `cal`, of any kind.
+pub fn summary(cal: &Calibration) -> String {
+    match cal {
+        Calibration::Points(c) => points::summary(c),
+        Calibration::ToolFrame(c) => tool_frame::summary(c),
+    }
+}
+
+/// `report.md` of `cal`, of any kind.
+pub fn markdown(cal: &Calibration) -> String {
+    match cal {
+        Calibration::Points(c) => points::markdown(c),
+        Calibration::ToolFrame(c) => tool_frame::markdown(c),
+    }
+}
+
+/// `parameters.json` of `cal`, of any kind (format `kincal-parameters/1`).
+pub fn parameters_json(cal: &Calibration) -> String {
+    match cal {
+        Calibration::Points(c) => points::parameters_json(c),
+        Calibration::ToolFrame(c) => tool_frame::parameters_json(c),
+    }
+}
+
+/// The outputs of a calibration from points.
+pub mod points {
+    use calibrate::{PointCalibration, file_name, row_label};
+
+    use super::{
+        PARAMETERS_FILE, REGISTERED_FILE, REPORT_FILE, REPORT_HTML_FILE, ROBOT_FILE, plots,
+    };
+    use crate::plot::PlotError;
+
+    pub use super::markdown::markdown;
+    pub use super::parameters::parameters_json;
+    pub use super::summary::summary;
+
+    /// Renders the output files of `cal` in memory, as `(file name, contents)` in writing order:
+    /// [`ROBOT_FILE`], [`REGISTERED_FILE`], [`PARAMETERS_FILE`], [`REPORT_FILE`], then
+    /// [`REPORT_HTML_FILE`] with the plots of [`plots::identify_plots`] (errors of the start model
+    /// and of the identified one on the screened identification rows and on the validation rows;
+    /// the outlier screen) inline, and those plots as SVG files. The caller writes them (all or
+    /// nothing: `measurements::write_all_atomically`).
+    ///
+    /// # Errors
+    /// [`PlotError`] when an error is not finite (nothing can be drawn).
+    pub fn render(cal: &PointCalibration) -> Result<Vec<(String, String)>, PlotError> {
+        let nom = &cal.nominal.robot;
+        let data = file_name(std::path::Path::new(&cal.data_source));
+        let report_md = markdown(cal);
+        let (id_before, id_after) = cal.screened_residuals();
+        let flagged = cal.screen.as_ref().map_or_else(Vec::new, |s| s.indices());
+        let labels: Vec<String> = flagged
+            .iter()
+            .map(|&i| row_label(&cal.screened_rows[i]))
+            .collect();
+        let plots = plots::identify_plots(&plots::IdentifyPlotData {
+            robot: nom.name(),
+            identification_before_mm: &id_before,
+            identification_after_mm: &id_after,
+            validation_before_mm: cal.validation.as_ref().map(|v| v.before.as_slice()),
+            validation_after_mm: cal.validation.as_ref().map(|v| v.after.as_slice()),
+            outlier_threshold: cal.screen.as_ref().map(|s| (s.threshold_mm, s.k)),
+            outliers: &flagged,
+            outlier_labels: &labels,
+        })?;
+        let html = plots::identify_page(
+            &format!("Calibration of {} on {data}", nom.name()),
+            &report_md,
+            &plots,
+        );
+        let mut files = vec![
+            (
+                ROBOT_FILE.to_string(),
+                cal.identified_robot().to_spec().to_json_string(),
+            ),
+            (
+                REGISTERED_FILE.to_string(),
+                cal.registered_robot().to_spec().to_json_string(),
+            ),
+            (PARAMETERS_FILE.to_string(), parameters_json(cal)),
+            (REPORT_FILE.to_string(), report_md),
+            (REPORT_HTML_FILE.to_string(), html),
+        ];
+        files.extend(plots);
+        Ok(files)
+    }
 }
 
 /// `nominal, registered` or `nominal`: the model the fit started from.
-fn start_label(cal: &Calibration) -> &'static str {
+fn start_label(cal: &PointCalibration) -> &'static str {
     if cal.registered() {
         "nominal, registered"
     } else {

@@ -2,47 +2,62 @@
 
 use std::collections::BTreeMap;
 
-use calibrate::Calibration;
+use calibrate::PointCalibration;
 use serde::Serialize;
 
 use super::ROBOT_FILE;
 
 /// One row of `parameters.json`.
 #[derive(Serialize)]
-struct ParamRow<'a> {
-    name: &'a str,
-    unit: &'static str,
-    free: bool,
-    nominal: f64,
-    start: f64,
-    identified: f64,
-    delta: f64,
-    std_error: Option<f64>,
-    identifiable: bool,
+pub(super) struct ParamRow<'a> {
+    pub name: &'a str,
+    pub unit: &'static str,
+    pub free: bool,
+    pub nominal: f64,
+    pub start: f64,
+    pub identified: f64,
+    pub delta: f64,
+    pub std_error: Option<f64>,
+    pub identifiable: bool,
 }
 
 /// `parameters.json`.
 #[derive(Serialize)]
-struct ParamTable<'a> {
-    format: &'static str,
-    robot_file: &'static str,
-    nominal_robot: String,
-    data: String,
-    rows: usize,
-    params: String,
-    free: usize,
-    rank: usize,
-    sigma_hat_mm: Option<f64>,
-    rms_mm: f64,
-    columns: BTreeMap<&'static str, &'static str>,
-    parameters: Vec<ParamRow<'a>>,
+pub(super) struct ParamTable<'a> {
+    pub format: &'static str,
+    pub robot_file: &'static str,
+    pub nominal_robot: String,
+    pub data: String,
+    pub rows: usize,
+    pub params: String,
+    /// What the data measure, where not points.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub measurement: Option<String>,
+    pub free: usize,
+    pub rank: usize,
+    pub sigma_hat_mm: Option<f64>,
+    /// σ̂ of a weighted fit (6-DoF and multi-target data), in the units of the weighting.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub sigma_hat_weighted: Option<f64>,
+    pub rms_mm: f64,
+    pub columns: BTreeMap<&'static str, &'static str>,
+    pub parameters: Vec<ParamRow<'a>>,
+}
+
+impl ParamTable<'_> {
+    /// The table as written: pretty JSON and a final newline.
+    pub(super) fn to_json(&self) -> String {
+        let mut s = serde_json::to_string_pretty(self).expect("the table serialises");
+        s.push('\n');
+        s
+    }
 }
 
 /// `parameters.json` (format `kincal-parameters/1`): for every parameter of the robot its
 /// unit, whether it was free, its nominal, start and identified values (display units), Δ,
 /// standard error and identifiability, under a header naming the files, the spec, the rank
 /// and the fit's σ̂ and RMS.
-pub fn parameters_json(o: &Calibration) -> String {
+pub fn parameters_json(o: &PointCalibration) -> String {
     let layout = o.start.layout();
     let (xn, xs) = (o.nominal.robot.params(), o.start.params());
     let cov = o.fit.covariance.as_ref();
@@ -69,7 +84,29 @@ pub fn parameters_json(o: &Calibration) -> String {
             }
         })
         .collect();
-    let columns = BTreeMap::from([
+    let columns = columns();
+    let table = ParamTable {
+        format: "kincal-parameters/1",
+        robot_file: ROBOT_FILE,
+        nominal_robot: o.nominal.path.display().to_string(),
+        data: o.data_source.clone(),
+        rows: o.used.len(),
+        params: o.request.params.to_string(),
+        measurement: None,
+        free: o.free.len(),
+        rank: o.analysis.rank,
+        sigma_hat_mm: o.fit.sigma_hat,
+        sigma_hat_weighted: None,
+        rms_mm: o.fit.rms_mm,
+        columns,
+        parameters,
+    };
+    table.to_json()
+}
+
+/// The `columns` header: what each column of a row means.
+pub(super) fn columns() -> BTreeMap<&'static str, &'static str> {
+    BTreeMap::from([
         ("nominal", "value in the nominal robot file"),
         (
             "start",
@@ -89,22 +126,5 @@ pub fn parameters_json(o: &Calibration) -> String {
             "in the identifiable (minimal) subset at the solution; the values of the others \
              are arbitrary along their null-space directions",
         ),
-    ]);
-    let table = ParamTable {
-        format: "kincal-parameters/1",
-        robot_file: ROBOT_FILE,
-        nominal_robot: o.nominal.path.display().to_string(),
-        data: o.data_source.clone(),
-        rows: o.used.len(),
-        params: o.request.params.to_string(),
-        free: o.free.len(),
-        rank: o.analysis.rank,
-        sigma_hat_mm: o.fit.sigma_hat,
-        rms_mm: o.fit.rms_mm,
-        columns,
-        parameters,
-    };
-    let mut s = serde_json::to_string_pretty(&table).expect("the table serialises");
-    s.push('\n');
-    s
+    ])
 }

@@ -289,6 +289,10 @@ pub fn identify_page(title: &str, report_md: &str, plots: &[(String, String)]) -
                 Some("Outliers"),
                 "3-D residual per identification pose against the outlier threshold k·σ̂₃.",
             ),
+            "orientation-error-cdf.svg" => (
+                Some("Validation"),
+                "Share of poses whose orientation error (angle of R_modelᵀ·R_measured) is below a value, before and after (degrees).",
+            ),
             _ => (None, "plot"),
         }
     };

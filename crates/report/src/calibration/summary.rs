@@ -2,7 +2,7 @@
 
 use std::fmt::Write as _;
 
-use calibrate::{Calibration, mean_max, norms, row_label};
+use calibrate::{PointCalibration, mean_max, norms, row_label};
 use nalgebra::Vector3;
 
 use super::start_label;
@@ -11,7 +11,7 @@ use crate::fmt::{deg_coarse, mm, mm_coarse, mm_col, ms};
 /// The console summary of a calibration, one line each: what was fitted, the registration,
 /// the fit, the held parameters, a warning when the solver did not converge, the outliers,
 /// the validation.
-pub fn summary(o: &Calibration) -> String {
+pub fn summary(o: &PointCalibration) -> String {
     let mut out = String::new();
     let a = &o.request;
     let nom = &o.nominal.robot;

@@ -1,109 +1,43 @@
-//! Calibration from 6-DoF measurements (a tracker probe's orientation, `qw,qx,qy,qz`) and
-//! from several targets per pose (`target` column): `docs/model.md` §5 and §6.4.
+//! The stages of the calibration pipeline (`crate::pipeline`) for 6-DoF measurements (a
+//! tracker probe's orientation, `qw,qx,qy,qz`) and for several targets per pose (`target`
+//! column): `docs/model.md` §5 and §6.4. The tool frame (its orientation, the targets'
+//! points) is among the unknowns.
 //!
-//! read → (split by pose: every k-th, or chosen by design on the poses' joints) → register
-//! the base from the position rows (as the point-only workflow) → closed-form start of the
-//! tool frame and targets the robot file does not give → choose the identifiable unknowns
-//! (the rank decision of [`identify::identifiability`]) → identify ([`identify::frames`]) →
-//! screen outliers pose by pose (the rule of [`identify::outliers`]; refit without them on
-//! request, to a fixed point) → validate: position (mm) and orientation (degrees)
-//! errors, separately. The base orientation is refined by the fit (its rotations are among
-//! the unknowns).
+//! A pass: register the base from the position rows (one point per pose: the mean of its
+//! targets; the registration of every kind) → closed-form start of the tool frame and
+//! targets the robot file does not give → choose the identifiable unknowns (the rank
+//! decision of [`identify::identifiability`]) → identify ([`identify::frames`]). Outliers are
+//! screened pose by pose (the rule of [`identify::outliers`] on each pose's block of rows);
+//! validation gives position (mm) and orientation (degrees) errors, separately. The base
+//! orientation is refined by the fit (its rotations are among the unknowns).
 //!
 //! Weights: each row's σ when the file gives them (`sx,sy,sz`, `srx,sry,srz`), else the
 //! default ratio [`identify::frames::DEFAULT_MM_PER_DEG`] or the one given in
-//! [`FrameOptions::mm_per_deg`]; the report states which.
+//! [`Weighting::mm_per_deg`]; the report states which.
 
+use std::cell::Cell;
 use std::path::Path;
 use std::time::Instant;
 
 use identify::BlockScreen;
-use identify::RegistrationPolicy;
 use identify::RegistrationReport;
 use identify::frames::{
-    DEFAULT_MM_PER_DEG, FrameData, FrameFit, FrameModel, FrameRow, closed_form_tool, fit_frames,
-    select_free,
+    DEFAULT_MM_PER_DEG, FrameData, FrameFit, FrameFree, FrameModel, FrameRow, closed_form_tool,
+    fit_frames, select_free,
 };
 use kinematics::Robot;
 use measurements::{Measurement, MeasurementSet, quaternion_to_matrix};
 use nalgebra::Vector3;
 
-use crate::error::{CalibrateError, Refusal, Result, id_err};
-use crate::files::file_name;
-use crate::request::{Check, IdentifyRequest, Split};
-use crate::workflow::Inputs;
-
-/// Options of the 6-DoF / multi-target calibration beyond the [`IdentifyRequest`].
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct FrameOptions {
-    /// Weigh orientation against position by this ratio: 1° of orientation residual weighs
-    /// as `mm_per_deg` mm of position residual, position rows 1/mm [`None`:
-    /// [`DEFAULT_MM_PER_DEG`]].
-    pub mm_per_deg: Option<f64>,
-    /// Weigh every row by the file's σ instead (where every row gives them) [false: on real
-    /// data the model's unmodelled errors (≈0.3 mm, 0.05°) dwarf the tracker's σ (≈0.01 mm,
-    /// 0.002°), so per-row σ weights mostly reshuffle rows: on the UR10 of `data/ur10-ipa`
-    /// they raise the held-out position error (0.505 mm against 0.422 mm with the ratio,
-    /// `--every 15`)].
-    pub sigma: bool,
-}
-
-/// Whether the measurement file's header names orientation or target columns (`qw`, `rx`,
-/// `target`): the first line that is neither blank nor a `#` comment. False when the file
-/// cannot be read (the reader then reports why).
-pub fn header_has_frames(path: &Path) -> bool {
-    let Ok(text) = std::fs::read_to_string(path) else {
-        return false;
-    };
-    text.lines()
-        .map(str::trim)
-        .find(|l| !l.is_empty() && !l.starts_with('#'))
-        .is_some_and(|h| {
-            h.split(',')
-                .map(|c| c.trim().to_ascii_lowercase())
-                .any(|c| c == "qw" || c == "rx" || c == "target")
-        })
-}
-
-/// [`Inputs::load`] with an Euler convention for files giving orientation as `rx,ry,rz`
-/// (degrees), converted on reading; at least one identification row (the fit says when
-/// the equations are too few).
-///
-/// # Errors
-/// The files' errors (file, line, column).
-pub fn load_inputs(
-    request: &IdentifyRequest,
-    euler: Option<measurements::EulerConvention>,
-) -> Result<Inputs> {
-    crate::workflow::check(request)?;
-    let nominal = crate::files::LoadedRobot::load(&request.robot, "robot")?;
-    let units = (
-        request.joint_units.deg_per_unit(),
-        request.length_units.mm_per_unit(),
-    );
-    let read = |path: &Path, what: &str| -> Result<MeasurementSet> {
-        nominal.read_set_with(path, true, (1, None), what, units, euler)
-    };
-    let data = read(&request.data, "identification data")?;
-    let validate = match (&request.validate, &request.split) {
-        (Some(path), Split::All) => Some(read(path, "validation data")?),
-        _ => None,
-    };
-    Ok(Inputs {
-        nominal,
-        data,
-        validate,
-    })
-}
-
-/// Whether a measurement set calls for this workflow: orientations or named targets.
-pub fn applies(set: &MeasurementSet) -> bool {
-    set.has_orientation() || set.has_targets()
-}
+use crate::error::{CalibrateError, Result, id_err};
+use crate::files::{LoadedRobot, file_name};
+use crate::pipeline::{self, Held, Kind, MeasurementKind};
+use crate::request::{IdentifyRequest, Weighting};
+use crate::workflow::Common;
 
 /// Position and orientation error statistics of a model on a set of poses.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct FrameErrors {
+pub struct PoseErrors {
     /// Poses.
     pub poses: usize,
     /// Mean and max 3-D position error over the measured points, mm.
@@ -113,16 +47,16 @@ pub struct FrameErrors {
     pub orientation_deg: (f64, f64),
 }
 
-impl FrameErrors {
+impl PoseErrors {
     /// The errors of `model` on `data`.
-    pub fn of(model: &FrameModel, data: &FrameData) -> FrameErrors {
+    pub fn of(model: &FrameModel, data: &FrameData) -> PoseErrors {
         let errs = model.errors(data);
         let pos: Vec<f64> = errs.iter().map(|(p, _)| p.norm()).collect();
         let ori: Vec<f64> = errs
             .iter()
             .filter_map(|(_, o)| o.map(|o| o.norm()))
             .collect();
-        FrameErrors {
+        PoseErrors {
             poses: data.n_poses(),
             position_mm: crate::workflow::mean_max(&pos),
             orientation_deg: crate::workflow::mean_max(&ori),
@@ -130,15 +64,17 @@ impl FrameErrors {
     }
 }
 
-/// A finished 6-DoF / multi-target calibration.
+/// A finished calibration from 6-DoF or multi-target data (a [`crate::Calibration`]).
 #[derive(Clone, Debug)]
-pub struct FrameCalibration {
+pub struct ToolFrameCalibration {
     /// What was asked.
     pub request: IdentifyRequest,
+    /// The nominal robot file (extended by the request's parameters).
+    pub nominal: LoadedRobot,
     /// The identification data's source.
     pub data_source: String,
-    /// The nominal robot's name.
-    pub nominal_name: String,
+    /// What the data measure.
+    pub kind: MeasurementKind,
     /// The start model (registered nominal, closed-form tool frame and targets).
     pub start: FrameModel,
     /// Whether the tool orientation came from the robot file (else the closed form).
@@ -147,6 +83,8 @@ pub struct FrameCalibration {
     pub targets_estimated: Vec<String>,
     /// The registration, if considered.
     pub registration: Option<RegistrationReport>,
+    /// What was decided about registration, and the evidence.
+    pub registration_decision: String,
     /// Which poses identified, in words.
     pub selection: String,
     /// The identification data of the final fit.
@@ -160,30 +98,34 @@ pub struct FrameCalibration {
     /// The outlier screen of every identification pose against the final fit (the rule of
     /// [`identify::outliers`] on each pose's block of weighted rows: [`identify::frames::screen_poses`];
     /// `None` without residual degrees of freedom). Its indices are poses of
-    /// [`FrameCalibration::screened`].
+    /// [`ToolFrameCalibration::screened`].
     pub screen: Option<BlockScreen>,
     /// The identification data screened (every identification pose, outliers included).
     pub screened: FrameData,
-    /// The file line of each pose of [`FrameCalibration::screened`] (its first row).
+    /// The file line of each pose of [`ToolFrameCalibration::screened`] (its first row).
     pub screened_lines: Vec<usize>,
     /// Whether outlier poses were dropped and the model refitted (to a fixed point, as for
     /// points: the poses kept are those the fit on them passes).
     pub rejected: bool,
     /// Errors of the start and the identified model on the identification poses.
-    pub fit_errors: (FrameErrors, FrameErrors),
+    pub fit_errors: (PoseErrors, PoseErrors),
     /// Errors on the validation poses (start, identified) and their source, if any.
-    pub validation: Option<(String, FrameErrors, FrameErrors)>,
+    pub validation: Option<(String, PoseErrors, PoseErrors)>,
     /// The validation poses, if any (for per-pose plots).
     pub validation_data: Option<FrameData>,
     /// Reader notices.
     pub notices: Vec<String>,
-    /// Wall-clock time of the calibration (ms).
+    /// Wall-clock time of the fit alone (ms): registration, start, free set and
+    /// identification, summed over the outlier-rejection passes.
     pub elapsed_ms: f64,
+    /// Warnings about the data (validation rows that are identification rows), to show
+    /// prominently.
+    pub warnings: Vec<String>,
 }
 
 /// The rows of `set` as [`FrameData`] (poses in [`MeasurementSet::poses`] order), weighted
 /// as `options` say; returns the weighting in words.
-pub fn frame_data(set: &MeasurementSet, options: &FrameOptions) -> (FrameData, String) {
+pub fn frame_data(set: &MeasurementSet, options: &Weighting) -> (FrameData, String) {
     let names: Vec<String> = if set.has_targets() {
         set.targets().iter().map(|s| s.to_string()).collect()
     } else {
@@ -270,27 +212,6 @@ fn registration_points(data: &FrameData) -> Vec<Vector3<f64>> {
     sum.iter().zip(&n).map(|(s, &k)| s / k as f64).collect()
 }
 
-fn register(
-    nominal: &Robot,
-    data: &FrameData,
-    policy: RegistrationPolicy,
-) -> Result<(Robot, Option<RegistrationReport>)> {
-    let points = registration_points(data);
-    let before = identify::mean_point_error(nominal, &data.poses_rad, &points);
-    let apply = match policy {
-        RegistrationPolicy::Never => return Ok((nominal.clone(), None)),
-        RegistrationPolicy::Always => true,
-        RegistrationPolicy::Auto { threshold_mm } => before > threshold_mm,
-    };
-    if apply {
-        let (r, rep) = identify::register_base(nominal, &data.poses_rad, &points)
-            .map_err(id_err("registering the base on the position rows"))?;
-        Ok((r, Some(rep)))
-    } else {
-        Ok((nominal.clone(), None))
-    }
-}
-
 /// The start model: `robot` (registered) with the tool orientation and the targets the
 /// robot file gives, the others from [`closed_form_tool`]. Returns it with whether the
 /// orientation was given and the names of the estimated targets.
@@ -348,102 +269,16 @@ fn free_set(
     Ok((free, held))
 }
 
-/// One registration, start and fit on `d` (a pass of [`calibrate_frames`]).
+/// One registration, start and fit on a pose set.
+#[derive(Clone)]
 struct Pass {
     start: FrameModel,
     registration: Option<RegistrationReport>,
+    decision: String,
     rotation_given: bool,
     targets_estimated: Vec<String>,
     held: Vec<String>,
     fit: FrameFit,
-}
-
-/// The pose indices of `set` chosen by the request's split, the validation poses (with
-/// their source) and the selection in words.
-type PoseSplit = (Vec<usize>, Option<(String, Vec<usize>)>, String);
-
-fn split_poses(
-    request: &IdentifyRequest,
-    robot: &Robot,
-    data: &MeasurementSet,
-    all: &FrameData,
-    lines: &[usize],
-) -> Result<PoseSplit> {
-    let m = all.n_poses();
-    let rows_of = |sel: &[usize]| all.subset(sel).rows.len();
-    Ok(match request.split {
-        Split::Every { every, offset } => {
-            let sel: Vec<usize> = (0..m).filter(|i| i % every == offset).collect();
-            let rest: Vec<usize> = (0..m).filter(|i| i % every != offset).collect();
-            let text = format!(
-                "{} of {m} poses (every {every}th from {offset}; {} rows)",
-                sel.len(),
-                rows_of(&sel)
-            );
-            let val = (!rest.is_empty()).then(|| {
-                (
-                    format!("{} (the {} other poses)", data.source, rest.len()),
-                    rest,
-                )
-            });
-            (sel, val, text)
-        }
-        Split::All => ((0..m).collect(), None, format!("all {m} poses")),
-        Split::Select { poses, criterion } => {
-            if poses >= m {
-                return Err(Refusal::SelectTooMany {
-                    poses,
-                    file: data.source.clone(),
-                    rows: m,
-                }
-                .into());
-            }
-            // The design scores each pose by what it measures: a 6-DoF frame's rows when the
-            // data carry orientations, the robot file's targets when the data name several
-            // targets and the robot file gives their points, else the tool point's rows (the
-            // targets' points are then unknown before the fit).
-            let measure = if all.has_orientation() {
-                design::Measure::Frame
-            } else if all.target_names.len() > 1 && robot.targets().is_some_and(|t| !t.is_empty()) {
-                design::Measure::Targets
-            } else {
-                design::Measure::Point
-            };
-            let q_deg: Vec<f64> = all.poses_rad.iter().map(|q| q.to_degrees()).collect();
-            let chosen =
-                design::select_rows_measuring(robot, &q_deg, poses, criterion, None, measure)
-                    .map_err(|source| CalibrateError::Design {
-                        context: format!(
-                            "choosing {poses} poses of {} by the {} criterion",
-                            data.source,
-                            criterion.as_str()
-                        ),
-                        source: Box::new(source),
-                    })?;
-            let rest: Vec<usize> = (0..m)
-                .filter(|i| chosen.binary_search(i).is_err())
-                .collect();
-            let first: Vec<String> = chosen
-                .iter()
-                .take(3)
-                .map(|&j| lines[j].to_string())
-                .collect();
-            let text = format!(
-                "{} of {m} poses chosen by the {} criterion on their {} information (lines {}, \
-                 …; {} rows)",
-                chosen.len(),
-                criterion.as_str().to_uppercase(),
-                measure,
-                first.join(", "),
-                rows_of(&chosen)
-            );
-            let val = Some((
-                format!("{} (the {} other poses)", data.source, rest.len()),
-                rest,
-            ));
-            (chosen, val, text)
-        }
-    })
 }
 
 /// The file line of each pose of `set` (its first row), in [`MeasurementSet::poses`] order.
@@ -451,172 +286,215 @@ pub fn pose_lines(set: &MeasurementSet) -> Vec<usize> {
     set.poses().iter().map(|p| set.rows[p[0]].line).collect()
 }
 
-/// Calibrates `inputs` whose data carry orientations or targets ([`applies`]).
-///
-/// # Errors
-/// The request's refusals, the identification's errors with context.
-pub fn calibrate_frames(
+/// The fit of the tool-frame kind: `free` from `data`, starting at `start` (errors naming
+/// the robot and the data's source), with the request's solver options (its damping
+/// schedule: `--schedule`, `schedule=`). The one place this kind calls the solver.
+fn fit_tool_frame(
+    start: &FrameModel,
+    data: &FrameData,
+    free: &FrameFree,
     request: &IdentifyRequest,
-    inputs: Inputs,
-    options: &FrameOptions,
-) -> Result<FrameCalibration> {
-    crate::workflow::check(request)?;
-    let started = Instant::now();
-    let Inputs {
-        nominal,
-        data,
-        validate,
-    } = inputs;
-    let robot = request
-        .params
-        .apply(&nominal.robot, &nominal.path.display().to_string())
-        .map_err(|source| CalibrateError::Params {
-            spec: request.params.to_string(),
-            source,
-        })?;
-    let (all, weighting) = frame_data(&data, options);
-    let lines = pose_lines(&data);
-    let (id_poses, val, selection) = split_poses(request, &robot, &data, &all, &lines)?;
-    let val = match val {
-        Some((source, poses)) => Some((source, all.subset(&poses))),
-        None => validate.map(|v| {
-            let (d, _) = frame_data(&v, options);
-            (v.source.clone(), d)
-        }),
-    };
-    let id_data = all.subset(&id_poses);
-    let id_lines: Vec<usize> = id_poses.iter().map(|&j| lines[j]).collect();
-    // The request's solver options (its damping schedule: `--schedule`, `schedule=`).
-    let fit_opts = request.lm_options();
-    // One pass: register on the position rows, start the tool frame, choose the unknowns
-    // (the one rank decision), fit.
-    let pass = |d: &FrameData| -> Result<Pass> {
-        let (registered, registration) = register(&robot, d, request.registration)
-            .map_err(|e| e.context(format!("identification data {}", data.source)))?;
+    (robot, source): (&str, &str),
+) -> Result<FrameFit> {
+    fit_frames(start, data, free, &request.lm_options())
+        .map_err(id_err(format!("identifying {robot} on {source} (6-DoF)")))
+}
+
+/// This kind's stages (`crate::pipeline::Kind`).
+struct ToolFrameKind<'a> {
+    request: &'a IdentifyRequest,
+    nominal: &'a LoadedRobot,
+    source: &'a str,
+    /// The time of the passes alone, summed over the rejection passes.
+    fit_ms: Cell<f64>,
+}
+
+/// A validation: its source, the errors of the start and the identified model, the poses.
+type PoseValidation = (String, PoseErrors, PoseErrors, FrameData);
+
+impl Kind for ToolFrameKind<'_> {
+    const UNIT: &'static str = "pose";
+    type Data = FrameData;
+    type Pass = Pass;
+    type Screen = BlockScreen;
+    /// The unknowns chosen are identifiable: nothing to add.
+    type Analysis = ();
+    type Held = FrameData;
+    type Validation = PoseValidation;
+
+    fn subset(&self, data: &FrameData, keep: &[usize]) -> FrameData {
+        data.subset(keep)
+    }
+
+    fn units(&self, data: &FrameData) -> usize {
+        data.n_poses()
+    }
+
+    /// One pass: register on the position rows, start the tool frame, choose the unknowns
+    /// (the one rank decision), fit.
+    fn pass(&self, d: &FrameData) -> Result<Pass> {
+        let started = Instant::now();
+        let robot = &self.nominal.robot;
+        let (registered, registration, decision) = crate::workflow::register(
+            robot,
+            &d.poses_rad,
+            &registration_points(d),
+            self.request.registration,
+        )
+        .map_err(|e| e.context(format!("identification data {}", self.source)))?;
         let (start, rotation_given, targets_estimated) = start_model(&registered, d);
-        let (free, held) = free_set(request, &start, d)?;
-        let mut fit = fit_frames(&start, d, &free, &fit_opts).map_err(id_err(format!(
-            "identifying {} on {} (6-DoF)",
-            robot.name(),
-            data.source
-        )))?;
-        // As for points (`crate::calibrate`): an extended model's gravity torques were
-        // evaluated on the geometry it was extended from; `identified.json` re-extends its
-        // own geometry when read, so the model validated and reported is that one (the
-        // frame's own tool fields are ignored by the frame model: its targets stand for them).
+        let (free, held) = free_set(self.request, &start, d)?;
+        let mut fit = fit_tool_frame(&start, d, &free, self.request, (robot.name(), self.source))?;
+        // As for points: an extended model's gravity torques were evaluated on the geometry
+        // it was extended from; `identified.json` re-extends its own geometry when read, so
+        // the model validated and reported is that one (the frame's own tool fields are
+        // ignored by the frame model: its targets stand for them).
         if fit.model.robot.is_extended() {
             let written = fit.model.to_robot(&d.target_names, d.has_orientation());
             fit.model.robot =
                 Robot::from_spec(&written.to_spec()).map_err(|source| CalibrateError::Robot {
                     what: "identified robot",
-                    path: nominal.path.clone(),
+                    path: self.nominal.path.clone(),
                     source,
                 })?;
         }
+        self.fit_ms
+            .set(self.fit_ms.get() + started.elapsed().as_secs_f64() * 1e3);
         Ok(Pass {
             start,
             registration,
+            decision,
             rotation_given,
             targets_estimated,
             held,
             fit,
         })
-    };
-    let screen_of = |fit: &FrameFit| {
-        identify::frames::screen_poses(fit, &id_data, request.outlier_k)
-            .map_err(id_err("screening outliers"))
-    };
-    let mut current = pass(&id_data)?;
-    let mut screen = screen_of(&current.fit)?;
-    let mut kept: Vec<usize> = (0..id_data.n_poses()).collect();
-    let mut rejected = false;
-    let mut passes = 0;
-    // Rejection to a fixed point, as for points (`crate::calibrate`): every identification
-    // pose is screened against the fit on the poses kept, until the kept poses are those the
-    // screen passes.
-    while request.reject_outliers && passes <= crate::MAX_REJECTION_PASSES {
-        let flagged = screen.as_ref().map_or_else(Vec::new, |s| s.indices());
-        let next: Vec<usize> = (0..id_data.n_poses())
-            .filter(|i| flagged.binary_search(i).is_err())
-            .collect();
-        if next == kept || passes == crate::MAX_REJECTION_PASSES {
-            break;
-        }
-        if !request.allows(Check::Outliers) {
-            crate::checks::rejected_fraction(
-                &data.source,
-                flagged.len(),
-                id_data.n_poses(),
-                request.outlier_k,
-            )?;
-        }
-        let next_data = id_data.subset(&next);
-        if next_data.n_equations() < current.fit.free.len() {
-            return Err(Refusal::TooManyOutliers {
-                file: data.source.clone(),
-                outliers: flagged.len(),
-                rows: id_data.n_poses(),
-                kept: next.len(),
-                free: current.fit.free.len(),
-            }
-            .into());
-        }
-        kept = next;
-        rejected = true;
-        passes += 1;
-        current = pass(&next_data).map_err(|e| e.context("refitting without the outliers"))?;
-        screen = screen_of(&current.fit)?;
     }
-    let used = id_data.subset(&kept);
+
+    fn screen(&self, pass: &Pass, data: &FrameData) -> Result<Option<BlockScreen>> {
+        identify::frames::screen_poses(&pass.fit, data, self.request.outlier_k)
+            .map_err(id_err("screening outliers"))
+    }
+
+    fn flagged(screen: &BlockScreen) -> Vec<usize> {
+        screen.indices()
+    }
+
+    fn n_free(pass: &Pass) -> usize {
+        pass.fit.free.len()
+    }
+
+    fn determines(&self, data: &FrameData, n_free: usize) -> bool {
+        data.n_equations() >= n_free
+    }
+
+    fn decision(pass: &mut Pass) -> &mut String {
+        &mut pass.decision
+    }
+
+    fn analyse(&self, _: &Pass, _: &FrameData) -> Result<()> {
+        Ok(())
+    }
+
+    fn moved<'a>(pass: &'a Pass, _: &'a ()) -> (&'a Robot, &'a Robot, &'a [usize]) {
+        (
+            &pass.start.robot,
+            &pass.fit.model.robot,
+            &pass.fit.free.robot,
+        )
+    }
+
+    fn validate(&self, pass: &Pass, source: String, d: FrameData) -> Result<PoseValidation> {
+        let before = PoseErrors::of(&pass.start, &d);
+        let after = PoseErrors::of(&pass.fit.model, &d);
+        Ok((source, before, after, d))
+    }
+
+    fn validated(v: &PoseValidation) -> (&str, f64, f64) {
+        (&v.0, v.1.position_mm.0, v.2.position_mm.0)
+    }
+}
+
+/// This kind after the split: the pipeline's stages, then the result.
+pub(crate) fn calibrate(common: Common<'_>) -> Result<ToolFrameCalibration> {
+    let Common {
+        request,
+        nominal,
+        data,
+        units: _,
+        split,
+        kind,
+        notices,
+        overlap_warning,
+    } = common;
+    let (all, weighting) = frame_data(&data, &request.weighting);
+    let lines = pose_lines(&data);
+    let id_data = all.subset(&split.id);
+    let id_lines: Vec<usize> = split.id.iter().map(|&j| lines[j]).collect();
+    let val = split.val.map(|(source, held)| {
+        let d = match held {
+            Held::Rest(poses) => all.subset(&poses),
+            Held::File(set) => frame_data(&set, &request.weighting).0,
+        };
+        (source, d)
+    });
+    let stages = ToolFrameKind {
+        request,
+        nominal: &nominal,
+        source: &data.source,
+        fit_ms: Cell::new(0.0),
+    };
+    let out = pipeline::fit_and_check(&stages, request, &data.source, &id_data, val)?;
     let Pass {
         start,
         registration,
+        decision,
         rotation_given,
         targets_estimated,
         held,
         fit,
-    } = current;
+    } = out.last;
     let fit_errors = (
-        FrameErrors::of(&start, &used),
-        FrameErrors::of(&fit.model, &used),
+        PoseErrors::of(&start, &out.used),
+        PoseErrors::of(&fit.model, &out.used),
     );
-    let validation = val.as_ref().map(|(source, d)| {
-        (
-            source.clone(),
-            FrameErrors::of(&start, d),
-            FrameErrors::of(&fit.model, d),
-        )
-    });
-    let validation_data = val.map(|(_, d)| d);
-    Ok(FrameCalibration {
+    let (validation, validation_data) = match out.validation {
+        Some((source, before, after, d)) => (Some((source, before, after)), Some(d)),
+        None => (None, None),
+    };
+    let elapsed_ms = stages.fit_ms.get();
+    Ok(ToolFrameCalibration {
         request: request.clone(),
         data_source: data.source.clone(),
-        nominal_name: nominal.robot.name().to_string(),
+        nominal: nominal.clone(),
+        kind,
         start,
         rotation_given,
         targets_estimated,
         registration,
-        selection,
-        data: used,
+        registration_decision: decision,
+        selection: split.text,
+        data: out.used,
         weighting,
         held,
         fit,
-        screen,
+        screen: out.screen,
         screened: id_data,
         screened_lines: id_lines,
-        rejected,
+        rejected: out.rejected,
         fit_errors,
         validation,
         validation_data,
-        notices: data.notices.clone(),
-        elapsed_ms: started.elapsed().as_secs_f64() * 1e3,
+        notices,
+        elapsed_ms,
+        warnings: overlap_warning.into_iter().collect(),
     })
 }
 
-/// A flagged pose of [`FrameCalibration::outlier_poses`].
+/// A flagged pose of [`ToolFrameCalibration::outlier_poses`].
 #[derive(Clone, Debug, PartialEq)]
 pub struct PoseOutlier {
-    /// Index into [`FrameCalibration::screened`].
+    /// Index into [`ToolFrameCalibration::screened`].
     pub pose: usize,
     /// Its file line (first row).
     pub line: usize,
@@ -628,7 +506,7 @@ pub struct PoseOutlier {
     pub orientation_deg: Option<f64>,
 }
 
-impl FrameCalibration {
+impl ToolFrameCalibration {
     /// The flagged poses of the screen (largest ratio first), with their errors at the final
     /// model.
     pub fn outlier_poses(&self) -> Vec<PoseOutlier> {
@@ -674,9 +552,31 @@ impl FrameCalibration {
             .to_robot(&self.data.target_names, self.data.has_orientation());
         r.set_name(format!(
             "{}, identified from {}",
-            self.nominal_name,
+            self.nominal.robot.name(),
             file_name(Path::new(&self.data_source))
         ));
+        r
+    }
+
+    /// Whether the measurement frame was registered onto the robot base.
+    pub fn registered(&self) -> bool {
+        self.registration.as_ref().is_some_and(|r| r.applied)
+    }
+
+    /// The nominal robot in the data's measurement frame with the start tool frame
+    /// (`registered-nominal.json`, the targets of compensation): the start model, named
+    /// after the data file when registered.
+    pub fn registered_robot(&self) -> Robot {
+        let mut r = self
+            .start
+            .to_robot(&self.data.target_names, self.data.has_orientation());
+        if self.registered() {
+            r.set_name(format!(
+                "{}, base registered on {}",
+                self.nominal.robot.name(),
+                file_name(Path::new(&self.data_source))
+            ));
+        }
         r
     }
 }
@@ -686,7 +586,7 @@ mod tests {
     use std::path::PathBuf;
 
     use super::*;
-    use identify::Damping;
+    use crate::Split;
 
     fn request(data: &str) -> IdentifyRequest {
         let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..");
@@ -709,15 +609,22 @@ mod tests {
     #[test]
     fn ur10_6dof_held_out_position_no_worse_than_point_only() {
         let req = request("series-b-6dof.csv");
-        assert!(header_has_frames(&req.data));
-        let inputs = load_inputs(&req, None).unwrap();
-        assert!(applies(&inputs.data));
-        let six = calibrate_frames(&req, inputs.clone(), &FrameOptions::default()).unwrap();
+        let inputs = crate::Inputs::load(&req).unwrap();
+        assert_eq!(
+            MeasurementKind::of(&inputs.data, false),
+            MeasurementKind::SixDof { targets: 1 }
+        );
+        let six = crate::calibrate(&req, inputs.clone()).unwrap();
+        let six = six.tool_frame().unwrap();
         assert!(!six.rotation_given && six.fit.stop.converged());
         let (_, _, after) = six.validation.clone().unwrap();
         assert_eq!(after.poses, 1395);
-        let point = crate::calibrate(&req, inputs).unwrap();
-        let v = point.validation.unwrap();
+        let points_only = IdentifyRequest {
+            points_only: true,
+            ..req.clone()
+        };
+        let point = crate::calibrate(&points_only, inputs).unwrap();
+        let v = point.points().unwrap().validation.clone().unwrap();
         let point_mean = crate::mean_max(&crate::norms(&v.after)).0;
         assert!(
             after.position_mm.0 <= point_mean,
@@ -748,8 +655,9 @@ mod tests {
             params: "paper+compliance".parse().unwrap(),
             ..request("series-b-6dof.csv")
         };
-        let inputs = load_inputs(&req, None).unwrap();
-        let c = calibrate_frames(&req, inputs, &FrameOptions::default()).unwrap();
+        let inputs = crate::Inputs::load(&req).unwrap();
+        let c = crate::calibrate(&req, inputs).unwrap();
+        let c = c.tool_frame().unwrap();
         assert!(c.fit.stop.converged());
         let layout = c.fit.model.robot.layout();
         assert!(
@@ -775,7 +683,7 @@ mod tests {
             ..c.fit.model.clone()
         };
         // To rounding: the file's values are decimal degrees and millimetres.
-        let back = FrameErrors::of(&model, c.validation_data.as_ref().unwrap());
+        let back = PoseErrors::of(&model, c.validation_data.as_ref().unwrap());
         assert!((back.position_mm.0 - after.position_mm.0).abs() < 1e-12);
         assert!((back.position_mm.1 - after.position_mm.1).abs() < 1e-12);
         assert!((back.orientation_deg.0 - after.orientation_deg.0).abs() < 1e-12);
@@ -786,33 +694,40 @@ mod tests {
     /// damps with its μ0; two schedules take different paths to the same calibration.
     #[test]
     fn six_dof_fit_honours_the_requested_schedule() {
-        let inputs = load_inputs(&request("series-b-6dof.csv"), None).unwrap();
-        let run = |damping: Damping| {
+        let inputs = crate::Inputs::load(&request("series-b-6dof.csv")).unwrap();
+        let run = |damping: identify::Damping| {
             let req = IdentifyRequest {
                 damping,
                 ..request("series-b-6dof.csv")
             };
-            calibrate_frames(&req, inputs.clone(), &FrameOptions::default()).unwrap()
+            crate::calibrate(&req, inputs.clone()).unwrap()
         };
-        let nielsen = Damping::Nielsen { tau: 0.5, nu0: 2.0 };
-        let (lev, nie) = (run(Damping::levenberg()), run(nielsen));
+        let nielsen = identify::Damping::Nielsen { tau: 0.5, nu0: 2.0 };
+        let (lev, nie) = (run(identify::Damping::levenberg()), run(nielsen));
+        let (lev, nie) = (lev.tool_frame().unwrap(), nie.tool_frame().unwrap());
         assert_eq!(
             (lev.fit.damping, nie.fit.damping),
-            (Damping::levenberg(), nielsen)
+            (identify::Damping::levenberg(), nielsen)
         );
         assert!(lev.fit.stop.converged() && nie.fit.stop.converged());
         assert_eq!(lev.fit.trace[0].mu, 1e-3);
         assert!((nie.fit.trace[0].mu - 0.5).abs() < 1e-12);
-        let mus = |c: &FrameCalibration| c.fit.trace.iter().map(|t| t.mu).collect::<Vec<_>>();
-        assert_ne!(mus(&lev), mus(&nie));
-        let held_out = |c: &FrameCalibration| c.validation.as_ref().unwrap().2.position_mm.0;
-        assert!((held_out(&lev) - held_out(&nie)).abs() < 1e-4);
+        let mus = |c: &ToolFrameCalibration| c.fit.trace.iter().map(|t| t.mu).collect::<Vec<_>>();
+        assert_ne!(mus(lev), mus(nie));
+        let held_out =
+            |c: &ToolFrameCalibration| c.validation.as_ref().unwrap().2.position_mm.0;
+        assert!((held_out(lev) - held_out(nie)).abs() < 1e-4);
     }
 
-    /// A point-only file does not call for this workflow.
+    /// A point-only file is calibrated as points.
     #[test]
     fn point_files_stay_on_the_point_path() {
         let req = request("series-b-joint-configurations.csv");
-        assert!(!header_has_frames(&req.data));
+        assert!(!crate::workflow::header_names_poses(&req.data));
+        let inputs = crate::Inputs::load(&req).unwrap();
+        assert_eq!(
+            MeasurementKind::of(&inputs.data, false),
+            MeasurementKind::Points
+        );
     }
 }

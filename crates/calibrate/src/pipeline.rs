@@ -1,0 +1,461 @@
+//! The one calibration pipeline, for every kind of measurement ([`MeasurementKind`]):
+//!
+//! ```text
+//! check the request → split (rows, or poses) → plausibility of the data (joint units,
+//! length units, handedness) → register, choose the free set, fit → screen outliers (refit
+//! without them on request, to a fixed point) → check the result (parameters) → validate
+//! (and check it) → a crate::Calibration
+//! ```
+//!
+//! Each stage is written here once. What depends on the kind of measurement — how the data
+//! of a pass are held, the points registration uses, the free set, the fit and the outlier
+//! screen's blocks — is a [`Kind`]: points in `crate::workflow`, 6-DoF and multi-target
+//! data in `crate::tool_frame`.
+
+use kinematics::Robot;
+use measurements::{Measurement, MeasurementError, MeasurementSet};
+
+use crate::checks;
+use crate::error::{CalibrateError, Refusal, Result};
+use crate::request::{Check, IdentifyRequest, Split};
+
+/// What the data measure at each pose: the kind of measurement a calibration fits. The
+/// library chooses it from the data ([`MeasurementKind::of`]); every kind goes through the
+/// same pipeline and gives the same outputs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum MeasurementKind {
+    /// One point per pose (`x,y,z`): the tool point's position.
+    Points,
+    /// The tool frame per pose: its orientation (`qw,qx,qy,qz`, or `rx,ry,rz` with an Euler
+    /// convention) with the point of each of `targets` targets (1: the tool point).
+    SixDof {
+        /// Targets per pose (1 without a `target` column).
+        targets: usize,
+    },
+    /// The points of several targets per pose (`id,target` columns), without orientation.
+    Targets {
+        /// Targets per pose.
+        targets: usize,
+    },
+}
+
+impl MeasurementKind {
+    /// The kind of the data `set`: [`MeasurementKind::SixDof`] when every row has an
+    /// orientation, [`MeasurementKind::Targets`] when rows name targets, else (and with
+    /// `points_only`, which ignores orientations and targets) [`MeasurementKind::Points`].
+    pub fn of(set: &MeasurementSet, points_only: bool) -> MeasurementKind {
+        let targets = set.targets().len().max(1);
+        if points_only {
+            MeasurementKind::Points
+        } else if set.has_orientation() {
+            MeasurementKind::SixDof { targets }
+        } else if set.has_targets() {
+            MeasurementKind::Targets { targets }
+        } else {
+            MeasurementKind::Points
+        }
+    }
+
+    /// Whether it is [`MeasurementKind::Points`].
+    pub fn is_points(self) -> bool {
+        self == MeasurementKind::Points
+    }
+
+    /// The unit the split and the outlier screen take or drop whole: `row` for points,
+    /// `pose` otherwise (a pose's block of rows).
+    pub fn unit(self) -> &'static str {
+        if self.is_points() { "row" } else { "pose" }
+    }
+}
+
+impl std::fmt::Display for MeasurementKind {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match *self {
+            MeasurementKind::Points => f.write_str("points (one per pose)"),
+            MeasurementKind::SixDof { targets: 1 } => {
+                f.write_str("6-DoF (point and orientation per pose)")
+            }
+            MeasurementKind::SixDof { targets } => {
+                write!(f, "6-DoF with {targets} targets per pose")
+            }
+            MeasurementKind::Targets { targets } => write!(f, "{targets} targets per pose"),
+        }
+    }
+}
+
+/// The validation part of a split: the units the split holds out, or another file.
+pub(crate) enum Held {
+    /// Units of the identification file (indices into the units).
+    Rest(Vec<usize>),
+    /// A validation file.
+    File(MeasurementSet),
+}
+
+/// A split of the data's units (rows for points, poses otherwise).
+pub(crate) struct Units {
+    /// The identifying units (indices into the units, ascending).
+    pub id: Vec<usize>,
+    /// Validation, with where it comes from.
+    pub val: Option<(String, Held)>,
+    /// Which units identify, in words.
+    pub text: String,
+}
+
+/// Splits `units` (each the indices into `data.rows` of its rows) as `request.split` says:
+/// the same split for every kind, in the kind's words; `free` and `min_rows` for the
+/// refusals of point data (each row three equations).
+pub(crate) fn split(
+    request: &IdentifyRequest,
+    robot: &Robot,
+    data: &MeasurementSet,
+    validate: Option<MeasurementSet>,
+    (kind, units): (MeasurementKind, &[Vec<usize>]),
+    (free, min_rows): (usize, usize),
+) -> Result<Units> {
+    let m = units.len();
+    let points = kind.is_points();
+    let rows_of = |sel: &[usize]| sel.iter().map(|&u| units[u].len()).sum::<usize>();
+    let other = |rest: &[usize]| {
+        format!(
+            "{} (the {} other {}s)",
+            data.source,
+            rest.len(),
+            kind.unit()
+        )
+    };
+    Ok(match request.split {
+        Split::Every { every: k, offset } => {
+            let (sel, rest): (Vec<usize>, Vec<usize>) = (0..m).partition(|i| i % k == offset);
+            if points && sel.len() < min_rows {
+                return Err(CalibrateError::TooFewRows {
+                    free,
+                    spec: request.params.to_string(),
+                    needed: min_rows,
+                    source: Box::new(
+                        Refusal::EveryTooFew {
+                            every: k,
+                            offset,
+                            selected: sel.len(),
+                            rows: m,
+                            source: Box::new(MeasurementError::TooFewRows {
+                                file: data.source.clone(),
+                                found: sel.len(),
+                                needed: min_rows,
+                            }),
+                        }
+                        .into(),
+                    ),
+                });
+            }
+            let text = if points {
+                format!(
+                    "{} of {m} rows (data rows {offset}, {}, {}, … — every {k}th from \
+                     {offset})",
+                    sel.len(),
+                    offset + k,
+                    offset + 2 * k,
+                )
+            } else {
+                format!(
+                    "{} of {m} poses (every {k}th from {offset}; {} rows)",
+                    sel.len(),
+                    rows_of(&sel)
+                )
+            };
+            let val = (!rest.is_empty()).then(|| (other(&rest), Held::Rest(rest)));
+            Units { id: sel, val, text }
+        }
+        Split::Select { poses, criterion } => {
+            if points && poses < min_rows {
+                return Err(Refusal::SelectTooFew {
+                    poses,
+                    free,
+                    spec: request.params.to_string(),
+                    needed: min_rows,
+                }
+                .into());
+            }
+            if poses >= m {
+                return Err(Refusal::SelectTooMany {
+                    poses,
+                    file: data.source.clone(),
+                    rows: m,
+                }
+                .into());
+            }
+            // The design scores each pose by what it measures: a 6-DoF frame's rows when the
+            // data carry orientations, the robot file's targets when the data name several
+            // targets and the robot file gives their points, else the tool point's rows (the
+            // targets' points are then unknown before the fit).
+            let measure = match kind {
+                MeasurementKind::SixDof { .. } => design::Measure::Frame,
+                MeasurementKind::Targets { targets }
+                    if targets > 1 && robot.targets().is_some_and(|t| !t.is_empty()) =>
+                {
+                    design::Measure::Targets
+                }
+                _ => design::Measure::Point,
+            };
+            let q_deg: Vec<f64> = units
+                .iter()
+                .flat_map(|u| data.rows[u[0]].q_deg.iter().copied())
+                .collect();
+            let chosen =
+                design::select_rows_measuring(robot, &q_deg, poses, criterion, None, measure)
+                    .map_err(|source| CalibrateError::Design {
+                        context: format!(
+                            "choosing {poses} {}s of {} by the {} criterion",
+                            kind.unit(),
+                            data.source,
+                            criterion.as_str()
+                        ),
+                        source: Box::new(source),
+                    })?;
+            let rest: Vec<usize> = (0..m)
+                .filter(|i| chosen.binary_search(i).is_err())
+                .collect();
+            let lines: Vec<String> = chosen
+                .iter()
+                .take(3)
+                .map(|&u| data.rows[units[u][0]].line.to_string())
+                .collect();
+            let text = if points {
+                format!(
+                    "{} of {m} rows chosen by the {} criterion on their joints (lines {}, …)",
+                    chosen.len(),
+                    criterion.as_str().to_uppercase(),
+                    lines.join(", "),
+                )
+            } else {
+                format!(
+                    "{} of {m} poses chosen by the {} criterion on their {} information \
+                     (lines {}, …; {} rows)",
+                    chosen.len(),
+                    criterion.as_str().to_uppercase(),
+                    measure,
+                    lines.join(", "),
+                    rows_of(&chosen)
+                )
+            };
+            let val = Some((other(&rest), Held::Rest(rest)));
+            Units {
+                id: chosen,
+                val,
+                text,
+            }
+        }
+        Split::All => Units {
+            id: (0..m).collect(),
+            val: validate.map(|v| (v.source.clone(), Held::File(v))),
+            text: format!("all {m} {}s", kind.unit()),
+        },
+    })
+}
+
+/// The rows of `units` `sel` of `data`, in unit order.
+pub(crate) fn rows_of(
+    data: &MeasurementSet,
+    units: &[Vec<usize>],
+    sel: &[usize],
+) -> Vec<Measurement> {
+    sel.iter()
+        .flat_map(|&u| units[u].iter().map(|&i| data.rows[i].clone()))
+        .collect()
+}
+
+/// The plausibility checks of the identification rows, before any fit, for every kind:
+/// joint units, length units and handedness (each unless the request allows it).
+pub(crate) fn check_data(
+    request: &IdentifyRequest,
+    source: &str,
+    nominal: &Robot,
+    limits_deg: &[[f64; 2]],
+    rows: &[Measurement],
+) -> Result<()> {
+    if !request.allows(Check::JointUnits) {
+        checks::joint_units(source, rows, limits_deg)?;
+    }
+    if !request.allows(Check::LengthUnits) {
+        checks::length_units(source, nominal, rows)?;
+    }
+    if !request.allows(Check::Mirror) {
+        checks::mirror(source, nominal, rows)?;
+    }
+    Ok(())
+}
+
+/// Rows of `val` equal to a row of `id` (joints and point bit for bit).
+pub(crate) fn overlapping(id: &[Measurement], val: &[Measurement]) -> usize {
+    let key = |r: &Measurement| {
+        let mut k: Vec<u64> = r.q_deg.iter().map(|v| v.to_bits()).collect();
+        if let Some(p) = r.point_mm {
+            k.extend(p.iter().map(|v| v.to_bits()));
+        }
+        k
+    };
+    let ids: std::collections::BTreeSet<Vec<u64>> = id.iter().map(key).collect();
+    val.iter().filter(|r| ids.contains(&key(r))).count()
+}
+
+/// The stages of the pipeline that depend on the kind of measurement.
+pub(crate) trait Kind {
+    /// The unit the split and the screen take or drop whole ([`MeasurementKind::unit`]).
+    const UNIT: &'static str;
+    /// The identification data of a pass.
+    type Data;
+    /// One registration and fit.
+    type Pass: Clone;
+    /// An outlier screen of the identification units.
+    type Screen;
+    /// The analysis of the final fit (what the parameters check and the report need).
+    type Analysis;
+    /// Validation data.
+    type Held;
+    /// A validation.
+    type Validation;
+
+    /// The units `keep` of `data`.
+    fn subset(&self, data: &Self::Data, keep: &[usize]) -> Self::Data;
+    /// Units of `data`.
+    fn units(&self, data: &Self::Data) -> usize;
+    /// One pass on `data`: register, choose the free set at the registered start, fit.
+    fn pass(&self, data: &Self::Data) -> Result<Self::Pass>;
+    /// The outlier screen of every unit of `data` after the fit of `pass`.
+    fn screen(&self, pass: &Self::Pass, data: &Self::Data) -> Result<Option<Self::Screen>>;
+    /// The units the screen flags, ascending.
+    fn flagged(screen: &Self::Screen) -> Vec<usize>;
+    /// The free unknowns of a pass.
+    fn n_free(pass: &Self::Pass) -> usize;
+    /// Whether `data` give at least `n_free` equations.
+    fn determines(&self, data: &Self::Data, n_free: usize) -> bool;
+    /// The registration decision of a pass, in words.
+    fn decision(pass: &mut Self::Pass) -> &mut String;
+    /// The analysis of the final pass on the units used.
+    fn analyse(&self, pass: &Self::Pass, used: &Self::Data) -> Result<Self::Analysis>;
+    /// The parameters check's evidence: the start model, the identified one, and the
+    /// identifiable parameters (layout indices).
+    fn moved<'a>(
+        pass: &'a Self::Pass,
+        analysis: &'a Self::Analysis,
+    ) -> (&'a Robot, &'a Robot, &'a [usize]);
+    /// Validation of the final pass on `held`.
+    fn validate(
+        &self,
+        pass: &Self::Pass,
+        source: String,
+        held: Self::Held,
+    ) -> Result<Self::Validation>;
+    /// The validation check's evidence: the source and the mean position error (mm) of the
+    /// start model and of the identified one.
+    fn validated(v: &Self::Validation) -> (&str, f64, f64);
+}
+
+/// Passes of outlier rejection at most [10: each pass drops what the fit on the others
+/// flags; a clean recording needs one or two].
+pub const MAX_REJECTION_PASSES: usize = 10;
+
+/// What the pipeline gives a kind to assemble its calibration from.
+pub(crate) struct Outcome<K: Kind> {
+    /// The first pass (before outlier rejection).
+    pub first: K::Pass,
+    /// The final pass.
+    pub last: K::Pass,
+    /// The outlier screen of every identification unit after the final fit.
+    pub screen: Option<K::Screen>,
+    /// The identification data of the final fit.
+    pub used: K::Data,
+    /// Whether outliers were dropped and the model refitted.
+    pub rejected: bool,
+    /// The analysis of the final fit.
+    pub analysis: K::Analysis,
+    /// The validation, if any.
+    pub validation: Option<K::Validation>,
+}
+
+/// Fits `id` (the identification data of `source`), screens outliers and rejects them to a
+/// fixed point on request, checks the result and validates on `val`: the stages after the
+/// split, for every kind.
+pub(crate) fn fit_and_check<K: Kind>(
+    kind: &K,
+    request: &IdentifyRequest,
+    source: &str,
+    id: &K::Data,
+    val: Option<(String, K::Held)>,
+) -> Result<Outcome<K>> {
+    let n = kind.units(id);
+    let mut current = kind.pass(id)?;
+    let first = current.clone();
+    let mut screen = kind.screen(&current, id)?;
+    let mut kept: Vec<usize> = (0..n).collect();
+    let mut rejected = false;
+    let mut passes = 0;
+    // Rejection to a fixed point: every identification unit is screened against the fit on
+    // the units kept, until the kept units are those the screen passes (so that the result
+    // with a rejected unit is the result without it); registration is redone each time.
+    while request.reject_outliers && passes <= MAX_REJECTION_PASSES {
+        let flagged = screen.as_ref().map_or_else(Vec::new, K::flagged);
+        let next: Vec<usize> = (0..n)
+            .filter(|i| flagged.binary_search(i).is_err())
+            .collect();
+        if next == kept || passes == MAX_REJECTION_PASSES {
+            break;
+        }
+        if !request.allows(Check::Outliers) {
+            checks::rejected_fraction(source, flagged.len(), n, request.outlier_k)?;
+        }
+        let rows = kind.subset(id, &next);
+        let free = K::n_free(&current);
+        if !kind.determines(&rows, free) {
+            return Err(Refusal::TooManyOutliers {
+                file: source.to_string(),
+                outliers: flagged.len(),
+                rows: n,
+                kept: next.len(),
+                free,
+            }
+            .into());
+        }
+        kept = next;
+        rejected = true;
+        passes += 1;
+        current = kind
+            .pass(&rows)
+            .map_err(|e| e.context("refitting without the outliers"))?;
+        screen = kind.screen(&current, id)?;
+    }
+    let used = kind.subset(id, &kept);
+    if rejected {
+        let first_decision = K::decision(&mut first.clone()).clone();
+        let decision = K::decision(&mut current);
+        *decision = format!(
+            "{decision} — decided on the {} {}s kept after rejecting the outliers (on all {n} \
+             {}s: {first_decision})",
+            kept.len(),
+            K::UNIT,
+            K::UNIT,
+        );
+    }
+    let analysis = kind.analyse(&current, &used)?;
+    if !request.allows(Check::Parameters) {
+        let (start, identified, identifiable) = K::moved(&current, &analysis);
+        checks::parameters(start, identified, identifiable)?;
+    }
+    let validation = val
+        .map(|(source, held)| kind.validate(&current, source, held))
+        .transpose()?;
+    if let Some(v) = &validation
+        && !request.allows(Check::Validation)
+    {
+        let (source, before, after) = K::validated(v);
+        checks::validation(source, before, after)?;
+    }
+    Ok(Outcome {
+        first,
+        last: current,
+        screen,
+        used,
+        rejected,
+        analysis,
+        validation,
+    })
+}
