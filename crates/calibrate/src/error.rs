@@ -242,6 +242,20 @@ pub enum Refusal {
         /// The file.
         file: String,
     },
+    /// A validation file naming a target the identification data do not measure (its point
+    /// is not identified).
+    #[error(
+        "{file}: target `{target}` is not among the identification data's targets ({known}): \
+         its point is not identified"
+    )]
+    ValidationTarget {
+        /// The validation file.
+        file: String,
+        /// The target it names.
+        target: String,
+        /// The identification data's targets, comma-separated.
+        known: String,
+    },
     /// Compensation between two robots of different kinds (joints, parameters).
     #[error(
         "{} ({calibrated_joints} joints, {calibrated_params} parameters) and {} \

@@ -29,7 +29,7 @@ use kinematics::Robot;
 use measurements::{Measurement, MeasurementSet, quaternion_to_matrix};
 use nalgebra::Vector3;
 
-use crate::error::{CalibrateError, Result, id_err};
+use crate::error::{CalibrateError, Refusal, Result, id_err};
 use crate::files::{LoadedRobot, file_name};
 use crate::pipeline::{self, Held, Kind, MeasurementKind};
 use crate::request::{IdentifyRequest, Weighting};
@@ -415,6 +415,21 @@ impl Kind for ToolFrameKind<'_> {
     }
 }
 
+/// `d` (a validation file's data) with its rows' targets numbered as `id`'s (a file lists
+/// its targets in its own order), or the first target `id` does not measure.
+fn same_targets(mut d: FrameData, id: &FrameData) -> std::result::Result<FrameData, String> {
+    let map: Vec<usize> = d
+        .target_names
+        .iter()
+        .map(|n| id.target_names.iter().position(|m| m == n).ok_or(n.clone()))
+        .collect::<std::result::Result<_, _>>()?;
+    for r in &mut d.rows {
+        r.target = map[r.target];
+    }
+    d.target_names = id.target_names.clone();
+    Ok(d)
+}
+
 /// This kind after the split: the pipeline's stages, then the result.
 pub(crate) fn calibrate(common: Common<'_>) -> Result<ToolFrameCalibration> {
     let Common {
@@ -431,13 +446,21 @@ pub(crate) fn calibrate(common: Common<'_>) -> Result<ToolFrameCalibration> {
     let lines = pose_lines(&data);
     let id_data = all.subset(&split.id);
     let id_lines: Vec<usize> = split.id.iter().map(|&j| lines[j]).collect();
-    let val = split.val.map(|(source, held)| {
-        let d = match held {
-            Held::Rest(poses) => all.subset(&poses),
-            Held::File(set) => frame_data(&set, &request.weighting).0,
-        };
-        (source, d)
-    });
+    let val = split
+        .val
+        .map(|(source, held)| -> Result<(String, FrameData)> {
+            let d = match held {
+                Held::Rest(poses) => all.subset(&poses),
+                Held::File(set) => same_targets(frame_data(&set, &request.weighting).0, &all)
+                    .map_err(|target| Refusal::ValidationTarget {
+                        file: set.source.clone(),
+                        target,
+                        known: all.target_names.join(", "),
+                    })?,
+            };
+            Ok((source, d))
+        })
+        .transpose()?;
     let stages = ToolFrameKind {
         request,
         nominal: &nominal,

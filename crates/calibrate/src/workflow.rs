@@ -403,18 +403,21 @@ impl Inputs {
         );
         // Points need a row per three free parameters, checked on reading; 6-DoF and
         // multi-target data one row (the fit says when their equations are too few).
-        let min_rows = if request.euler.is_some() || header_names_poses(&request.data) {
-            1
-        } else {
-            min_rows
-        };
+        let points = request.euler.is_none() && !header_names_poses(&request.data);
+        let min_rows = if points { min_rows } else { 1 };
         let read = |path: &Path, min: usize, what: &str, units: (f64, f64)| {
             nominal.read_set_with(path, true, (min, None), what, units, request.euler)
         };
         let as_degrees = |path: &Path| read(path, 0, "data", (1.0, units.1)).ok();
         let data = read(&request.data, min_rows, "identification data", units)
             .map_err(|e| declared_radians(request, e, || as_degrees(&request.data)))
-            .map_err(|e| too_few_rows(request, n_free, min_rows, e))?;
+            .map_err(|e| {
+                if points {
+                    too_few_rows(request, n_free, min_rows, e)
+                } else {
+                    e
+                }
+            })?;
         let validate = match (&request.validate, &request.split) {
             (Some(path), Split::All) => {
                 let set = read(path, 0, "validation data", units)

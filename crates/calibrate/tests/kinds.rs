@@ -360,3 +360,57 @@ fn the_validation_check_runs_for_every_kind() {
         calibrate(kind, &nominal, &allowed, rows, Some(flipped)).unwrap();
     }
 }
+
+/// A validation file listing the targets in another order validates the same (its rows are
+/// renumbered to the identification data's targets); one naming a target the identification
+/// data do not measure is refused, naming it.
+#[test]
+fn validation_targets_are_matched_by_name() {
+    let nominal = kr1000();
+    let mut rows = measured(Data::Targets, 40);
+    let val = rows.split_off(90);
+    let reversed: Vec<Measurement> = val
+        .chunks(3)
+        .flat_map(|p| p.iter().rev().cloned())
+        .collect();
+    let errors = |v: Vec<Measurement>| {
+        let cal = calibrate(
+            Data::Targets,
+            &nominal,
+            &request(&[]),
+            rows.clone(),
+            Some(v),
+        )
+        .unwrap();
+        let c = cal.tool_frame().unwrap();
+        let (_, before, after) = c.validation.clone().unwrap();
+        (before, after)
+    };
+    let same = errors(val.clone());
+    assert!(same.1.position_mm.0 < 0.1, "{same:?}");
+    // The same errors, summed in another row order (to rounding).
+    let other = errors(reversed);
+    for (a, b) in [(other.0, same.0), (other.1, same.1)] {
+        assert_eq!(a.poses, b.poses);
+        assert!(
+            (a.position_mm.0 - b.position_mm.0).abs() < 1e-9,
+            "{a:?} {b:?}"
+        );
+        assert!(
+            (a.position_mm.1 - b.position_mm.1).abs() < 1e-9,
+            "{a:?} {b:?}"
+        );
+    }
+    let unknown: Vec<Measurement> = val
+        .iter()
+        .map(|r| Measurement {
+            target: r.target.as_deref().map(|t| t.replace("T2", "T9")),
+            ..r.clone()
+        })
+        .collect();
+    let e = calibrate(Data::Targets, &nominal, &request(&[]), rows, Some(unknown)).unwrap_err();
+    assert!(
+        matches!(*e, CalibrateError::Refused(Refusal::ValidationTarget { ref target, .. }) if target == "T9"),
+        "{e}"
+    );
+}
