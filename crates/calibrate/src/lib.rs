@@ -16,11 +16,14 @@
 
 pub mod checks;
 mod error;
+pub mod excitation;
 mod files;
 pub mod frames;
 mod joints;
 mod memory;
+pub mod prior;
 mod request;
+mod tool_offset;
 mod workflow;
 
 pub use error::{CalibrateError, Refusal, Result};
@@ -32,7 +35,9 @@ pub use joints::{
     compensate_targets, predict,
 };
 pub use memory::compensate_set;
+pub use prior::PriorSpec;
 pub use request::{Check, IdentifyRequest, JointUnits, LengthUnits, Split};
+pub use tool_offset::TOOL_REGISTRATION_MM;
 pub use workflow::{
     Calibration, Inputs, MAX_REJECTION_PASSES, STILL_JOINT_DEG, Validation, calibrate, mean_max,
     norms, residuals, run,

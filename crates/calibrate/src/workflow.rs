@@ -261,8 +261,9 @@ fn register(
     }
     let robust =
         register_base_robust(nominal, poses, points).map_err(id_err("registering the base"))?;
+    let (robust, tool_note) = crate::tool_offset::prefer(nominal, poses, points, robust);
     let n = points.len();
-    let evidence = format!(
+    let mut evidence = format!(
         "rigid fit on {} of {n} points (the others beyond {} × the median residual), median \
          error {:.3} mm → {:.3} mm, mean {before:.3} mm → {:.3} mm",
         robust.inliers.len(),
@@ -271,6 +272,9 @@ fn register(
         robust.median_after_mm,
         robust.report.mean_error_after_mm
     );
+    if let Some(note) = tool_note {
+        evidence = format!("{evidence}; {note}");
+    }
     let better = robust.median_after_mm < robust.median_before_mm;
     match threshold {
         Some(t) if !better => Ok((
@@ -726,11 +730,12 @@ pub fn calibrate(request: &IdentifyRequest, inputs: Inputs) -> Result<Calibratio
             "setting up the identification on {}",
             data.source
         )))?;
-        let mut fit = identify(&problem, &options).map_err(id_err(format!(
+        let fit = identify(&problem, &options).map_err(id_err(format!(
             "identifying {} on {}",
             nom.name(),
             data.source
         )))?;
+        let mut fit = crate::prior::refit(&args.prior, &problem, &options, fit)?;
         // An extended model evaluates its gravity torques on the geometry it was extended
         // from (the nominal, during the fit). `identified.json` re-extends its own geometry
         // when it is read, so the model validated and reported is that one: what every
@@ -818,9 +823,11 @@ pub fn calibrate(request: &IdentifyRequest, inputs: Inputs) -> Result<Calibratio
     }
     let analysis = analyze(&fit.robot, &poses_rad(&used), None, &free, &id_opts)
         .map_err(id_err("identifiability at the solution"))?;
-    let weak = weak_data(&start, &used, &free, &analysis, &id_opts);
+    let mut weak = weak_data(&start, &used, &free, &analysis, &id_opts);
+    let excitation = crate::excitation::diagnose(&start, &used, &fit);
+    weak.extend(excitation.warning(&args.prior));
     if !args.allows(Check::Parameters) {
-        checks::parameters(&start, &fit, &analysis)?;
+        crate::excitation::parameters(&start, &fit, &analysis, &excitation)?;
     }
     let validation = val_rows
         .map(|(source, rows)| validate(nom, &start, &fit.robot, source, rows))

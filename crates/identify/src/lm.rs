@@ -849,6 +849,12 @@ fn solve_free(
     let mut xt = x.clone();
 
     let (mut a, mut g, mut cost) = start;
+    // A Gaussian prior (`crate::prior`): its cost joins the data's, its diagonal and gradient
+    // the column-scaled system; `a`, `g` stay the data's (the final system is `JᵀJ`).
+    let prior = problem.prior();
+    if let Some(p) = prior {
+        cost += p.cost(&x, free);
+    }
     let initial_cost = cost;
 
     let max_col_sq = a.diagonal().iter().fold(0.0, |m: f64, &d| m.max(d));
@@ -867,6 +873,9 @@ fn solve_free(
         g: DVector::zeros(pf),
     };
     sys.set(&a, &g, &scale);
+    if let Some(p) = prior {
+        p.add_scaled(&x, free, &scale, &mut sys.a, &mut sys.g);
+    }
     if !cost.is_finite() || !sys.finite() {
         return Err(IdentifyError::NonFiniteStep {
             iteration: 0,
@@ -942,7 +951,11 @@ fn solve_free(
             // rejected as accepted, and usually ends the solve. (Either choice gives the
             // same bits; this one spares the assembly a rejected last step would waste.)
             let speculate = rejections == 0 && predicted > options.cost_rel_tol * cost;
-            let cost_trial = asm.trial_cost(&trial, speculate);
+            let trial_data = asm.trial_cost(&trial, speculate);
+            let cost_trial = match prior {
+                Some(p) => trial_data + p.cost(&xt, free),
+                None => trial_data,
+            };
             if !cost_trial.is_finite() {
                 return Err(IdentifyError::NonFiniteStep {
                     iteration: iterations,
@@ -973,7 +986,11 @@ fn solve_free(
                 std::mem::swap(&mut x, &mut xt);
                 std::mem::swap(&mut robot, &mut trial);
                 let cost_old = cost;
-                cost = asm.accept_scaled(&robot, &mut a, &mut g, &scale, &mut sys, cost_trial);
+                cost = asm.accept_scaled(&robot, &mut a, &mut g, &scale, &mut sys, trial_data);
+                if let Some(p) = prior {
+                    cost += p.cost(&x, free);
+                    p.add_scaled(&x, free, &scale, &mut sys.a, &mut sys.g);
+                }
                 if !cost.is_finite() || !sys.finite() {
                     return Err(IdentifyError::NonFiniteStep {
                         iteration: iterations,

@@ -88,6 +88,18 @@ pub struct IdentifyArgs {
     /// joint-units, length-units, mirror, outliers, parameters, validation.
     #[arg(long, value_name = "CHECK")]
     pub(crate) allow: Vec<calibrate::Check>,
+    /// Gaussian prior on the parameters (maximum a posteriori; point data): `tolerance`
+    /// (each geometric parameter about the robot file's value with its manufacturing
+    /// tolerance as standard deviation, the parameters check's: 20 mm for a and d, 5° for θ,
+    /// α, β, 250 mm for the tool; the base has none), `tolerance,NAME=SD,…` (some standard
+    /// deviations replaced, mm or °) or `none` (plain least squares). The report marks the
+    /// parameters the prior rather than the data determine.
+    #[arg(
+        long,
+        default_value = "tolerance",
+        value_name = "none|tolerance[,NAME=SD…]"
+    )]
+    pub(crate) prior: calibrate::PriorSpec,
     /// Output directory, created if missing (only once everything succeeded).
     #[arg(long, default_value = "identified")]
     pub(crate) out: PathBuf,
@@ -138,6 +150,7 @@ impl IdentifyArgs {
                 LengthUnitsArg::In => LengthUnits::In,
             },
             allow: self.allow.clone(),
+            prior: self.prior.clone(),
             ..IdentifyRequest::new(&self.robot, &self.data)
         }
     }
