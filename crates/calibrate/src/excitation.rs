@@ -65,6 +65,18 @@ pub struct Excitation {
     pub recommended_deg: Option<f64>,
 }
 
+/// Whether the data of `fit` (its covariance, the data's alone) leave some free geometric
+/// parameter of `robot` undetermined: standard error above [`UNDETERMINED_FRACTION`] × its
+/// tolerance.
+pub fn leaves_undetermined(robot: &Robot, fit: &Fit) -> bool {
+    let layout = robot.layout();
+    fit.covariance.as_ref().is_some_and(|c| {
+        c.indices.iter().zip(&c.std_errors).any(|(&k, &se)| {
+            tolerance(layout.get(k).kind).is_some_and(|t| se > UNDETERMINED_FRACTION * t)
+        })
+    })
+}
+
 /// What the poses `rows` determine for the fit `fit` (its covariance: the data's alone).
 pub fn diagnose(robot: &Robot, rows: &[Measurement], fit: &Fit) -> Excitation {
     let n = robot.n_joints();
@@ -199,7 +211,7 @@ impl Excitation {
             PriorSpec::None => w.push_str(
                 "; without a prior (--prior none) they take whatever values the noise gives",
             ),
-            PriorSpec::Tolerance { .. } => {}
+            PriorSpec::Tolerance { .. } | PriorSpec::Auto => {}
         }
         Some(w)
     }
@@ -248,8 +260,8 @@ pub fn parameters(
         Check::Parameters,
         evidence,
         &format!(
-            "{}, or identify with the prior (the default, --prior tolerance), which holds \
-             what the data do not determine",
+            "{}, or identify with the prior (--prior auto, the default, or tolerance), which \
+             holds what the data do not determine",
             excitation.what_to_measure()
         ),
     ))

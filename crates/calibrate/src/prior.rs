@@ -1,7 +1,8 @@
 //! The prior of a calibration (`identify::prior`): which one ([`PriorSpec`]), built on the
 //! start model, and the maximum a posteriori refit.
 //!
-//! The default prior centres each geometric parameter on the start model's value (the robot
+//! The prior (`tolerance`; by default `auto`: only when the data leave a parameter
+//! undetermined) centres each geometric parameter on the start model's value (the robot
 //! file's, after registration) with the standard deviation of its manufacturing tolerance,
 //! the one the parameters check uses ([`crate::checks::tolerance`]: 20 mm for a and d, 5° for
 //! θ, α and β, 250 mm for the tool); the base (the measurement frame) and the parameters
@@ -19,6 +20,11 @@ use crate::error::{Result, id_err};
 pub enum PriorSpec {
     /// No prior: the least-squares fit (`--prior none`).
     None,
+    /// The prior of [`PriorSpec::Tolerance`] when the data leave a free parameter
+    /// undetermined (its standard error from the data alone above
+    /// [`crate::excitation::UNDETERMINED_FRACTION`] × its tolerance), else none: well-excited
+    /// data give the least-squares fit to the bit (`--prior auto`, the default).
+    Auto,
     /// The manufacturing tolerances of [`crate::checks::tolerance`], with the standard
     /// deviations (display units: mm, °) of the named parameters replaced.
     Tolerance {
@@ -28,9 +34,9 @@ pub enum PriorSpec {
 }
 
 impl Default for PriorSpec {
-    /// [`PriorSpec::Tolerance`] without replacements.
+    /// [`PriorSpec::Auto`].
     fn default() -> Self {
-        PriorSpec::Tolerance { sd: Vec::new() }
+        PriorSpec::Auto
     }
 }
 
@@ -38,6 +44,7 @@ impl std::fmt::Display for PriorSpec {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self {
             PriorSpec::None => write!(f, "none"),
+            PriorSpec::Auto => write!(f, "auto"),
             PriorSpec::Tolerance { sd } => {
                 write!(f, "tolerance")?;
                 for (name, v) in sd {
@@ -52,12 +59,14 @@ impl std::fmt::Display for PriorSpec {
 impl std::str::FromStr for PriorSpec {
     type Err = String;
 
-    /// `none`, `tolerance`, or `tolerance,NAME=SD,…` (`NAME=SD,…` alone implies
+    /// `none`, `auto`, `tolerance`, or `tolerance,NAME=SD,…` (`NAME=SD,…` alone implies
     /// `tolerance`); SD in the parameter's display unit (mm or °), finite and positive.
     fn from_str(s: &str) -> std::result::Result<Self, Self::Err> {
         let s = s.trim();
-        if s == "none" {
-            return Ok(PriorSpec::None);
+        match s {
+            "none" => return Ok(PriorSpec::None),
+            "auto" => return Ok(PriorSpec::Auto),
+            _ => {}
         }
         let mut sd = Vec::new();
         for (i, item) in s.split(',').map(str::trim).enumerate() {
@@ -65,7 +74,7 @@ impl std::str::FromStr for PriorSpec {
                 continue;
             }
             let (name, value) = item.split_once('=').ok_or_else(|| {
-                format!("`{item}`: expected none, tolerance or NAME=SD (e.g. a6=0.5)")
+                format!("`{item}`: expected none, auto, tolerance or NAME=SD (e.g. a6=0.5)")
             })?;
             let v: f64 = value
                 .trim()
@@ -88,8 +97,10 @@ impl PriorSpec {
     /// # Errors
     /// A replaced parameter the robot does not have.
     pub fn on(&self, start: &Robot) -> Result<Option<Prior>> {
-        let PriorSpec::Tolerance { sd: replaced } = self else {
-            return Ok(None);
+        let replaced: &[(String, f64)] = match self {
+            PriorSpec::None => return Ok(None),
+            PriorSpec::Auto => &[],
+            PriorSpec::Tolerance { sd } => sd,
         };
         let layout = start.layout();
         let mut sd: Vec<Option<f64>> = layout
@@ -110,8 +121,9 @@ impl PriorSpec {
 }
 
 /// The fit of `problem` with the prior of `spec` (maximum a posteriori), weighed with σ̂ of
-/// `fit` (the fit without it, which is returned as it is for [`PriorSpec::None`] or when σ̂
-/// is unknown: no degrees of freedom).
+/// `fit` (the fit without it, which is returned as it is for [`PriorSpec::None`], for
+/// [`PriorSpec::Auto`] when the data determine every free parameter, or when σ̂ is unknown:
+/// no degrees of freedom).
 ///
 /// # Errors
 /// As [`PriorSpec::on`]; the solver's.
@@ -121,6 +133,9 @@ pub(crate) fn refit(
     options: &IdentifyOptions,
     fit: Fit,
 ) -> Result<Fit> {
+    if *spec == PriorSpec::Auto && !crate::excitation::leaves_undetermined(problem.robot(), &fit) {
+        return Ok(fit);
+    }
     let (Some(prior), Some(sigma)) = (spec.on(problem.robot())?, fit.sigma_hat) else {
         return Ok(fit);
     };

@@ -92,12 +92,13 @@ pub struct IdentifyArgs {
     /// (each geometric parameter about the robot file's value with its manufacturing
     /// tolerance as standard deviation, the parameters check's: 20 mm for a and d, 5° for θ,
     /// α, β, 250 mm for the tool; the base has none), `tolerance,NAME=SD,…` (some standard
-    /// deviations replaced, mm or °) or `none` (plain least squares). The report marks the
-    /// parameters the prior rather than the data determine.
+    /// deviations replaced, mm or °), `none` (plain least squares), or `auto` (that prior
+    /// when the data leave a parameter's standard error above half its tolerance, else
+    /// none). The report marks the parameters the prior rather than the data determine.
     #[arg(
         long,
-        default_value = "tolerance",
-        value_name = "none|tolerance[,NAME=SD…]"
+        default_value = "auto",
+        value_name = "auto|none|tolerance[,NAME=SD…]"
     )]
     pub(crate) prior: calibrate::PriorSpec,
     /// Output directory, created if missing (only once everything succeeded).
