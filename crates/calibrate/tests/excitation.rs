@@ -3,9 +3,9 @@
 //! joint, measured with 0.02 mm of noise, its wrist joint q6 moving at most 3° in the
 //! identification poses: by default (the prior) it is not refused, validates on held-out poses
 //! of the same kind within 10 % of the fit on well-excited poses (every joint moving), and
-//! the warning names the joint and the parameters the prior holds. Without the prior the
-//! refusal, if any, says that the poses do not determine the parameters, never that the units
-//! or the frame are wrong.
+//! the warning names the joint and the parameters the prior holds. A fit that moved one of
+//! the undetermined parameters too far is refused as weak excitation (what to measure), never
+//! as wrong units or frame; one that moved a determined parameter still suspects them.
 
 use std::path::PathBuf;
 
