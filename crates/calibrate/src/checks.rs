@@ -54,7 +54,7 @@ pub const MAX_ANGLE_CHANGE_DEG: f64 = 5.0;
 /// metre is another tool or a wrong frame].
 pub const MAX_TOOL_CHANGE_MM: f64 = 250.0;
 
-fn refuse(check: Check, evidence: String, remedy: &str) -> Refusal {
+pub(crate) fn refuse(check: Check, evidence: String, remedy: &str) -> Refusal {
     Refusal::Implausible {
         check,
         evidence,
@@ -170,6 +170,21 @@ pub fn mirror(source: &str, nominal: &Robot, rows: &[Measurement]) -> Result<(),
     Ok(())
 }
 
+/// The manufacturing tolerance of a parameter of kind `kind`, display units (mm, °): the
+/// change beyond which [`parameters`] refuses a fit, and the standard deviation of the
+/// default prior (`crate::prior`) — one source for both. `None` for the base (the
+/// measurement frame, anywhere) and the parameters beyond geometry.
+pub fn tolerance(kind: ParamKind) -> Option<f64> {
+    match kind {
+        ParamKind::A(_) | ParamKind::D(_) => Some(MAX_LINK_CHANGE_MM),
+        ParamKind::Theta(_) | ParamKind::Alpha(_) | ParamKind::Beta(_) => {
+            Some(MAX_ANGLE_CHANGE_DEG)
+        }
+        ParamKind::ToolX | ParamKind::ToolY | ParamKind::ToolZ => Some(MAX_TOOL_CHANGE_MM),
+        _ => None,
+    }
+}
+
 /// Identified parameters far from their start values, by name (the `identifiable` ones,
 /// layout indices, that are geometric; the base is the frame, anywhere): for every kind of
 /// measurement, `identified` the fitted robot.
@@ -178,27 +193,10 @@ pub fn parameters(
     identified: &Robot,
     identifiable: &[usize],
 ) -> Result<(), Refusal> {
-    let (x0, x1) = (start.params(), identified.params());
-    let layout = start.layout();
-    let mut far = Vec::new();
-    for &k in identifiable {
-        let p = layout.get(k);
-        let d = p.to_display(x1[k]) - p.to_display(x0[k]);
-        let limit = match p.kind {
-            ParamKind::A(_) | ParamKind::D(_) => MAX_LINK_CHANGE_MM,
-            ParamKind::Theta(_) | ParamKind::Alpha(_) | ParamKind::Beta(_) => MAX_ANGLE_CHANGE_DEG,
-            ParamKind::ToolX | ParamKind::ToolY | ParamKind::ToolZ => MAX_TOOL_CHANGE_MM,
-            _ => continue,
-        };
-        let d = if p.unit == kinematics::Unit::Deg {
-            (d + 180.0).rem_euclid(360.0) - 180.0
-        } else {
-            d
-        };
-        if d.abs() > limit {
-            far.push(format!("{} {d:+.3} (limit ±{limit})", p.name));
-        }
-    }
+    let far: Vec<String> = far_parameters(start, identified, identifiable)
+        .into_iter()
+        .map(|(name, d, limit)| format!("{name} {d:+.3} (limit ±{limit})"))
+        .collect();
     if far.is_empty() {
         return Ok(());
     }
@@ -210,6 +208,34 @@ pub fn parameters(
         ),
         "check the robot file, the data's units and frame",
     ))
+}
+
+/// The parameters [`parameters`] refuses: `(name, change, limit)` (display units), layout
+/// order.
+pub fn far_parameters(
+    start: &Robot,
+    identified: &Robot,
+    identifiable: &[usize],
+) -> Vec<(String, f64, f64)> {
+    let (x0, x1) = (start.params(), identified.params());
+    let layout = start.layout();
+    let mut far = Vec::new();
+    for &k in identifiable {
+        let p = layout.get(k);
+        let d = p.to_display(x1[k]) - p.to_display(x0[k]);
+        let Some(limit) = tolerance(p.kind) else {
+            continue;
+        };
+        let d = if p.unit == kinematics::Unit::Deg {
+            (d + 180.0).rem_euclid(360.0) - 180.0
+        } else {
+            d
+        };
+        if d.abs() > limit {
+            far.push((p.name.clone(), d, limit));
+        }
+    }
+    far
 }
 
 /// Validation: the calibrated model worse than the start model on the validation rows.

@@ -17,12 +17,15 @@
 
 pub mod checks;
 mod error;
+pub mod excitation;
 mod files;
 mod joints;
 mod memory;
 mod pipeline;
+pub mod prior;
 mod request;
 pub mod tool_frame;
+mod tool_offset;
 mod workflow;
 
 pub use error::{CalibrateError, Refusal, Result};
@@ -35,8 +38,10 @@ pub use joints::{
 };
 pub use memory::compensate_set;
 pub use pipeline::{MAX_REJECTION_PASSES, MeasurementKind};
+pub use prior::PriorSpec;
 pub use request::{Check, IdentifyRequest, JointUnits, LengthUnits, Split, Weighting};
 pub use tool_frame::ToolFrameCalibration;
+pub use tool_offset::TOOL_REGISTRATION_MM;
 pub use workflow::{
     Calibration, Inputs, PointCalibration, STILL_JOINT_DEG, Validation, calibrate, mean_max, norms,
     residuals, run,

@@ -338,6 +338,13 @@ pub(crate) trait Kind {
         pass: &'a Self::Pass,
         analysis: &'a Self::Analysis,
     ) -> (&'a Robot, &'a Robot, &'a [usize]);
+    /// The parameters check ([`checks::parameters`] on [`Kind::moved`]); a kind with more
+    /// evidence (what its poses determine) refines the refusal's wording.
+    fn check_parameters(&self, pass: &Self::Pass, analysis: &Self::Analysis) -> Result<()> {
+        let (start, identified, identifiable) = Self::moved(pass, analysis);
+        checks::parameters(start, identified, identifiable)?;
+        Ok(())
+    }
     /// Validation of the final pass on `held`.
     fn validate(
         &self,
@@ -437,8 +444,7 @@ pub(crate) fn fit_and_check<K: Kind>(
     }
     let analysis = kind.analyse(&current, &used)?;
     if !request.allows(Check::Parameters) {
-        let (start, identified, identifiable) = K::moved(&current, &analysis);
-        checks::parameters(start, identified, identifiable)?;
+        kind.check_parameters(&current, &analysis)?;
     }
     let validation = val
         .map(|(source, held)| kind.validate(&current, source, held))

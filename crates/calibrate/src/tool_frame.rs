@@ -737,8 +737,7 @@ mod tests {
         assert!((nie.fit.trace[0].mu - 0.5).abs() < 1e-12);
         let mus = |c: &ToolFrameCalibration| c.fit.trace.iter().map(|t| t.mu).collect::<Vec<_>>();
         assert_ne!(mus(lev), mus(nie));
-        let held_out =
-            |c: &ToolFrameCalibration| c.validation.as_ref().unwrap().2.position_mm.0;
+        let held_out = |c: &ToolFrameCalibration| c.validation.as_ref().unwrap().2.position_mm.0;
         assert!((held_out(lev) - held_out(nie)).abs() < 1e-4);
     }
 

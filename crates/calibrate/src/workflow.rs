@@ -263,8 +263,9 @@ pub(crate) fn register(
     }
     let robust =
         register_base_robust(nominal, poses, points).map_err(id_err("registering the base"))?;
+    let (robust, tool_note) = crate::tool_offset::prefer(nominal, poses, points, robust);
     let n = points.len();
-    let evidence = format!(
+    let mut evidence = format!(
         "rigid fit on {} of {n} points (the others beyond {} × the median residual), median \
          error {:.3} mm → {:.3} mm, mean {before:.3} mm → {:.3} mm",
         robust.inliers.len(),
@@ -273,6 +274,9 @@ pub(crate) fn register(
         robust.median_after_mm,
         robust.report.mean_error_after_mm
     );
+    if let Some(note) = tool_note {
+        evidence = format!("{evidence}; {note}");
+    }
     let better = robust.median_after_mm < robust.median_before_mm;
     match threshold {
         Some(t) if !better => Ok((
@@ -654,7 +658,11 @@ impl Kind for PointKind<'_> {
     type Pass = Pass;
     type Screen = OutlierScreen;
     /// Identifiability at the solution, and the weak-data warnings.
-    type Analysis = (IdentifiabilityReport, Vec<String>);
+    type Analysis = (
+        IdentifiabilityReport,
+        Vec<String>,
+        crate::excitation::Excitation,
+    );
     type Held = Vec<Measurement>;
     type Validation = Validation;
 
@@ -699,6 +707,7 @@ impl Kind for PointKind<'_> {
             (&p, &x),
             free.clone(),
             &self.options,
+            &self.request.prior,
             (nom.name(), self.source),
         )?;
         // An extended model evaluates its gravity torques on the geometry it was extended
@@ -765,8 +774,22 @@ impl Kind for PointKind<'_> {
             &self.id_opts,
         )
         .map_err(id_err("identifiability at the solution"))?;
-        let weak = weak_data(&pass.start, used, &pass.free, &analysis, &self.id_opts);
-        Ok((analysis, weak))
+        let mut weak = weak_data(&pass.start, used, &pass.free, &analysis, &self.id_opts);
+        let excitation = crate::excitation::diagnose(&pass.start, used, &pass.fit);
+        weak.extend(excitation.warning(&self.request.prior));
+        Ok((analysis, weak, excitation))
+    }
+
+    /// The parameters check with the evidence of what the poses determine
+    /// ([`crate::excitation::parameters`]): weak excitation is named as such, not as units.
+    fn check_parameters(&self, pass: &Pass, analysis: &Self::Analysis) -> Result<()> {
+        crate::excitation::parameters(
+            &pass.start,
+            &pass.fit.robot,
+            &analysis.0.identifiable_indices,
+            &analysis.2,
+        )?;
+        Ok(())
     }
 
     fn moved<'a>(
@@ -806,11 +829,14 @@ fn fit_points(
     (poses, points): (&[f64], &[Vector3<f64>]),
     free: Vec<usize>,
     options: &IdentifyOptions,
+    prior: &crate::PriorSpec,
     (robot, source): (&str, &str),
 ) -> Result<Fit> {
     let problem = Problem::new(start, poses, points, free)
         .map_err(id_err(format!("setting up the identification on {source}")))?;
-    identify(&problem, options).map_err(id_err(format!("identifying {robot} on {source}")))
+    let fit =
+        identify(&problem, options).map_err(id_err(format!("identifying {robot} on {source}")))?;
+    crate::prior::refit(prior, &problem, options, fit)
 }
 
 /// The point kind after the split: the pipeline's stages, then the result.
@@ -851,7 +877,7 @@ fn calibrate_points(common: Common<'_>, id_rows: Vec<Measurement>) -> Result<Poi
         screen,
         used,
         rejected,
-        analysis: (analysis, mut warnings),
+        analysis: (analysis, mut warnings, _),
         validation,
     } = out;
     let Pass {
@@ -899,6 +925,14 @@ impl Calibration {
     pub fn points(&self) -> Option<&PointCalibration> {
         match self {
             Calibration::Points(c) => Some(c),
+            Calibration::ToolFrame(_) => None,
+        }
+    }
+
+    /// The calibration from points, taken out, if it is one.
+    pub fn into_points(self) -> Option<PointCalibration> {
+        match self {
+            Calibration::Points(c) => Some(*c),
             Calibration::ToolFrame(_) => None,
         }
     }

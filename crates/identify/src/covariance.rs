@@ -150,7 +150,9 @@ pub fn covariance_at_solution(
                 && points_mm.len() == sys.trig.n_poses() =>
         {
             // The solver's cost is this sum, bit for bit, when the points are the problem's.
-            let cost = std::ptr::eq(points_mm, problem.points_mm()).then_some(solution.cost);
+            // (With a prior the solver's cost holds the prior's too.)
+            let cost = (std::ptr::eq(points_mm, problem.points_mm()) && problem.prior().is_none())
+                .then_some(solution.cost);
             Source::Solved(sys, cost)
         }
         _ => Source::Fast,

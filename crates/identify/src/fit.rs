@@ -113,6 +113,10 @@ pub struct Fit {
     pub covariance: Option<Covariance>,
     /// What registration did (`None` under [`RegistrationPolicy::Never`]).
     pub registration: Option<RegistrationReport>,
+    /// With a prior ([`Problem::with_prior`]): the posterior of the solved parameters, which
+    /// of them the prior rather than the data determine, and the information the data gave
+    /// each (`crate::prior`). `covariance` stays the data's alone.
+    pub posterior: Option<crate::prior::Posterior>,
 }
 
 impl Fit {
@@ -177,7 +181,7 @@ pub fn identify(problem: &Problem, options: &IdentifyOptions) -> Result<Fit, Ide
     )?;
     // Unweighted, the solver's costs are these sums already (the same points, in the same
     // order: bit for bit).
-    let (rss_mm2, initial_rss) = if problem.weights().is_none() {
+    let (rss_mm2, initial_rss) = if problem.weights().is_none() && problem.prior().is_none() {
         (sol.cost, sol.initial_cost)
     } else {
         (
@@ -202,6 +206,7 @@ pub fn identify(problem: &Problem, options: &IdentifyOptions) -> Result<Fit, Ide
             }
         })
         .collect();
+    let posterior = crate::prior::posterior(&problem, &sol.robot, &sol.solved(&problem));
     Ok(Fit {
         params: sol.params,
         free: problem.free_names(),
@@ -223,7 +228,11 @@ pub fn identify(problem: &Problem, options: &IdentifyOptions) -> Result<Fit, Ide
         initial_rms_mm: (initial_rss / m as f64).sqrt(),
         rss_mm2,
         rms_mm: (rss_mm2 / m as f64).sqrt(),
-        weighted_rss: sol.cost,
+        weighted_rss: match problem.prior() {
+            Some(_) => weighted_rss(&sol.robot, poses, points, problem.weights()),
+            None => sol.cost,
+        },
+        posterior,
         sigma_hat: cov.as_ref().map(|c| c.sigma_hat),
         dof: cov.as_ref().map_or(0, |c| c.dof),
         covariance: cov,

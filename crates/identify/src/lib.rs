@@ -19,6 +19,8 @@
 //!   [`ParamSpec`] adds the non-geometric parameters after `+` (`paper+compliance+gears`).
 //! * [`register_base`] / [`kabsch`]: closed-form rigid registration re-expressed in the base
 //!   parameters.
+//! * [`register_base_and_tool`]: the same with the tool offset estimated with the frame (a
+//!   probe far from where the robot file says does not bend the registration).
 //! * [`generic_poses`]: the generic pose set, on which the structural questions (minimal
 //!   set, free-parameter count) are answered; random poses come from
 //!   [`kinematics::sampling`].
@@ -68,9 +70,11 @@ pub mod lm;
 mod options_str;
 pub mod outliers;
 pub mod params;
+pub mod prior;
 mod problem;
 pub mod registration;
 pub mod simd;
+pub mod tool_registration;
 
 pub use compensation::{
     Compensated, CompensationOptions, DEFAULT_FLAG_CHANGE_DEG, FlagReason, compensate,
@@ -93,6 +97,7 @@ pub use lm::{
 pub use options_str::{UnknownName, parse_name};
 pub use outliers::{BlockOutlier, BlockScreen, Outlier, OutlierScreen};
 pub use params::ParamSpec;
+pub use prior::{HELD_BY_PRIOR, Posterior, PosteriorParam, Prior, PriorTerm, posterior};
 pub use problem::{Problem, SAME_POSE_TOL_RAD};
 pub use registration::{
     ROBUST_INLIER_FACTOR, RegistrationPolicy, RegistrationReport, RigidTransform,
@@ -100,3 +105,4 @@ pub use registration::{
     proper_and_improper_rms, register_base, register_base_robust,
 };
 pub use simd::{SimdLevel, set_simd_level, simd_level};
+pub use tool_registration::{ToolRegistration, register_base_and_tool};

@@ -911,6 +911,27 @@ pub trait LeastSquares {
     fn unscaled(&self, a: &mut DMatrix<f64>, g: &mut DVector<f64>) {
         let _ = (a, g);
     }
+
+    /// The cost at `m` of a Gaussian prior on the unknowns (one more block of rows,
+    /// `√λ_k (x_k − x0_k)`, `crate::prior`), which [`LeastSquares::cost`] and
+    /// [`LeastSquares::accept`] include; `None` (the default) without a prior. The solver
+    /// adds it to the start cost.
+    fn prior_cost(&self, m: &Self::Model) -> Option<f64> {
+        let _ = m;
+        None
+    }
+
+    /// Adds the prior's diagonal and gradient at `m` to the column-scaled system `sa`, `sg`
+    /// (nothing without a prior, the default); the solver calls it on the start system.
+    fn add_prior_scaled(
+        &self,
+        m: &Self::Model,
+        s: &[f64],
+        sa: &mut DMatrix<f64>,
+        sg: &mut DVector<f64>,
+    ) {
+        let _ = (m, s, sa, sg);
+    }
 }
 
 /// What [`least_squares`] returns: the solution, why the iteration stopped, its trace, and
@@ -988,6 +1009,10 @@ pub fn least_squares<P: LeastSquares>(
 struct PointLs<'a, 'p, 'f> {
     asm: &'a mut Assembler<'p>,
     free: &'f [usize],
+    /// The problem's prior, if any (`crate::prior`).
+    prior: Option<&'f crate::prior::PriorTerm>,
+    /// The data's part of the last trial cost (without the prior), for `accept`.
+    trial_data: f64,
 }
 
 impl LeastSquares for PointLs<'_, '_, '_> {
@@ -1009,7 +1034,11 @@ impl LeastSquares for PointLs<'_, '_, '_> {
     }
 
     fn cost(&mut self, m: &Robot, likely_accepted: bool) -> f64 {
-        self.asm.trial_cost(m, likely_accepted)
+        self.trial_data = self.asm.trial_cost(m, likely_accepted);
+        match self.prior {
+            Some(p) => self.trial_data + p.cost(&m.params(), self.free),
+            None => self.trial_data,
+        }
     }
 
     fn step(&self, m: &Robot, dx: &[f64], out: &mut Robot) -> Result<(), IdentifyError> {
@@ -1041,11 +1070,27 @@ impl LeastSquares for PointLs<'_, '_, '_> {
         sg: &mut DVector<f64>,
         cost_trial: f64,
     ) -> f64 {
-        self.asm.accept_scaled(m, a, g, s, sa, sg, cost_trial)
+        let Some(p) = self.prior else {
+            return self.asm.accept_scaled(m, a, g, s, sa, sg, cost_trial);
+        };
+        let x = m.params();
+        let cost = self.asm.accept_scaled(m, a, g, s, sa, sg, self.trial_data);
+        p.add_scaled(&x, self.free, s, sa, sg);
+        cost + p.cost(&x, self.free)
     }
 
     fn unscaled(&self, a: &mut DMatrix<f64>, g: &mut DVector<f64>) {
         self.asm.unscaled(a, g);
+    }
+
+    fn prior_cost(&self, m: &Robot) -> Option<f64> {
+        self.prior.map(|p| p.cost(&m.params(), self.free))
+    }
+
+    fn add_prior_scaled(&self, m: &Robot, s: &[f64], sa: &mut DMatrix<f64>, sg: &mut DVector<f64>) {
+        if let Some(p) = self.prior {
+            p.add_scaled(&m.params(), self.free, s, sa, sg);
+        }
     }
 }
 
@@ -1061,7 +1106,12 @@ fn solve_free(
     let free = problem.free();
     let sol = iterate(
         path,
-        &mut PointLs { asm, free },
+        &mut PointLs {
+            asm,
+            free,
+            prior: problem.prior(),
+            trial_data: 0.0,
+        },
         problem.robot().clone(),
         options,
         start,
@@ -1109,6 +1159,11 @@ fn iterate<P: LeastSquares>(
     let mut trial = model.clone();
 
     let (mut a, mut g, mut cost) = start;
+    // A Gaussian prior (`crate::prior`): its cost joins the data's, its diagonal and gradient
+    // the column-scaled system; `a`, `g` stay the data's (the final system is `JᵀJ`).
+    if let Some(prior_cost) = problem.prior_cost(&model) {
+        cost += prior_cost;
+    }
     let initial_cost = cost;
 
     let max_col_sq = a.diagonal().iter().fold(0.0, |m: f64, &d| m.max(d));
@@ -1127,6 +1182,7 @@ fn iterate<P: LeastSquares>(
         g: DVector::zeros(pf),
     };
     sys.set(&a, &g, &scale);
+    problem.add_prior_scaled(&model, &scale, &mut sys.a, &mut sys.g);
     if !cost.is_finite() || !sys.finite() {
         return Err(IdentifyError::NonFiniteStep {
             iteration: 0,

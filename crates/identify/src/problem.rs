@@ -29,6 +29,7 @@ pub struct Problem<'a> {
     points_mm: &'a [Vector3<f64>],
     weights: Option<&'a [f64]>,
     free: Vec<usize>,
+    prior: Option<&'a crate::prior::PriorTerm>,
 }
 
 impl<'a> Problem<'a> {
@@ -63,7 +64,36 @@ impl<'a> Problem<'a> {
             points_mm,
             weights: None,
             free,
+            prior: None,
         })
+    }
+
+    /// The same problem with a Gaussian prior on the parameters (`crate::prior`: the cost
+    /// gains `Σ λ_k (x_k − x0_k)²` over the free parameters; maximum a posteriori).
+    ///
+    /// # Errors
+    /// [`IdentifyError::InvalidOption`] when the term is not one weight per parameter, or a
+    /// weight or mean is not finite.
+    pub fn with_prior(mut self, prior: &'a crate::prior::PriorTerm) -> Result<Self, IdentifyError> {
+        let n = self.robot.n_params();
+        if prior.mean.len() != n
+            || prior.weight.len() != n
+            || !prior.mean.iter().all(|v| v.is_finite())
+            || !prior.weight.iter().all(|w| w.is_finite() && *w >= 0.0)
+        {
+            return Err(IdentifyError::InvalidOption {
+                name: "prior",
+                value: format!("{} means, {} weights", prior.mean.len(), prior.weight.len()),
+                reason: "one finite mean and one finite non-negative weight per parameter",
+            });
+        }
+        self.prior = Some(prior);
+        Ok(self)
+    }
+
+    /// The prior, if any.
+    pub fn prior(&self) -> Option<&'a crate::prior::PriorTerm> {
+        self.prior
     }
 
     /// The same problem with per-row weights `w` (1/σ of each residual row; `3 × poses`
@@ -169,6 +199,7 @@ impl<'a> Problem<'a> {
             points_mm: self.points_mm,
             weights: self.weights,
             free,
+            prior: self.prior,
         }
     }
 
@@ -183,6 +214,7 @@ impl<'a> Problem<'a> {
             points_mm: self.points_mm,
             weights: self.weights,
             free: self.free.clone(),
+            prior: self.prior,
         }
     }
 }

@@ -110,6 +110,19 @@ pub struct IdentifyArgs {
     /// joint-units, length-units, mirror, outliers, parameters, validation.
     #[arg(long, value_name = "CHECK")]
     pub(crate) allow: Vec<calibrate::Check>,
+    /// Gaussian prior on the parameters (maximum a posteriori; point data): `tolerance`
+    /// (each geometric parameter about the robot file's value with its manufacturing
+    /// tolerance as standard deviation, the parameters check's: 20 mm for a and d, 5° for θ,
+    /// α, β, 250 mm for the tool; the base has none), `tolerance,NAME=SD,…` (some standard
+    /// deviations replaced, mm or °), `none` (plain least squares), or `auto` (that prior
+    /// when the data leave a parameter's standard error above half its tolerance, else
+    /// none). The report marks the parameters the prior rather than the data determine.
+    #[arg(
+        long,
+        default_value = "auto",
+        value_name = "auto|none|tolerance[,NAME=SD…]"
+    )]
+    pub(crate) prior: calibrate::PriorSpec,
     /// Output directory, created if missing (only once everything succeeded).
     #[arg(long, default_value = "identified")]
     pub(crate) out: PathBuf,
@@ -156,6 +169,7 @@ impl IdentifyArgs {
             euler: self.euler,
             weighting: OrientationWeight::options(self.orientation_weight),
             points_only: self.points_only,
+            prior: self.prior.clone(),
             ..IdentifyRequest::new(&self.robot, &self.data)
         }
     }

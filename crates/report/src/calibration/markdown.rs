@@ -74,10 +74,50 @@ fn worst_md(out: &mut String, rows: &[Measurement], errors: &[[f64; 3]], n: usiz
     }
 }
 
+/// The prior's section: per solved parameter its prior and posterior standard deviations,
+/// the share of the prior's variance the data removed, and whether the prior rather than the
+/// data determine it.
+fn prior_md(s: &mut String, post: &identify::Posterior) {
+    s.push_str("\n## Prior\n\n");
+    let _ = writeln!(
+        s,
+        "Identified with a Gaussian prior (maximum a posteriori, `--prior`): each parameter \
+         about its start value with its prior standard deviation, weighed against the data \
+         with σ̂ = {} mm of the fit without it. Information = 1 − posterior variance / prior \
+         variance, the share of the prior's uncertainty the data removed; a posterior \
+         standard deviation above {} × the prior's means the prior rather than the data \
+         determine the value.\n",
+        mm(post.sigma_e),
+        identify::HELD_BY_PRIOR
+    );
+    s.push_str(
+        "| parameter | unit | prior sd | posterior sd | information | determined by |\n\
+         |---|---|---:|---:|---:|---|\n",
+    );
+    for p in &post.params {
+        let _ = writeln!(
+            s,
+            "| {} | {} | {} | {} | {} | {} |",
+            p.name,
+            p.unit.as_str(),
+            p.prior_sd.map_or_else(|| "–".into(), |v| param(v, 5)),
+            param(p.posterior_sd, 5),
+            p.information
+                .map_or_else(|| "–".into(), |v| format!("{:.1} %", 100.0 * v)),
+            if p.held_by_prior {
+                "**the prior**"
+            } else {
+                "the data"
+            }
+        );
+    }
+}
+
 /// `report.md` of a calibration: what was fitted and how (files, rows, free and held
 /// parameters, solver, registration, model), the fit residuals, identifiability at the
-/// solution, the parameter table, correlations above 0.9, the outliers, the worst points, and
-/// the validation (Table 4 before and after, the worst validation points).
+/// solution, the parameter table, the prior (when one was used), correlations above 0.9, the
+/// outliers, the worst points, and the validation (Table 4 before and after, the worst
+/// validation points).
 pub fn markdown(o: &PointCalibration) -> String {
     let a = &o.request;
     let nom = &o.nominal.robot;
@@ -310,6 +350,10 @@ pub fn markdown(o: &PointCalibration) -> String {
             signed(v - n, 5),
             se.map_or_else(|| "–".into(), |e| param(e, 5))
         );
+    }
+
+    if let Some(post) = &o.fit.posterior {
+        prior_md(&mut s, post);
     }
 
     s.push_str("\n## Correlations above 0.9\n\n");

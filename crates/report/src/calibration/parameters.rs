@@ -19,6 +19,17 @@ pub(super) struct ParamRow<'a> {
     pub delta: f64,
     pub std_error: Option<f64>,
     pub identifiable: bool,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub prior: Option<PriorCols>,
+}
+
+/// The prior's columns of a row (with `--prior`, solved parameters only).
+#[derive(Serialize)]
+pub(super) struct PriorCols {
+    pub prior_sd: Option<f64>,
+    pub posterior_sd: f64,
+    pub information: Option<f64>,
+    pub held_by_prior: bool,
 }
 
 /// `parameters.json`.
@@ -81,6 +92,17 @@ pub fn parameters_json(o: &PointCalibration) -> String {
                     Some(c) => c.parameters.contains(&info.name),
                     None => o.analysis.identifiable.contains(&info.name),
                 },
+                prior: o.fit.posterior.as_ref().and_then(|post| {
+                    post.params
+                        .iter()
+                        .find(|p| p.name == info.name)
+                        .map(|p| PriorCols {
+                            prior_sd: p.prior_sd,
+                            posterior_sd: p.posterior_sd,
+                            information: p.information,
+                            held_by_prior: p.held_by_prior,
+                        })
+                }),
             }
         })
         .collect();
@@ -120,6 +142,13 @@ pub(super) fn columns() -> BTreeMap<&'static str, &'static str> {
         (
             "std_error",
             "standard error, for identifiable parameters (null otherwise)",
+        ),
+        (
+            "prior",
+            "with a prior (--prior): prior_sd and posterior_sd (display units), information \
+             (1 − posterior variance / prior variance) and held_by_prior (posterior sd above \
+             half the prior's: the prior rather than the data determine the value); solved \
+             parameters only",
         ),
         (
             "identifiable",

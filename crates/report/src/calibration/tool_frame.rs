@@ -297,6 +297,7 @@ pub fn parameters_json(c: &ToolFrameCalibration) -> String {
                 delta: identified - nominal,
                 std_error: e.map(|e| e.std_error),
                 identifiable: free,
+                prior: None,
             }
         })
         .collect();
@@ -312,6 +313,7 @@ pub fn parameters_json(c: &ToolFrameCalibration) -> String {
                 delta: e.value - e.start,
                 std_error: Some(e.std_error),
                 identifiable: true,
+                prior: None,
             });
         }
     }
