@@ -714,6 +714,7 @@ impl<'p> Assembler<'p> {
     /// there if it did (the same bits), and skips the full unscaled matrix (the same bits as
     /// assembling into `a`, `g` and scaling): `a`, `g` are then stale until
     /// [`Assembler::unscaled`].
+    #[allow(clippy::too_many_arguments)]
     fn accept_scaled(
         &mut self,
         robot: &Robot,
