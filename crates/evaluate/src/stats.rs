@@ -92,10 +92,7 @@ pub fn error_stats(errors_mm: &[[f64; 3]]) -> Result<ErrorStats> {
         }
     }
     let axis = |k: usize| -> Vec<f64> { errors_mm.iter().map(|e| e[k].abs()).collect() };
-    let norms: Vec<f64> = errors_mm
-        .iter()
-        .map(|e| (e[0] * e[0] + e[1] * e[1] + e[2] * e[2]).sqrt())
-        .collect();
+    let norms = norms(errors_mm);
     Ok(ErrorStats {
         count: errors_mm.len(),
         x: AxisStats::from_values(&axis(0))?,
@@ -103,6 +100,21 @@ pub fn error_stats(errors_mm: &[[f64; 3]]) -> Result<ErrorStats> {
         z: AxisStats::from_values(&axis(2))?,
         norm: AxisStats::from_values(&norms)?,
     })
+}
+
+/// The 3-D norms ‖e‖ = √(x² + y² + z²) of error vectors, in their order (the `norm` row of
+/// [`error_stats`], and what the error plots draw).
+pub fn norms(errors_mm: &[[f64; 3]]) -> Vec<f64> {
+    errors_mm
+        .iter()
+        .map(|e| (e[0] * e[0] + e[1] * e[1] + e[2] * e[2]).sqrt())
+        .collect()
+}
+
+/// The mean of `v`, summed in order (0 for an empty slice): e.g. the reference lines of the
+/// plots.
+pub fn mean(v: &[f64]) -> f64 {
+    v.iter().sum::<f64>() / v.len().max(1) as f64
 }
 
 /// [`error_stats`] for nalgebra vectors `e_i = measured − target` (mm).
@@ -280,6 +292,15 @@ mod tests {
     use super::*;
     use approx::assert_relative_eq;
     use proptest::prelude::*;
+
+    /// Norms of a 3-4-12 and a zero vector; the mean in order, and 0 for nothing.
+    #[test]
+    fn norms_and_mean() {
+        assert_eq!(norms(&[[3.0, 4.0, 12.0], [0.0, 0.0, 0.0]]), [13.0, 0.0]);
+        assert!(norms(&[]).is_empty());
+        assert_eq!(mean(&[1.0, 2.0, 6.0]), 3.0);
+        assert_eq!(mean(&[]), 0.0);
+    }
 
     #[test]
     fn percentile_matches_numpy_linear() {

@@ -5,10 +5,10 @@
 //! legends and captions are in words with units; parameter lists are in kinematic order
 //! ([`kinematic_order`]).
 
+use evaluate::{mean, norms};
 use report::fmt;
 use report::html::{self, Picture};
 use report::plot::{cdf_figure, figure_svg, histogram_svg, panels_svg, rebin};
-use report::plot::{mean, norms};
 use report::{Figure, PlotError, RefLine, Series, Style};
 
 use crate::outputs::summary::kinematic_order;

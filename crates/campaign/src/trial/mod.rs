@@ -30,9 +30,9 @@ use points::PointIdentification;
 /// from frames / several targets per pose (`measurement` of the scenario).
 enum TrialFit {
     /// A point fit.
-    Points(PointIdentification),
+    Points(Box<PointIdentification>),
     /// A frame or multi-target fit.
-    Frames(FrameIdentification),
+    Frames(Box<FrameIdentification>),
 }
 
 impl TrialFit {
@@ -112,9 +112,13 @@ pub fn run_trial(ctx: &Context, trial: u64) -> Result<TrialResult, CampaignError
     };
     // A point fit (the paper's measurement), or a frame / multi-target fit.
     let fit = if scenario.measurement.kind == design::Measure::Point {
-        TrialFit::Points(points::identify_points(ctx, &mut world, &all_id, trial)?)
+        TrialFit::Points(Box::new(points::identify_points(
+            ctx, &mut world, &all_id, trial,
+        )?))
     } else {
-        TrialFit::Frames(frames::identify_frames(ctx, &mut world, &all_id, trial)?)
+        TrialFit::Frames(Box::new(frames::identify_frames(
+            ctx, &mut world, &all_id, trial,
+        )?))
     };
     let mut unmeasurable = fit.unmeasurable();
     let fit_robot = fit.robot();

@@ -11,7 +11,7 @@ use crate::html::{self, Picture};
 use crate::plot::{
     Figure, HEIGHT, PlotError, RefLine, Scale, Series, Style, cdf_figure, figure_svg, panels_svg,
 };
-use crate::plot::{mean, norms};
+use evaluate::{mean, norms};
 
 /// What [`identify_plots`] draws from. Every error is measured − model, in mm, one per row.
 #[derive(Clone, Copy, Debug)]
