@@ -203,10 +203,8 @@ fn to_arr(v: Vector3<f64>) -> [f64; 3] {
     [v.x, v.y, v.z]
 }
 
-/// The 3-D norms of error vectors.
-pub fn norms(errors: &[[f64; 3]]) -> Vec<f64> {
-    errors.iter().map(|e| Vector3::from(*e).norm()).collect()
-}
+/// The 3-D norms of error vectors (one implementation: `evaluate::norms`).
+pub use evaluate::norms;
 
 /// The mean and the largest of `v` (0 and 0 for an empty slice).
 pub fn mean_max(v: &[f64]) -> (f64, f64) {
