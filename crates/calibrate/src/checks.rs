@@ -54,6 +54,10 @@ pub const MAX_ANGLE_CHANGE_DEG: f64 = 5.0;
 /// metre is another tool or a wrong frame].
 pub const MAX_TOOL_CHANGE_MM: f64 = 250.0;
 
+/// Largest plausible change of a prismatic joint's axis scale, mm/mm [0.01: encoder and
+/// rack errors are tens to hundreds of ppm; a percent is a wrong unit or gear ratio].
+pub const MAX_SCALE_CHANGE: f64 = 0.01;
+
 fn refuse(check: Check, evidence: String, remedy: &str) -> Refusal {
     Refusal::Implausible {
         check,
@@ -187,6 +191,7 @@ pub fn parameters(
             ParamKind::A(_) | ParamKind::D(_) => MAX_LINK_CHANGE_MM,
             ParamKind::Theta(_) | ParamKind::Alpha(_) | ParamKind::Beta(_) => MAX_ANGLE_CHANGE_DEG,
             ParamKind::ToolX | ParamKind::ToolY | ParamKind::ToolZ => MAX_TOOL_CHANGE_MM,
+            ParamKind::Scale(_) => MAX_SCALE_CHANGE,
             _ => continue,
         };
         let d = if p.unit == kinematics::Unit::Deg {
