@@ -346,7 +346,8 @@ impl Robot {
         names: &[S],
         source_name: &str,
     ) -> Result<Robot, ModelError> {
-        if let Some(i) = self.links.iter().position(|l| l.prismatic) {
+        let prismatic = self.links.iter().position(|l| l.prismatic);
+        if let (false, Some(i)) = (names.is_empty(), prismatic) {
             return Err(ModelError::Invalid {
                 source_name: source_name.to_string(),
                 field: "params".into(),
