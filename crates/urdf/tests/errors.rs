@@ -48,7 +48,10 @@ fn planar_or_continuous_on_the_chain_is_refused_off_it_ignored() {
     );
     // A prismatic joint imports, its limits metres → millimetres.
     let r = import(&chain("prismatic", LIMIT, ""), "base", "tip").unwrap();
-    assert_eq!(r.spec.joints[1].joint_type, kinematics::JointType::Prismatic);
+    assert_eq!(
+        r.spec.joints[1].joint_type,
+        kinematics::JointType::Prismatic
+    );
     assert_eq!(r.spec.joints[1].limits_deg, [-2000.0, 2000.0]);
     let e = import(&chain("continuous", "", ""), "base", "tip")
         .unwrap_err()

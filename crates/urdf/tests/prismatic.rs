@@ -74,7 +74,10 @@ fn identified_from_simulated_data_with_unit_z_scores_then_exported_and_reimporte
     let free = ParamSet::Minimal
         .resolve(&nominal, &poses, None, &Default::default())
         .unwrap();
-    let names: Vec<&str> = free.iter().map(|&k| nominal.layout().get(k).name.as_str()).collect();
+    let names: Vec<&str> = free
+        .iter()
+        .map(|&k| nominal.layout().get(k).name.as_str())
+        .collect();
     // The torso's axis scale is determined by the data (its travel moves the probe).
     assert!(names.contains(&"scale1"), "{names:?}");
     // The truth: the free (identifiable) parameters moved, the others at their nominal
@@ -95,7 +98,9 @@ fn identified_from_simulated_data_with_unit_z_scores_then_exported_and_reimporte
     for _ in 0..DRAWS {
         let meas: Vec<Vector3<f64>> = clean
             .iter()
-            .map(|p| p + Vector3::new(normal(&mut rng), normal(&mut rng), normal(&mut rng)) * SIGMA_MM)
+            .map(|p| {
+                p + Vector3::new(normal(&mut rng), normal(&mut rng), normal(&mut rng)) * SIGMA_MM
+            })
             .collect();
         let problem = Problem::new(&nominal, &poses, &meas, free.clone()).unwrap();
         let fit = identify(&problem, &IdentifyOptions::default()).unwrap();
@@ -112,24 +117,38 @@ fn identified_from_simulated_data_with_unit_z_scores_then_exported_and_reimporte
     let n = z.len() as f64;
     let mean = z.iter().sum::<f64>() / n;
     let sd = (z.iter().map(|v| (v - mean) * (v - mean)).sum::<f64>() / (n - 1.0)).sqrt();
-    assert!((sd - 1.0).abs() < 0.15, "z-scores: mean {mean:.3}, sd {sd:.3} over {n} values");
+    assert!(
+        (sd - 1.0).abs() < 0.15,
+        "z-scores: mean {mean:.3}, sd {sd:.3} over {n} values"
+    );
     assert!(mean.abs() < 0.15, "z-scores: mean {mean:.3}, sd {sd:.3}");
 
     // The identified robot, its axis scale held at 1 for a URDF (which cannot carry one).
     let identified = last.unwrap();
     let mut spec = identified.to_spec();
     assert_ne!(spec.joints[0].scale_mm_per_mm, 1.0);
-    let refused = export(&spec, &ExportOptions::default()).unwrap_err().to_string();
+    let refused = export(&spec, &ExportOptions::default())
+        .unwrap_err()
+        .to_string();
     assert!(refused.contains("scale1"), "{refused}");
     spec.joints[0].scale_mm_per_mm = 1.0;
     let text = export(&spec, &ExportOptions::default()).unwrap();
     assert!(text.contains("type=\"prismatic\"") && text.contains("upper=\"0.33\""));
-    let back = import_str(&text, "exported", "measurement", "tool", &ImportOptions::default())
-        .unwrap()
-        .spec;
+    let back = import_str(
+        &text,
+        "exported",
+        "measurement",
+        "tool",
+        &ImportOptions::default(),
+    )
+    .unwrap()
+    .spec;
     assert_eq!(back.joints[0].joint_type, JointType::Prismatic);
     assert_eq!(back.joints[0].limits_deg, spec.joints[0].limits_deg);
-    let (a, b) = (Robot::from_spec(&spec).unwrap(), Robot::from_spec(&back).unwrap());
+    let (a, b) = (
+        Robot::from_spec(&spec).unwrap(),
+        Robot::from_spec(&back).unwrap(),
+    );
     let parsed = urdf_rs::read_from_string(&text).unwrap();
     for q in poses.chunks_exact(5) {
         let p = a.point(q);
