@@ -471,8 +471,8 @@ impl Robot {
             }
             if let Some(k) = self.scale_index[i] {
                 let mut v = z;
-                for t in 0..L {
-                    let q_mm = prismatic_mm(sq[t]);
+                for (t, q) in sq.iter().enumerate() {
+                    let q_mm = prismatic_mm(*q);
                     (v.x[t], v.y[t], v.z[t]) = (z.x[t] * q_mm, z.y[t] * q_mm, z.z[t] * q_mm);
                 }
                 set(k, &v);
