@@ -625,10 +625,21 @@ fn a_prismatic_column_converts_with_the_lengths() {
     std::fs::write(&path, text.replace("9,", "12,")).unwrap();
     let e = robot
         .read_set_in(&path, true, (1, None), "data", units)
-        .unwrap_err()
-        .to_string();
-    assert!(
-        e.contains("q1") && e.contains("12000") && e.contains("10000"),
-        "{e}"
-    );
+        .unwrap_err();
+    match &e {
+        CalibrateError::Read {
+            source:
+                measurements::MeasurementError::JointOutOfLimits {
+                    column,
+                    value_deg,
+                    max_deg,
+                    ..
+                },
+            ..
+        } => assert_eq!(
+            (column.as_str(), *value_deg, *max_deg),
+            ("q1", 12000.0, 10000.0)
+        ),
+        other => panic!("{other}"),
+    }
 }
