@@ -54,6 +54,10 @@ pub const MAX_ANGLE_CHANGE_DEG: f64 = 5.0;
 /// metre is another tool or a wrong frame].
 pub const MAX_TOOL_CHANGE_MM: f64 = 250.0;
 
+/// Largest plausible change of a prismatic joint's axis scale, mm/mm [0.01: encoder and
+/// rack errors are tens to hundreds of ppm; a percent is a wrong unit or gear ratio].
+pub const MAX_SCALE_CHANGE: f64 = 0.01;
+
 pub(crate) fn refuse(check: Check, evidence: String, remedy: &str) -> Refusal {
     Refusal::Implausible {
         check,
@@ -181,6 +185,7 @@ pub fn tolerance(kind: ParamKind) -> Option<f64> {
             Some(MAX_ANGLE_CHANGE_DEG)
         }
         ParamKind::ToolX | ParamKind::ToolY | ParamKind::ToolZ => Some(MAX_TOOL_CHANGE_MM),
+        ParamKind::Scale(_) => Some(MAX_SCALE_CHANGE),
         _ => None,
     }
 }

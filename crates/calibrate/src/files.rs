@@ -38,9 +38,24 @@ impl LoadedRobot {
         })
     }
 
-    /// Joint limits in degrees, exactly as in the file.
+    /// Joint limits in degrees, exactly as in the file (millimetres for a prismatic joint,
+    /// the file's `limits_mm`).
     pub fn limits_deg(&self) -> Vec<[f64; 2]> {
         self.spec.joints.iter().map(|j| j.limits_deg).collect()
+    }
+
+    /// The unit factor of each joint column of a file in units of `deg_per_unit` degrees and
+    /// `mm_per_unit` millimetres: a revolute joint's column is an angle (`--joint-units`),
+    /// a prismatic joint's a length (`--length-units`, as the points).
+    pub(crate) fn joint_factors(&self, (deg_per_unit, mm_per_unit): (f64, f64)) -> Vec<f64> {
+        let factor = |j: &kinematics::JointSpec| {
+            if j.is_prismatic() {
+                mm_per_unit
+            } else {
+                deg_per_unit
+            }
+        };
+        self.spec.joints.iter().map(factor).collect()
     }
 
     /// Reads a measurement file for this robot: its joint count, its joint limits, points
@@ -83,7 +98,8 @@ impl LoadedRobot {
         (deg_per_unit, mm_per_unit): (f64, f64),
         euler: Option<measurements::EulerConvention>,
     ) -> Result<MeasurementSet> {
-        let limits = self.limits_in(deg_per_unit);
+        let limits = self.limits_in((deg_per_unit, mm_per_unit));
+        let factors = self.joint_factors((deg_per_unit, mm_per_unit));
         let mut opts = ReadOptions::new(self.robot.n_joints())
             .with_limits_deg(limits)
             .with_min_rows(min_rows);
@@ -102,7 +118,7 @@ impl LoadedRobot {
                     column,
                     value_deg,
                     ..
-                } if deg_per_unit != 1.0 => {
+                } if factors.iter().any(|f| *f != 1.0) => {
                     let j = column
                         .strip_prefix('q')
                         .and_then(|k| k.parse::<usize>().ok())
@@ -112,7 +128,7 @@ impl LoadedRobot {
                         file,
                         line,
                         column,
-                        value_deg: value_deg * deg_per_unit,
+                        value_deg: value_deg * factors.get(j).copied().unwrap_or(1.0),
                         min_deg,
                         max_deg,
                     }
@@ -134,38 +150,37 @@ impl LoadedRobot {
                 _ => err,
             }
         })?;
-        to_degrees_and_mm(&mut set, (deg_per_unit, mm_per_unit), &self.limits_deg());
+        to_degrees_and_mm(&mut set, (&factors, mm_per_unit), &self.limits_deg());
         Ok(set)
     }
 
-    /// The joint limits in units of `deg_per_unit` degrees (the limits a file in those units
-    /// is checked against).
-    pub(crate) fn limits_in(&self, deg_per_unit: f64) -> Vec<[f64; 2]> {
+    /// The joint limits in units of `deg_per_unit` degrees (`mm_per_unit` millimetres for a
+    /// prismatic joint): the limits a file in those units is checked against.
+    pub(crate) fn limits_in(&self, units: (f64, f64)) -> Vec<[f64; 2]> {
         self.limits_deg()
             .iter()
-            .map(|l| {
-                if deg_per_unit == 1.0 {
-                    *l
-                } else {
-                    [l[0] / deg_per_unit, l[1] / deg_per_unit]
-                }
-            })
+            .zip(self.joint_factors(units))
+            .map(|(l, f)| if f == 1.0 { *l } else { [l[0] / f, l[1] / f] })
             .collect()
     }
 }
 
-/// Converts the rows of `set`, checked in units of `deg_per_unit` degrees and `mm_per_unit`
-/// millimetres, to degrees and millimetres (points and their σ). Rows already in degrees
-/// and millimetres get the radians notice instead ([`radians_notice`] against
-/// `limits_deg`): declared units are not second-guessed.
+/// Converts the rows of `set`, checked in the file's units (joint column i in units of
+/// `joint_factors[i]` degrees, or millimetres for a prismatic joint, points in units of
+/// `mm_per_unit` millimetres), to degrees and millimetres (joints, points and their σ). Rows
+/// already in degrees and millimetres get the radians notice instead ([`radians_notice`]
+/// against `limits_deg`): declared units are not second-guessed.
 pub(crate) fn to_degrees_and_mm(
     set: &mut MeasurementSet,
-    (deg_per_unit, mm_per_unit): (f64, f64),
+    (joint_factors, mm_per_unit): (&[f64], f64),
     limits_deg: &[[f64; 2]],
 ) {
-    if deg_per_unit != 1.0 || mm_per_unit != 1.0 {
+    if joint_factors.iter().any(|f| *f != 1.0) || mm_per_unit != 1.0 {
         for r in &mut set.rows {
-            r.q_deg.iter_mut().for_each(|q| *q *= deg_per_unit);
+            r.q_deg
+                .iter_mut()
+                .zip(joint_factors)
+                .for_each(|(q, f)| *q *= f);
             if let Some(p) = &mut r.point_mm {
                 p.iter_mut().for_each(|v| *v *= mm_per_unit);
             }

@@ -75,7 +75,8 @@ impl LoadedRobot {
         (deg_per_unit, mm_per_unit): (f64, f64),
     ) -> Result<MeasurementSet> {
         let n = self.robot.n_joints();
-        let limits = self.limits_in(deg_per_unit);
+        let limits = self.limits_in((deg_per_unit, mm_per_unit));
+        let factors = self.joint_factors((deg_per_unit, mm_per_unit));
         let source = set.source.clone();
         let err = |source_err: MeasurementError| CalibrateError::Read {
             context: format!(
@@ -118,7 +119,7 @@ impl LoadedRobot {
                         file: source.clone(),
                         line,
                         column,
-                        value_deg: v * deg_per_unit,
+                        value_deg: v * factors[j],
                         min_deg,
                         max_deg,
                     }));
@@ -154,7 +155,7 @@ impl LoadedRobot {
             }
         }
         set.check_rows().map_err(err)?;
-        to_degrees_and_mm(&mut set, (deg_per_unit, mm_per_unit), &self.limits_deg());
+        to_degrees_and_mm(&mut set, (&factors, mm_per_unit), &self.limits_deg());
         Ok(set)
     }
 }

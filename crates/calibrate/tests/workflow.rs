@@ -607,3 +607,49 @@ mod corruption {
         }
     }
 }
+
+/// A prismatic joint's column holds a length: `--length-units` converts it with the points,
+/// `--joint-units` only the revolute columns; its limits are checked in the file's units.
+#[test]
+fn a_prismatic_column_converts_with_the_lengths() {
+    let robot =
+        LoadedRobot::load(&root().join("scenarios/robots/kr1000-track.json"), "robot").unwrap();
+    let tmp = tempfile::tempdir().unwrap();
+    let path = tmp.path().join("m.csv");
+    let rad = [0.1, -0.2, 0.3, 0.4, 0.5, -0.6];
+    let mut text = String::from("id,q1,q2,q3,q4,q5,q6,q7,x,y,z\n");
+    for (k, track_m) in [2.5, 7.25, 9.0].iter().enumerate() {
+        let q: Vec<String> = rad.iter().map(|v| v.to_string()).collect();
+        text.push_str(&format!("p{k},{track_m},{},1.5,2.5,3.5\n", q.join(",")));
+    }
+    std::fs::write(&path, &text).unwrap();
+    let units = (180.0 / std::f64::consts::PI, 1000.0);
+    let set = robot
+        .read_set_in(&path, true, (1, None), "data", units)
+        .unwrap();
+    assert_eq!(set.rows[0].q_deg[0], 2500.0);
+    assert_eq!(set.rows[1].q_deg[0], 7250.0);
+    assert_eq!(set.rows[0].q_deg[1], 0.1 * units.0);
+    assert_eq!(set.rows[0].point_mm.unwrap(), [1500.0, 2500.0, 3500.0]);
+    // 12 m is beyond the track's 10 m, checked in metres, reported in millimetres.
+    std::fs::write(&path, text.replace("9,", "12,")).unwrap();
+    let e = robot
+        .read_set_in(&path, true, (1, None), "data", units)
+        .unwrap_err();
+    match &e {
+        CalibrateError::Read {
+            source:
+                measurements::MeasurementError::JointOutOfLimits {
+                    column,
+                    value_deg,
+                    max_deg,
+                    ..
+                },
+            ..
+        } => assert_eq!(
+            (column.as_str(), *value_deg, *max_deg),
+            ("q1", 12000.0, 10000.0)
+        ),
+        other => panic!("{other}"),
+    }
+}

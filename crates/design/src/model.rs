@@ -56,6 +56,7 @@ impl Scale {
                     Unit::Deg => *angle_deg,
                     Unit::MicroradPerNm => EXTENDED_COMPLIANCE_SCALE,
                     Unit::Arcsec => EXTENDED_GEAR_SCALE_ARCSEC,
+                    Unit::MmPerMm => AXIS_SCALE_SCALE,
                 })
                 .collect(),
             Scale::PerParameter(v) => {
@@ -117,6 +118,7 @@ impl Scale {
                         pick(base_translation_mm, 0.5)
                     }
                     ParamKind::ToolX | ParamKind::ToolY | ParamKind::ToolZ => pick(tool_mm, 0.5),
+                    ParamKind::Scale(_) => AXIS_SCALE_SCALE,
                     ParamKind::Extended(kinematics::ExtendedKind::Compliance(_)) => {
                         EXTENDED_COMPLIANCE_SCALE
                     }
@@ -132,6 +134,9 @@ impl Scale {
 pub const EXTENDED_COMPLIANCE_SCALE: f64 = 0.1;
 /// Column scale of a gear-harmonic parameter, arcsec (the paper scenario's 10–20″).
 pub const EXTENDED_GEAR_SCALE_ARCSEC: f64 = 10.0;
+/// Column scale of a prismatic joint's axis scale, mm/mm (100 ppm, a rack's or an
+/// encoder's order of error).
+pub const AXIS_SCALE_SCALE: f64 = 1e-4;
 
 /// Rounding allowance at a joint limit (a limit read in degrees and converted).
 const LIMIT_TOL_RAD: f64 = 1e-12;

@@ -21,7 +21,7 @@ use kinematics::{
 /// The IK target that compensates commanded joints `q_rad`.
 pub fn compensation_target(nominal: &Robot, identified: &Robot, q_rad: &[f64]) -> IkTarget {
     let mut sc = [[0.0; 2]; kinematics::MAX_JOINTS];
-    kinematics::joint_sin_cos(q_rad, &mut sc);
+    nominal.joint_trig(q_rad, &mut sc);
     compensation_target_trig(nominal, identified, &sc[..q_rad.len()])
 }
 

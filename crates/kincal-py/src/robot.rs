@@ -126,6 +126,14 @@ impl PyRobot {
         self.robot().n_joints()
     }
 
+    /// The type of each joint, base to flange: `"revolute"` or `"prismatic"` (a prismatic
+    /// joint's values and limits are millimetres where a revolute joint's are degrees).
+    #[getter]
+    fn joint_types(&self) -> Vec<&'static str> {
+        let r = self.robot();
+        (0..r.n_joints()).map(|i| r.joint_type(i).as_str()).collect()
+    }
+
     /// Number of entries in the parameter vector.
     #[getter]
     fn n_params(&self) -> usize {

@@ -232,6 +232,7 @@ impl Robot {
     ) -> Residual {
         let mut sc = [[0.0; 2]; MAX_JOINTS];
         padded_sin_cos(q_rad, &mut sc);
+        self.mark_prismatic(q_rad, &mut sc);
         let f = self.joint_axes_trig(&sc[..q_rad.len()], &mut axes.axes);
         let p = f.transform_point(&target.point_in_flange_mm);
         axes.point = p;
@@ -378,15 +379,20 @@ impl Robot {
             if need_jacobian {
                 let axes = &bufs[cur];
                 let p = axes.point;
-                for (c, (z, o)) in cols[..n].iter_mut().zip(&axes.axes) {
-                    let lin = z.cross(&(p - o));
-                    *c = Vector6::new(lin.x, lin.y, lin.z, z.x * scale, z.y * scale, z.z * scale);
+                for (i, (c, (z, o))) in cols[..n].iter_mut().zip(&axes.axes).enumerate() {
+                    *c = match self.prismatic_rate(i) {
+                        None => {
+                            let lin = z.cross(&(p - o));
+                            Vector6::new(lin.x, lin.y, lin.z, z.x * scale, z.y * scale, z.z * scale)
+                        }
+                        Some(v) => Vector6::new(z.x * v, z.y * v, z.z * v, 0.0, 0.0, 0.0),
+                    };
                 }
                 need_jacobian = false;
             }
             // Active set: a joint at a limit whose step points outward is frozen and the step
             // is solved again without it, so the remaining joints still make progress.
-            let mut frozen = [false; MAX_JOINTS];
+            let mut frozen = self.ik_held();
             let mut solved = false;
             iterations += 1;
             for _pass in 0..=n {

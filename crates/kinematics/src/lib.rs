@@ -31,10 +31,13 @@ pub use ik::{
     NearestIk, cholesky6,
 };
 pub use model::{
-    BaseSpec, ExtendedParamSpec, JointSpec, LinkMassSpec, MAX_JOINTS, MassModelSpec, RobotSpec,
-    TargetSpec,
+    BaseSpec, ExtendedParamSpec, JointSpec, JointType, LinkMassSpec, MAX_JOINTS, MassModelSpec,
+    RobotSpec, TargetSpec,
 };
 pub use params::{BETA_ALPHA_TOL_DEG, ExtendedKind, ParamInfo, ParamKind, ParamLayout, Unit};
-pub use robot::{MAX_PARAMS, POSE_LANES, PoseLanes, PoseTrig, Robot, gram_of_axes};
+pub use robot::{
+    MAX_PARAMS, POSE_LANES, PRISMATIC_SLOT, PoseLanes, PoseTrig, Robot, gram_of_axes,
+    prismatic_internal, prismatic_mm,
+};
 pub use sampling::PoseSampler;
 pub use trig::joint_sin_cos;

@@ -39,14 +39,58 @@ use crate::frame::Frame;
 /// Largest number of joints a chain may have (frames live in fixed-size arrays on the stack).
 pub const MAX_JOINTS: usize = 16;
 
-/// One revolute joint in the Hayati-modified standard DH convention (`docs/model.md` §2):
-/// `T_i = Rz(θ_i + q_i) · Tz(d_i) · Tx(a_i) · Rx(α_i) · Ry(β_i)`.
+/// What a joint's variable moves (`docs/model.md` §2): a rotation about the previous z axis
+/// (the default) or a translation along it. The robot file's `type` field; absent means
+/// revolute, so files without it read and write as before.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum JointType {
+    /// `q` (degrees outside) adds to θ.
+    #[default]
+    Revolute,
+    /// `q` (millimetres outside) adds to d, times the axis scale.
+    Prismatic,
+}
+
+impl JointType {
+    /// True for [`JointType::Revolute`] (serde's `skip_serializing_if`).
+    pub fn is_revolute(&self) -> bool {
+        *self == JointType::Revolute
+    }
+
+    /// `"revolute"` or `"prismatic"`.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            JointType::Revolute => "revolute",
+            JointType::Prismatic => "prismatic",
+        }
+    }
+
+    /// The interface unit of the joint variable and its limits: `"deg"` or `"mm"`.
+    pub fn unit(self) -> &'static str {
+        match self {
+            JointType::Revolute => "deg",
+            JointType::Prismatic => "mm",
+        }
+    }
+}
+
+/// One joint in the Hayati-modified standard DH convention (`docs/model.md` §2):
+/// revolute `T_i = Rz(θ_i + q_i) · Tz(d_i) · Tx(a_i) · Rx(α_i) · Ry(β_i)`, prismatic
+/// `T_i = Rz(θ_i) · Tz(d_i + s_i·q_i) · Tx(a_i) · Rx(α_i) · Ry(β_i)` (s_i the axis scale).
+///
+/// In the file a prismatic joint has `"type": "prismatic"`, its limits as `limits_mm` and
+/// optionally `scale_mm_per_mm` (default 1); a revolute joint has neither of the two and
+/// its limits as `limits_deg`.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(try_from = "JointRepr", into = "JointRepr")]
 pub struct JointSpec {
+    /// Revolute (the default) or prismatic.
+    pub joint_type: JointType,
     /// Constant joint-angle offset θ_i, degrees.
     pub theta_deg: f64,
-    /// Link offset d_i along the previous z axis, mm.
+    /// Link offset d_i along the previous z axis, mm (a prismatic joint's offset: the
+    /// joint's d at q = 0).
     pub d_mm: f64,
     /// Link length a_i along the new x axis, mm.
     pub a_mm: f64,
@@ -55,8 +99,119 @@ pub struct JointSpec {
     /// Hayati's β_i about the new y axis, degrees (a parameter only where the axis is
     /// parallel to the next one, see [`crate::ParamLayout`]).
     pub beta_deg: f64,
-    /// Joint limits `[min, max]` of the joint variable q_i, degrees.
+    /// Joint limits `[min, max]` of the joint variable q_i in the joint's interface unit
+    /// ([`JointType::unit`]): degrees for a revolute joint (the file's `limits_deg`),
+    /// millimetres for a prismatic one (the file's `limits_mm`). Every joint vector at an
+    /// interface (measurement files, plans, reports) uses the same per-joint units.
     pub limits_deg: [f64; 2],
+    /// The axis scale s_i of a prismatic joint (the encoder's mm per mm, nominally 1): the
+    /// joint moves `s_i · q_i` along z. 1 and unused for a revolute joint.
+    pub scale_mm_per_mm: f64,
+}
+
+impl JointSpec {
+    /// A revolute joint (the common case) with these values.
+    pub fn revolute(
+        theta_deg: f64,
+        d_mm: f64,
+        a_mm: f64,
+        alpha_deg: f64,
+        beta_deg: f64,
+        limits_deg: [f64; 2],
+    ) -> JointSpec {
+        JointSpec {
+            joint_type: JointType::Revolute,
+            theta_deg,
+            d_mm,
+            a_mm,
+            alpha_deg,
+            beta_deg,
+            limits_deg,
+            scale_mm_per_mm: 1.0,
+        }
+    }
+
+    /// True for a prismatic joint.
+    pub fn is_prismatic(&self) -> bool {
+        self.joint_type == JointType::Prismatic
+    }
+}
+
+/// The file form of [`JointSpec`]: `limits_deg` or `limits_mm` by the joint's type.
+#[derive(Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct JointRepr {
+    #[serde(rename = "type", default, skip_serializing_if = "Option::is_none")]
+    joint_type: Option<JointType>,
+    theta_deg: f64,
+    d_mm: f64,
+    a_mm: f64,
+    alpha_deg: f64,
+    beta_deg: f64,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    limits_deg: Option<[f64; 2]>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    limits_mm: Option<[f64; 2]>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    scale_mm_per_mm: Option<f64>,
+}
+
+impl TryFrom<JointRepr> for JointSpec {
+    type Error = String;
+    fn try_from(r: JointRepr) -> Result<JointSpec, String> {
+        let joint_type = r.joint_type.unwrap_or_default();
+        let limits_deg = match (joint_type, r.limits_deg, r.limits_mm) {
+            (JointType::Revolute, Some(l), None) | (JointType::Prismatic, None, Some(l)) => l,
+            (JointType::Revolute, None, None) => return Err("missing field `limits_deg`".into()),
+            (JointType::Prismatic, None, None) => return Err("missing field `limits_mm`".into()),
+            (JointType::Revolute, _, Some(_)) => {
+                return Err(
+                    "`limits_mm` is for a prismatic joint (`\"type\": \"prismatic\"`); \
+                            a revolute joint gives `limits_deg`"
+                        .into(),
+                );
+            }
+            (JointType::Prismatic, Some(_), _) => {
+                return Err(
+                    "a prismatic joint gives its limits in millimetres, `limits_mm`, \
+                            not `limits_deg`"
+                        .into(),
+                );
+            }
+        };
+        if joint_type == JointType::Revolute && r.scale_mm_per_mm.is_some() {
+            return Err(
+                "`scale_mm_per_mm` is for a prismatic joint (`\"type\": \"prismatic\"`)".into(),
+            );
+        }
+        Ok(JointSpec {
+            joint_type,
+            theta_deg: r.theta_deg,
+            d_mm: r.d_mm,
+            a_mm: r.a_mm,
+            alpha_deg: r.alpha_deg,
+            beta_deg: r.beta_deg,
+            limits_deg,
+            scale_mm_per_mm: r.scale_mm_per_mm.unwrap_or(1.0),
+        })
+    }
+}
+
+impl From<JointSpec> for JointRepr {
+    fn from(j: JointSpec) -> JointRepr {
+        let prismatic = j.is_prismatic();
+        JointRepr {
+            joint_type: prismatic.then_some(j.joint_type),
+            theta_deg: j.theta_deg,
+            d_mm: j.d_mm,
+            a_mm: j.a_mm,
+            alpha_deg: j.alpha_deg,
+            beta_deg: j.beta_deg,
+            limits_deg: (!prismatic).then_some(j.limits_deg),
+            limits_mm: prismatic.then_some(j.limits_deg),
+            scale_mm_per_mm: prismatic.then_some(j.scale_mm_per_mm),
+        }
+    }
 }
 
 /// A base pose `T = Trans(dx, dy, dz) · Rz(rz) · Ry(ry) · Rx(rx)` in interface units: the
@@ -375,15 +530,26 @@ impl RobotSpec {
             finite(f("a_mm"), j.a_mm)?;
             finite(f("alpha_deg"), j.alpha_deg)?;
             finite(f("beta_deg"), j.beta_deg)?;
-            finite(f("limits_deg[0]"), j.limits_deg[0])?;
-            finite(f("limits_deg[1]"), j.limits_deg[1])?;
+            let limits = if j.is_prismatic() {
+                "limits_mm"
+            } else {
+                "limits_deg"
+            };
+            finite(f(&format!("{limits}[0]")), j.limits_deg[0])?;
+            finite(f(&format!("{limits}[1]")), j.limits_deg[1])?;
             if j.limits_deg[0] >= j.limits_deg[1] {
                 return Err(invalid(
-                    f("limits_deg"),
+                    f(limits),
                     format!(
                         "minimum {:?} must be below maximum {:?}",
                         j.limits_deg[0], j.limits_deg[1]
                     ),
+                ));
+            }
+            if !(j.scale_mm_per_mm.is_finite() && j.scale_mm_per_mm > 0.0) {
+                return Err(invalid(
+                    f("scale_mm_per_mm"),
+                    format!("{:?} must be a finite number > 0", j.scale_mm_per_mm),
                 ));
             }
             if j.beta_deg.abs() >= 90.0 {
@@ -432,6 +598,16 @@ impl RobotSpec {
                     ));
                 }
             }
+        }
+        let first_prismatic = self.joints.iter().position(JointSpec::is_prismatic);
+        if let (Some(_), Some(i)) = (&self.mass_model, first_prismatic) {
+            return Err(invalid(
+                "mass_model".into(),
+                format!(
+                    "the gravity-torque model covers revolute joints only, joint {} is prismatic",
+                    i + 1
+                ),
+            ));
         }
         if let Some(m) = &self.mass_model {
             let non_negative = |field: String, v: f64| {

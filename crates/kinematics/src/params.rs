@@ -2,7 +2,8 @@
 //!
 //! Order (`docs/model.md` §3), for an N-joint chain: for i = 1..N `theta_i, d_i, a_i, alpha_i`;
 //! then `beta_i` for every joint i < N whose nominal α_i is zero (|α_i| <
-//! [`BETA_ALPHA_TOL_DEG`]: the axis is parallel to the next one, Hayati's case); then `base_rx,
+//! [`BETA_ALPHA_TOL_DEG`]: the axis is parallel to the next one, Hayati's case); then `scale_i`
+//! for every prismatic joint i (its axis scale, mm/mm); then `base_rx,
 //! base_ry, base_rz, base_dx, base_dy, base_dz`; then `tool_x, tool_y, tool_z`. The KR1000 gets
 //! 34 parameters (β2 only), a UR10 35 (β2, β3).
 //!
@@ -31,6 +32,9 @@ pub enum ParamKind {
     Alpha(usize),
     /// Hayati β of joint `i`.
     Beta(usize),
+    /// Axis scale of prismatic joint `i` (the encoder's mm per mm; the joint moves
+    /// `scale · q` along z).
+    Scale(usize),
     /// Base rotation about x.
     BaseRx,
     /// Base rotation about y.
@@ -157,6 +161,8 @@ pub enum Unit {
     MicroradPerNm,
     /// A small joint angle (gear harmonics): arcseconds outside, radians inside.
     Arcsec,
+    /// A ratio of lengths (a prismatic joint's axis scale): mm per mm everywhere.
+    MmPerMm,
 }
 
 impl Unit {
@@ -167,6 +173,7 @@ impl Unit {
             Unit::Mm => "mm",
             Unit::MicroradPerNm => "urad/Nm",
             Unit::Arcsec => "arcsec",
+            Unit::MmPerMm => "mm/mm",
         }
     }
 }
@@ -190,6 +197,7 @@ impl ParamInfo {
             ParamKind::A(i) => (format!("a{}", i + 1), Unit::Mm),
             ParamKind::Alpha(i) => (format!("alpha{}", i + 1), Unit::Deg),
             ParamKind::Beta(i) => (format!("beta{}", i + 1), Unit::Deg),
+            ParamKind::Scale(i) => (format!("scale{}", i + 1), Unit::MmPerMm),
             ParamKind::BaseRx => ("base_rx".into(), Unit::Deg),
             ParamKind::BaseRy => ("base_ry".into(), Unit::Deg),
             ParamKind::BaseRz => ("base_rz".into(), Unit::Deg),
@@ -258,8 +266,16 @@ impl From<ParamLayout> for LayoutRepr {
 }
 
 impl ParamLayout {
-    /// The layout for a chain with the given nominal twists α_i (degrees).
+    /// The layout for a revolute chain with the given nominal twists α_i (degrees).
     pub fn new(alpha_deg: &[f64]) -> Self {
+        Self::for_chain(alpha_deg, &vec![false; alpha_deg.len()])
+    }
+
+    /// The layout for a chain with the given nominal twists α_i (degrees) and joint types
+    /// (`prismatic[i]`): a prismatic joint adds `scale<i>` after the β parameters
+    /// (`docs/model.md` §3); a revolute chain's layout is [`ParamLayout::new`]'s.
+    pub fn for_chain(alpha_deg: &[f64], prismatic: &[bool]) -> Self {
+        assert_eq!(alpha_deg.len(), prismatic.len(), "one joint type per joint");
         let n = alpha_deg.len();
         let mut params = Vec::with_capacity(4 * n + n + 9);
         for i in 0..n {
@@ -275,6 +291,11 @@ impl ParamLayout {
         for (i, a) in alpha_deg.iter().enumerate().take(n.saturating_sub(1)) {
             if a.abs() < BETA_ALPHA_TOL_DEG {
                 params.push(ParamInfo::new(ParamKind::Beta(i)));
+            }
+        }
+        for (i, p) in prismatic.iter().enumerate() {
+            if *p {
+                params.push(ParamInfo::new(ParamKind::Scale(i)));
             }
         }
         for kind in [

@@ -7,7 +7,8 @@ use crate::error::ModelError;
 use crate::extended::ExtendedModel;
 use crate::frame::Frame;
 use crate::model::{
-    BaseSpec, ExtendedParamSpec, JointSpec, MAX_JOINTS, MassModelSpec, RobotSpec, TargetSpec,
+    BaseSpec, ExtendedParamSpec, JointSpec, JointType, MAX_JOINTS, MassModelSpec, RobotSpec,
+    TargetSpec,
 };
 use crate::params::{ParamKind, ParamLayout};
 
@@ -16,8 +17,32 @@ mod fast;
 use crate::trig::joint_sin_cos;
 pub use fast::{POSE_LANES, PoseLanes, PoseTrig};
 
-/// Largest parameter-vector length: 5 per joint plus base and tool.
-pub const MAX_PARAMS: usize = 5 * MAX_JOINTS + 9;
+/// Largest parameter-vector length: 6 per joint (θ, d, a, α and β or an axis scale, or
+/// both) plus base and tool.
+pub const MAX_PARAMS: usize = 6 * MAX_JOINTS + 9;
+
+/// Millimetres of a prismatic joint's variable per internal unit.
+///
+/// A joint vector crosses every interface in per-joint units (degrees for a revolute joint,
+/// millimetres for a prismatic one) and is converted to and from internal units with one
+/// `to_radians` / `to_degrees` for the whole vector, wherever that happens in the
+/// workspace. A prismatic joint's internal value is therefore its millimetres times π/180,
+/// and the kinematics reads it back as [`prismatic_mm`] (`to_degrees`): what a file gives
+/// in mm is mm in the chain, and no conversion site needs to know joint types.
+pub fn prismatic_mm(q_internal: f64) -> f64 {
+    q_internal.to_degrees()
+}
+
+/// The internal value of a prismatic joint at `q_mm` (the inverse of [`prismatic_mm`]).
+pub fn prismatic_internal(q_mm: f64) -> f64 {
+    q_mm.to_radians()
+}
+
+/// What a prismatic joint's cosine slot holds in a pose's `[sin, cos]` pairs: its sine
+/// slot holds the joint's internal value instead of a sine ([`Robot::joint_trig`],
+/// [`PoseTrig::for_robot`]). No cosine is infinite, so the kernels can tell pairs built
+/// without the robot's joint types (e.g. [`crate::joint_sin_cos`]) and refuse them.
+pub const PRISMATIC_SLOT: f64 = f64::INFINITY;
 
 /// One joint in internal units, with the trigonometry of its constant angles cached.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -28,6 +53,13 @@ struct Link {
     alpha_rad: f64,
     beta_rad: f64,
     limits_rad: [f64; 2],
+    /// A prismatic joint's limits as the robot file gives them, mm (written back by
+    /// [`Robot::to_spec`] exactly, not through radians).
+    limits_mm: [f64; 2],
+    /// A prismatic joint: q adds `scale · prismatic_mm(q)` to d instead of q to θ.
+    prismatic: bool,
+    /// The axis scale of a prismatic joint (1 for a revolute one).
+    scale: f64,
     sin_alpha: f64,
     cos_alpha: f64,
     sin_beta: f64,
@@ -56,11 +88,34 @@ fn refresh_links(links: &mut [Link]) {
 }
 
 impl Link {
+    /// The rotation angle of `Rz` at the joint value `q_rad`: θ + q (revolute) or θ
+    /// (prismatic).
+    #[inline(always)]
+    fn angle_of(&self, q_rad: f64) -> f64 {
+        if self.prismatic {
+            self.theta_rad
+        } else {
+            self.theta_rad + q_rad
+        }
+    }
+
+    /// The offset along z at the joint value `q_rad`: d (revolute) or
+    /// `d + scale · prismatic_mm(q)` (prismatic).
+    #[inline(always)]
+    fn d_of(&self, q_rad: f64) -> f64 {
+        if self.prismatic {
+            self.d_mm + self.scale * prismatic_mm(q_rad)
+        } else {
+            self.d_mm
+        }
+    }
+
     /// Columns 0 and 1 of `Rz(θ+q)·Rx(α)` and the sin/cos of θ+q, the pieces both the
     /// link frame and the Jacobian need.
     #[inline]
     fn frame(&self, q_rad: f64) -> Frame {
-        let (st, ct) = (self.theta_rad + q_rad).sin_cos();
+        let (st, ct) = self.angle_of(q_rad).sin_cos();
+        let d_mm = self.d_of(q_rad);
         let (sa, ca) = (self.sin_alpha, self.cos_alpha);
         let (sb, cb) = (self.sin_beta, self.cos_beta);
         // R_dh = Rz(θ+q)·Rx(α) = [[ct, -st·ca, st·sa], [st, ct·ca, -ct·sa], [0, sa, ca]]
@@ -70,7 +125,7 @@ impl Link {
         let r2 = Vector3::new(st * sa, -ct * sa, ca);
         Frame {
             rot: Matrix3::from_columns(&[r0 * cb - r2 * sb, r1, r0 * sb + r2 * cb]),
-            pos_mm: Vector3::new(self.a_mm * ct, self.a_mm * st, self.d_mm),
+            pos_mm: Vector3::new(self.a_mm * ct, self.a_mm * st, d_mm),
         }
     }
 }
@@ -121,6 +176,12 @@ pub struct Robot {
     layout: ParamLayout,
     /// Parameter index of β for each joint (`None` where β is not a parameter).
     beta_index: [Option<usize>; MAX_JOINTS],
+    /// Parameter index of the axis scale for each joint (`None` for a revolute joint).
+    scale_index: [Option<usize>; MAX_JOINTS],
+    /// Whether any joint is prismatic.
+    has_prismatic: bool,
+    /// The joints IK holds at their start values ([`Robot::ik_held`]); `None`: the default.
+    ik_hold: Option<[bool; MAX_JOINTS]>,
     /// Index of `base_rx` (base and tool parameters follow in order).
     base_index: usize,
     /// The model file's optional mass model, kept as given (see [`MassModelSpec`]).
@@ -173,11 +234,15 @@ impl Robot {
     pub fn from_spec(spec: &RobotSpec) -> Result<Robot, ModelError> {
         spec.validate(&spec.name)?;
         let alphas: Vec<f64> = spec.joints.iter().map(|j| j.alpha_deg).collect();
-        let layout = ParamLayout::new(&alphas);
+        let prismatic: Vec<bool> = spec.joints.iter().map(JointSpec::is_prismatic).collect();
+        let layout = ParamLayout::for_chain(&alphas, &prismatic);
         let mut beta_index = [None; MAX_JOINTS];
+        let mut scale_index = [None; MAX_JOINTS];
         for (k, p) in layout.params().iter().enumerate() {
-            if let ParamKind::Beta(i) = p.kind {
-                beta_index[i] = Some(k);
+            match p.kind {
+                ParamKind::Beta(i) => beta_index[i] = Some(k),
+                ParamKind::Scale(i) => scale_index[i] = Some(k),
+                _ => {}
             }
         }
         let mut links: Vec<Link> = spec
@@ -190,6 +255,9 @@ impl Robot {
                 alpha_rad: j.alpha_deg.to_radians(),
                 beta_rad: j.beta_deg.to_radians(),
                 limits_rad: [j.limits_deg[0].to_radians(), j.limits_deg[1].to_radians()],
+                limits_mm: j.limits_deg,
+                prismatic: j.is_prismatic(),
+                scale: j.scale_mm_per_mm,
                 sin_alpha: 0.0,
                 cos_alpha: 1.0,
                 sin_beta: 0.0,
@@ -214,6 +282,9 @@ impl Robot {
             joint_names: spec.joint_names.clone(),
             layout,
             beta_index,
+            scale_index,
+            has_prismatic: prismatic.contains(&true),
+            ik_hold: None,
             base_index,
             mass_model: spec.mass_model.clone(),
             extended: None,
@@ -275,6 +346,18 @@ impl Robot {
         names: &[S],
         source_name: &str,
     ) -> Result<Robot, ModelError> {
+        let prismatic = self.links.iter().position(|l| l.prismatic);
+        if let (false, Some(i)) = (names.is_empty(), prismatic) {
+            return Err(ModelError::Invalid {
+                source_name: source_name.to_string(),
+                field: "params".into(),
+                message: format!(
+                    "the non-geometric families cover revolute chains only, joint {} is \
+                     prismatic",
+                    i + 1
+                ),
+            });
+        }
         let mut geometric = self.clone();
         if geometric.extended.is_some() {
             geometric.extended = None;
@@ -414,6 +497,93 @@ impl Robot {
         }
     }
 
+    /// `[sin q_i, cos q_i]` of the joint vector `q_rad` as this robot's `_trig` and lane
+    /// kernels read them, into `out[..q_rad.len()]`: [`joint_sin_cos`], except that a
+    /// prismatic joint's pair is `[q_i, PRISMATIC_SLOT]` (its value; it has no angle). For a
+    /// revolute chain this is [`joint_sin_cos`], bit for bit.
+    #[inline]
+    pub fn joint_trig(&self, q_rad: &[f64], out: &mut [[f64; 2]]) {
+        joint_sin_cos(q_rad, out);
+        self.mark_prismatic(q_rad, out);
+    }
+
+    /// Writes `[q_i, PRISMATIC_SLOT]` into the pairs of the prismatic joints of `out`, the
+    /// `[sin q, cos q]` of `q_rad` from a sine kernel of the caller's own (nothing for a
+    /// revolute chain).
+    #[inline]
+    pub fn mark_prismatic(&self, q_rad: &[f64], out: &mut [[f64; 2]]) {
+        if self.has_prismatic {
+            for (i, l) in self.links.iter().enumerate() {
+                if l.prismatic {
+                    out[i] = [q_rad[i], PRISMATIC_SLOT];
+                }
+            }
+        }
+    }
+
+    /// The type of joint `i` (0-based).
+    pub fn joint_type(&self, i: usize) -> JointType {
+        if self.links[i].prismatic {
+            JointType::Prismatic
+        } else {
+            JointType::Revolute
+        }
+    }
+
+    /// The wrist joint whose zero is the wrist singularity the pose samplers keep away from:
+    /// the fifth revolute joint (joint 5 of a six-axis arm, joint 6 of one on a linear
+    /// track); `None` for chains with fewer than five revolute joints.
+    pub fn wrist_joint(&self) -> Option<usize> {
+        let mut revolute = (0..self.links.len()).filter(|&i| !self.links[i].prismatic);
+        revolute.nth(4)
+    }
+
+    /// The joints that IK ([`Robot::solve_ik`], and so compensation) holds at their start
+    /// values, the commanded ones: those set by [`Robot::set_ik_held`], else, for a chain
+    /// of more than six joints, its prismatic joints, up to the N − 6 redundant ones (an arm
+    /// on a linear track compensates with the arm, the track where it was commanded; a
+    /// pose needs six joints). None for six or fewer joints.
+    pub fn ik_held(&self) -> [bool; MAX_JOINTS] {
+        if let Some(h) = self.ik_hold {
+            return h;
+        }
+        let mut held = [false; MAX_JOINTS];
+        let n = self.links.len();
+        if n > 6 {
+            let prismatic = (0..n).filter(|&i| self.links[i].prismatic);
+            for i in prismatic.take(n - 6) {
+                held[i] = true;
+            }
+        }
+        held
+    }
+
+    /// Sets the joints IK holds at their start values (0-based; `None`: the default of
+    /// [`Robot::ik_held`]; an empty list frees every joint).
+    pub fn set_ik_held(&mut self, joints: Option<&[usize]>) {
+        self.ik_hold = joints.map(|js| {
+            let mut h = [false; MAX_JOINTS];
+            for &j in js.iter().filter(|&&j| j < MAX_JOINTS) {
+                h[j] = true;
+            }
+            h
+        });
+    }
+
+    /// Whether any joint is prismatic.
+    pub fn has_prismatic(&self) -> bool {
+        self.has_prismatic
+    }
+
+    /// How fast joint `i` moves a point along its axis per internal unit of q, mm: `None`
+    /// for a revolute joint (it turns), `scale · 180/π` for a prismatic one (its column of
+    /// the geometric Jacobian is that times its axis, with no rotation).
+    #[inline]
+    pub fn prismatic_rate(&self, i: usize) -> Option<f64> {
+        let l = &self.links[i];
+        l.prismatic.then(|| l.scale * prismatic_mm(1.0))
+    }
+
     /// Reads a model file (see [`RobotSpec`]).
     pub fn from_file(path: &std::path::Path) -> Result<Robot, ModelError> {
         Robot::from_spec(&RobotSpec::from_file(path)?)
@@ -427,12 +597,22 @@ impl Robot {
                 .links
                 .iter()
                 .map(|l| JointSpec {
+                    joint_type: if l.prismatic {
+                        JointType::Prismatic
+                    } else {
+                        JointType::Revolute
+                    },
+                    scale_mm_per_mm: l.scale,
                     theta_deg: l.theta_rad.to_degrees(),
                     d_mm: l.d_mm,
                     a_mm: l.a_mm,
                     alpha_deg: l.alpha_rad.to_degrees(),
                     beta_deg: l.beta_rad.to_degrees(),
-                    limits_deg: [l.limits_rad[0].to_degrees(), l.limits_rad[1].to_degrees()],
+                    limits_deg: if l.prismatic {
+                        l.limits_mm
+                    } else {
+                        [l.limits_rad[0].to_degrees(), l.limits_rad[1].to_degrees()]
+                    },
                 })
                 .collect(),
             base: BaseSpec::from_internal(self.base.r_rad, self.base.d_mm),
@@ -498,6 +678,17 @@ impl Robot {
     /// Joint limits `[min, max]` of joint `i`, radians.
     pub fn limits_rad(&self, i: usize) -> [f64; 2] {
         self.links[i].limits_rad
+    }
+
+    /// Replaces the limits of joint `i` (internal units; `min < max`), e.g. to draw poses
+    /// over part of a joint's range.
+    pub fn set_limits_rad(&mut self, i: usize, limits_rad: [f64; 2]) {
+        assert!(
+            limits_rad[0] < limits_rad[1],
+            "joint limits must have min < max"
+        );
+        self.links[i].limits_rad = limits_rad;
+        self.links[i].limits_mm = limits_rad.map(prismatic_mm);
     }
 
     /// True if every joint value lies within its limits (inclusive).
@@ -590,7 +781,7 @@ impl Robot {
         for (i, (l, q)) in self.links.iter().zip(q_rad).enumerate() {
             let prev = &frames[i];
             let z = prev.rot.column(2).into_owned();
-            let (st, ct) = (l.theta_rad + q).sin_cos();
+            let (st, ct) = l.angle_of(*q).sin_cos();
             let x = prev.rot * Vector3::new(ct, st, 0.0);
             let r_prev = o - prev.pos_mm;
             let r_this = o - frames[i + 1].pos_mm;
@@ -601,6 +792,9 @@ impl Robot {
             if let Some(k) = self.beta_index[i] {
                 let y = prev.rot * Vector3::new(-st * l.cos_alpha, ct * l.cos_alpha, l.sin_alpha);
                 (lin[k], ang[k]) = (y.cross(&r_this), y);
+            }
+            if let Some(k) = self.scale_index[i] {
+                (lin[k], ang[k]) = (z * prismatic_mm(*q), zero);
             }
         }
         let b = self.base_index;
@@ -646,6 +840,7 @@ impl Robot {
                 ParamKind::A(i) => self.links[i].a_mm,
                 ParamKind::Alpha(i) => self.links[i].alpha_rad,
                 ParamKind::Beta(i) => self.links[i].beta_rad,
+                ParamKind::Scale(i) => self.links[i].scale,
                 ParamKind::BaseRx => self.base.r_rad[0],
                 ParamKind::BaseRy => self.base.r_rad[1],
                 ParamKind::BaseRz => self.base.r_rad[2],
@@ -680,6 +875,7 @@ impl Robot {
                 ParamKind::A(i) => self.links[i].a_mm = v,
                 ParamKind::Alpha(i) => self.links[i].alpha_rad = v,
                 ParamKind::Beta(i) => self.links[i].beta_rad = v,
+                ParamKind::Scale(i) => self.links[i].scale = v,
                 ParamKind::BaseRx => self.base.r_rad[0] = v,
                 ParamKind::BaseRy => self.base.r_rad[1] = v,
                 ParamKind::BaseRz => self.base.r_rad[2] = v,
@@ -714,7 +910,7 @@ impl Robot {
     pub fn frames_into(&self, q_rad: &[f64], frames: &mut [Frame; MAX_JOINTS + 1]) {
         assert_eq!(q_rad.len(), self.links.len(), "joint vector length");
         let mut sc = [[0.0; 2]; MAX_JOINTS];
-        joint_sin_cos(q_rad, &mut sc);
+        self.joint_trig(q_rad, &mut sc);
         self.frames_trig(&sc[..q_rad.len()], frames)
     }
 
@@ -734,7 +930,7 @@ impl Robot {
     pub fn flange(&self, q_rad: &[f64]) -> Frame {
         assert_eq!(q_rad.len(), self.links.len(), "joint vector length");
         let mut sc = [[0.0; 2]; MAX_JOINTS];
-        joint_sin_cos(q_rad, &mut sc);
+        self.joint_trig(q_rad, &mut sc);
         self.flange_trig(&sc[..q_rad.len()])
     }
 
@@ -758,7 +954,7 @@ impl Robot {
     pub fn point(&self, q_rad: &[f64]) -> Vector3<f64> {
         assert_eq!(q_rad.len(), self.links.len(), "joint vector length");
         let mut sc = [[0.0; 2]; MAX_JOINTS];
-        joint_sin_cos(q_rad, &mut sc);
+        self.joint_trig(q_rad, &mut sc);
         self.point_trig(&sc[..q_rad.len()])
     }
 
@@ -807,7 +1003,7 @@ impl Robot {
         for (i, (l, q)) in self.links.iter().zip(q_rad).enumerate() {
             let prev = &frames[i];
             let z = prev.rot.column(2).into_owned();
-            let (st, ct) = (l.theta_rad + q).sin_cos();
+            let (st, ct) = l.angle_of(*q).sin_cos();
             let x = prev.rot * Vector3::new(ct, st, 0.0);
             let r_prev = p - prev.pos_mm;
             let r_this = p - frames[i + 1].pos_mm;
@@ -818,6 +1014,9 @@ impl Robot {
             if let Some(k) = self.beta_index[i] {
                 let y = prev.rot * Vector3::new(-st * l.cos_alpha, ct * l.cos_alpha, l.sin_alpha);
                 cols[k] = y.cross(&r_this);
+            }
+            if let Some(k) = self.scale_index[i] {
+                cols[k] = z * prismatic_mm(*q);
             }
         }
         let b = self.base_index;
@@ -860,7 +1059,7 @@ impl Robot {
         let (mut jx, mut jy, mut jz) = ([0.0; MAX_PARAMS], [0.0; MAX_PARAMS], [0.0; MAX_PARAMS]);
         let mut sc = [[0.0; 2]; MAX_JOINTS];
         for (j, q) in poses_rad.chunks_exact(n).enumerate() {
-            joint_sin_cos(q, &mut sc);
+            self.joint_trig(q, &mut sc);
             points[j] = self.point_jacobian_trig(&sc[..n], &mut jx, &mut jy, &mut jz);
             for k in 0..np {
                 jac[(3 * j, k)] = jx[k];
@@ -893,10 +1092,11 @@ impl Robot {
         let p = f.transform_point(point_in_flange_mm);
         DMatrix::from_fn(6, self.n_joints(), |row, i| {
             let (z, o) = axes[i];
-            if row < 3 {
-                z.cross(&(p - o))[row]
-            } else {
-                z[row - 3] * orientation_scale_mm
+            match (self.prismatic_rate(i), row < 3) {
+                (None, true) => z.cross(&(p - o))[row],
+                (None, false) => z[row - 3] * orientation_scale_mm,
+                (Some(v), true) => z[row] * v,
+                (Some(_), false) => 0.0,
             }
         })
     }
@@ -913,7 +1113,10 @@ impl Robot {
         let f = self.joint_axes(q_rad, &mut axes);
         let p = f.transform_point(point_in_flange_mm);
         gram_of_axes(
-            axes[..self.n_joints()].iter().copied(),
+            axes[..self.n_joints()]
+                .iter()
+                .enumerate()
+                .map(|(i, (z, o))| (*z, *o, self.prismatic_rate(i))),
             &p,
             orientation_scale_mm,
         )
@@ -938,30 +1141,37 @@ impl Robot {
     ) -> Frame {
         assert_eq!(q_rad.len(), self.links.len(), "joint vector length");
         let mut sc = [[0.0; 2]; MAX_JOINTS];
-        joint_sin_cos(q_rad, &mut sc);
+        self.joint_trig(q_rad, &mut sc);
         self.joint_axes_trig(&sc[..q_rad.len()], axes)
     }
 }
 
 /// `J Jᵀ` (6 × 6) of the geometric Jacobian whose column i is `(z_i × (p − o_i), s·z_i)` for
-/// the joint axes `(z_i, o_i)` in order and the point `p`, summed joint by joint (the one
-/// implementation behind [`Robot::geometric_gram`] and the pose sampler's condition test).
+/// the joint axes `(z_i, o_i, None)` of revolute joints in order and the point `p` (or
+/// `(v·z_i, 0)` for a prismatic joint's `(z_i, o_i, Some(v))`, [`Robot::prismatic_rate`]),
+/// summed joint by joint (the one implementation behind [`Robot::geometric_gram`] and the
+/// pose sampler's condition test).
 pub fn gram_of_axes(
-    axes: impl Iterator<Item = (Vector3<f64>, Vector3<f64>)>,
+    axes: impl Iterator<Item = (Vector3<f64>, Vector3<f64>, Option<f64>)>,
     p: &Vector3<f64>,
     orientation_scale_mm: f64,
 ) -> Matrix6<f64> {
     let mut m = Matrix6::zeros();
-    for (z, o) in axes {
-        let lin = z.cross(&(p - o));
-        let c = Vector6::new(
-            lin.x,
-            lin.y,
-            lin.z,
-            z.x * orientation_scale_mm,
-            z.y * orientation_scale_mm,
-            z.z * orientation_scale_mm,
-        );
+    for (z, o, prismatic) in axes {
+        let c = match prismatic {
+            None => {
+                let lin = z.cross(&(p - o));
+                Vector6::new(
+                    lin.x,
+                    lin.y,
+                    lin.z,
+                    z.x * orientation_scale_mm,
+                    z.y * orientation_scale_mm,
+                    z.z * orientation_scale_mm,
+                )
+            }
+            Some(v) => Vector6::new(z.x * v, z.y * v, z.z * v, 0.0, 0.0, 0.0),
+        };
         for b in 0..6 {
             for a in 0..=b {
                 m[(a, b)] += c[a] * c[b];

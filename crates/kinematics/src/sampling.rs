@@ -22,7 +22,6 @@ use rand::{Rng, RngExt};
 use crate::ik::cholesky6;
 use crate::model::MAX_JOINTS;
 use crate::robot::{Robot, gram_of_axes};
-use crate::trig::joint_sin_cos;
 
 /// The admissibility rule of [`PoseSampler::sample`]. Defaults in brackets.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -151,6 +150,7 @@ impl PoseSampler {
             *l = [lo.to_degrees(), hi.to_degrees()];
         }
         let min_wrist_rad = self.min_abs_wrist_deg.to_radians();
+        let wrist = robot.wrist_joint();
         let mut out = Sampled {
             deg: Vec::with_capacity(count * n),
             rad: Vec::with_capacity(count * n),
@@ -180,11 +180,13 @@ impl PoseSampler {
                 // Only possible through rounding at a limit; redraw (counted as a draw).
                 continue;
             }
-            if n >= 5 && q[4].abs() < min_wrist_rad {
+            if let Some(w) = wrist
+                && q[w].abs() < min_wrist_rad
+            {
                 rejected(Rejection::Wrist);
                 continue;
             }
-            joint_sin_cos(q, &mut sc);
+            robot.joint_trig(q, &mut sc);
             let kept = match screen(q, &sc[..n]) {
                 Ok(k) => k,
                 Err(e) => {
@@ -241,7 +243,12 @@ fn geometric_gram_trig(robot: &Robot, sc: &[[f64; 2]], scale_mm: f64) -> Matrix6
     let mut axes = [(Vector3::zeros(), Vector3::zeros()); MAX_JOINTS];
     let f = robot.joint_axes_trig(sc, &mut axes);
     let p = f.transform_point(&Vector3::zeros());
-    gram_of_axes(axes[..sc.len()].iter().copied(), &p, scale_mm)
+    let axes = axes[..sc.len()].iter().enumerate();
+    gram_of_axes(
+        axes.map(|(i, (z, o))| (*z, *o, robot.prismatic_rate(i))),
+        &p,
+        scale_mm,
+    )
 }
 
 /// Whether nalgebra's `Cholesky::new(m − I·t)` succeeds, decided by the same operations in
@@ -267,6 +274,7 @@ fn shifted_cholesky_ok(m: &Matrix6<f64>, t: f64) -> bool {
 mod tests {
     use super::*;
     use crate::model::RobotSpec;
+    use crate::trig::joint_sin_cos;
     use rand::SeedableRng;
     use rand::rngs::ChaCha8Rng;
 

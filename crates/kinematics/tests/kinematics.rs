@@ -2,8 +2,8 @@
 //! inverse kinematics and model-file validation.
 
 use kinematics::{
-    BaseSpec, Frame, IkError, IkOptions, IkTarget, JointSpec, MAX_JOINTS, ModelError, POSE_LANES,
-    PoseTrig, Robot, RobotSpec, Unit,
+    BaseSpec, Frame, IkError, IkOptions, IkTarget, JointSpec, JointType, MAX_JOINTS, ModelError,
+    POSE_LANES, PoseTrig, Robot, RobotSpec, Unit,
 };
 use nalgebra::Vector3;
 use proptest::prelude::*;
@@ -87,6 +87,8 @@ fn random_chain(u: &[f64]) -> Robot {
                     0.0
                 },
                 limits_deg: [-170.0, 170.0],
+                joint_type: JointType::Revolute,
+                scale_mm_per_mm: 1.0,
             }
         })
         .collect();
@@ -134,7 +136,7 @@ fn in_limit_pose(r: &Robot, u: &[f64]) -> Vec<f64> {
 
 /// Compares each analytic column with a central difference, relative to the column norm
 /// (floored at 1 mm per unit so that near-zero columns are held to an absolute 1e-6).
-fn check_jacobian(r: &Robot, q: &[f64]) -> Result<(), TestCaseError> {
+pub(crate) fn check_jacobian(r: &Robot, q: &[f64]) -> Result<(), TestCaseError> {
     let np = r.n_params();
     let mut cols = vec![Vector3::zeros(); np];
     let p0 = r.point_jacobian_into(q, &mut cols);
@@ -144,6 +146,7 @@ fn check_jacobian(r: &Robot, q: &[f64]) -> Result<(), TestCaseError> {
         let h = match r.layout().get(k).unit {
             Unit::Deg => 1e-6,
             Unit::Mm => 1e-4,
+            Unit::MmPerMm => 1e-6,
             // Geometric robots only here (tests/extended.rs covers the others).
             Unit::MicroradPerNm | Unit::Arcsec => unreachable!("a geometric robot"),
         };

@@ -8,3 +8,4 @@ mod kinematics;
 mod mass_model;
 #[path = "../../measurements/tests/mutate/mod.rs"]
 mod mutate;
+mod prismatic;

@@ -79,7 +79,7 @@ pub enum UrdfError {
     },
     /// A joint type a revolute serial robot file cannot hold, on the chain between base and tip.
     #[error(
-        "{source_name}: <joint name=\"{joint}\" type=\"{kind}\"> lies on the chain {chain}: only revolute (with limits) and fixed joints can be converted{hint}"
+        "{source_name}: <joint name=\"{joint}\" type=\"{kind}\"> lies on the chain {chain}: only revolute and prismatic (with limits) and fixed joints can be converted{hint}"
     )]
     UnsupportedJoint {
         /// File path or label.

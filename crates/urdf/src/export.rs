@@ -11,7 +11,7 @@ use kinematics::rotation::rpy_of;
 /// Names of the exported URDF's elements.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct ExportOptions {
-    /// The revolute joints' names, base to tip (default: the robot file's `joint_names`,
+    /// The joints' names, base to tip (default: the robot file's `joint_names`,
     /// else `joint_1` … `joint_N`).
     pub joint_names: Option<Vec<String>>,
     /// `<robot name>` (default: the robot file's name).
@@ -55,7 +55,8 @@ fn joint_names(spec: &RobotSpec, opts: &ExportOptions) -> Result<Vec<String>, Ur
     }
 }
 
-/// The fixed transform of joint i after its rotation:
+/// The fixed transform of joint i after its motion (a rotation `Rz(q)` or a translation
+/// `Tz(q)`, both commute with the first two factors):
 /// `Rz(θ_i) · Tz(d_i) · Tx(a_i) · Rx(α_i) · Ry(β_i)`, as the kinematics crate computes it.
 fn link_transform(j: &JointSpec) -> Result<Frame, UrdfError> {
     let one = RobotSpec {
@@ -70,6 +71,15 @@ fn link_transform(j: &JointSpec) -> Result<Frame, UrdfError> {
         targets: None,
     };
     Ok(Robot::from_spec(&one)?.flange_reference(&[0.0]))
+}
+
+/// A joint limit in URDF units: radians, or metres for a prismatic joint.
+fn urdf_limit(j: &JointSpec, v: f64) -> f64 {
+    if j.is_prismatic() {
+        v / 1000.0
+    } else {
+        v.to_radians()
+    }
 }
 
 /// A number as URDF text: the shortest decimal that reads back to the same `f64`.
@@ -109,8 +119,9 @@ fn esc(s: &str) -> String {
 }
 
 /// The URDF of a robot file (see `docs/urdf.md`): root link [`ROOT_LINK`] (the measurement
-/// frame), a fixed joint to [`BASE_LINK`] (the base pose), one revolute joint per robot
-/// joint about its z axis with the limits, the fixed joint to [`FLANGE_LINK`], and a fixed
+/// frame), a fixed joint to [`BASE_LINK`] (the base pose), one revolute joint per revolute
+/// robot joint about its z axis with the limits (one prismatic joint along it, limits in
+/// metres, per prismatic joint), the fixed joint to [`FLANGE_LINK`], and a fixed
 /// link [`TOOL_LINK`] at the measured point. The θ offsets are folded into the joint
 /// origins, so joint value q in the URDF is q of the robot file; no `<calibration>` tags.
 /// Effort and velocity limits, which a robot file does not hold, are written as 0.
@@ -122,6 +133,21 @@ pub fn export(spec: &RobotSpec, opts: &ExportOptions) -> Result<String, UrdfErro
              compliance, gear harmonics) that a URDF cannot carry; exporting it would drop \
              them silently. Calibrate with geometric `--params` for a URDF",
             ext.len()
+        )));
+    }
+    if let Some((i, j)) = spec
+        .joints
+        .iter()
+        .enumerate()
+        .find(|(_, j)| j.is_prismatic() && j.scale_mm_per_mm != 1.0)
+    {
+        return Err(UrdfError::Options(format!(
+            "joint {} is prismatic with an axis scale of {} mm/mm, which a URDF cannot carry \
+             (its axis is a unit vector); exporting it would drop the scale silently. \
+             Calibrate without `scale{}` for a URDF",
+            i + 1,
+            j.scale_mm_per_mm,
+            i + 1
         )));
     }
     let names = joint_names(spec, opts)?;
@@ -157,7 +183,12 @@ pub fn export(spec: &RobotSpec, opts: &ExportOptions) -> Result<String, UrdfErro
     for (i, (j, name)) in spec.joints.iter().zip(&names).enumerate() {
         let child = link_name(i + 1);
         let _ = writeln!(out, "  <link name=\"{child}\"/>");
-        let _ = writeln!(out, "  <joint name=\"{}\" type=\"revolute\">", esc(name));
+        let _ = writeln!(
+            out,
+            "  <joint name=\"{}\" type=\"{}\">",
+            esc(name),
+            j.joint_type.as_str()
+        );
         let _ = writeln!(out, "    <parent link=\"{parent}\"/>");
         let _ = writeln!(out, "    <child link=\"{child}\"/>");
         let _ = writeln!(out, "    {}", origin(&prev_fixed));
@@ -165,8 +196,8 @@ pub fn export(spec: &RobotSpec, opts: &ExportOptions) -> Result<String, UrdfErro
         let _ = writeln!(
             out,
             "    <limit lower=\"{}\" upper=\"{}\" effort=\"0\" velocity=\"0\"/>",
-            num(j.limits_deg[0].to_radians()),
-            num(j.limits_deg[1].to_radians())
+            num(urdf_limit(j, j.limits_deg[0])),
+            num(urdf_limit(j, j.limits_deg[1]))
         );
         out.push_str("  </joint>\n");
         prev_fixed = link_transform(j)?;

@@ -3,6 +3,7 @@
 use std::collections::{HashMap, HashSet};
 use std::path::Path;
 
+use kinematics::JointType as KinJointType;
 use kinematics::{BaseSpec, Frame, JointSpec, MAX_JOINTS, Robot, RobotSpec};
 use nalgebra::{Matrix3, Vector3};
 use urdf_rs::JointType;
@@ -85,7 +86,8 @@ pub fn check_reach(spec: &RobotSpec, source_name: &str) -> Result<(), UrdfError>
 pub struct Imported {
     /// The robot file.
     pub spec: RobotSpec,
-    /// The URDF names of the revolute joints, base to tip (joint i of the robot file).
+    /// The URDF names of the revolute and prismatic joints, base to tip (joint i of the
+    /// robot file).
     pub joint_names: Vec<String>,
     /// The fixed joints folded into the parameters, base to tip.
     pub fixed_joints: Vec<String>,
@@ -163,8 +165,9 @@ struct Step<'a> {
 /// expanded) into a robot file whose measured point, for every joint vector, is the tip
 /// link's point `tool_in_tip_mm` as the URDF places it (base link frame = measurement frame).
 ///
-/// Revolute joints become the robot file's joints (same zero, same sign, limits kept);
-/// fixed joints are folded into the parameters; everything off the chain is ignored.
+/// Revolute and prismatic joints become the robot file's joints (same zero, same sign,
+/// limits kept: radians → degrees, metres → millimetres); fixed joints are folded into the
+/// parameters; everything off the chain is ignored.
 /// `source_name` labels errors.
 pub fn import_str(
     text: &str,
@@ -251,7 +254,7 @@ pub fn import_str(
         };
         match j.joint_type {
             JointType::Fixed => {}
-            JointType::Revolute => {
+            JointType::Revolute | JointType::Prismatic => {
                 let (lo, hi) = (j.limit.lower, j.limit.upper);
                 if !(lo.is_finite() && hi.is_finite() && lo < hi) {
                     return Err(UrdfError::MissingLimits {
@@ -292,10 +295,8 @@ pub fn import_str(
             },
         });
     }
-    let n = steps
-        .iter()
-        .filter(|s| s.joint.joint_type == JointType::Revolute)
-        .count();
+    let moving = |t: &JointType| matches!(t, JointType::Revolute | JointType::Prismatic);
+    let n = steps.iter().filter(|s| moving(&s.joint.joint_type)).count();
     if n == 0 || n > MAX_JOINTS {
         return Err(UrdfError::JointCount {
             source_name: src(),
@@ -310,17 +311,24 @@ pub fn import_str(
     let mut world = Frame::identity();
     let mut axes: Vec<(Vector3<f64>, Vector3<f64>)> = Vec::with_capacity(n);
     let mut limits = Vec::with_capacity(n);
+    let mut types = Vec::with_capacity(n);
     let mut joint_names = Vec::with_capacity(n);
     let mut fixed_joints = Vec::new();
     for s in &steps {
         world = world.compose(&s.origin);
-        if s.joint.joint_type == JointType::Revolute {
+        if moving(&s.joint.joint_type) {
             let a = Vector3::from(s.joint.axis.xyz.0);
             axes.push((world.pos_mm, world.rot * (a / a.norm())));
-            limits.push([
-                s.joint.limit.lower.to_degrees(),
-                s.joint.limit.upper.to_degrees(),
-            ]);
+            let (lo, hi) = (s.joint.limit.lower, s.joint.limit.upper);
+            if s.joint.joint_type == JointType::Prismatic {
+                // A prismatic joint moves along its axis: its line can be taken through the
+                // joint's origin, which is where the chain is at q = 0.
+                types.push(KinJointType::Prismatic);
+                limits.push([lo * 1000.0, hi * 1000.0]);
+            } else {
+                types.push(KinJointType::Revolute);
+                limits.push([lo.to_degrees(), hi.to_degrees()]);
+            }
             joint_names.push(s.joint.name.clone());
         } else {
             fixed_joints.push(s.joint.name.clone());
@@ -379,6 +387,7 @@ pub fn import_str(
         };
         spec.joints.push(JointSpec {
             limits_deg: limits[i],
+            joint_type: types[i],
             ..snap(joint)
         });
     }
@@ -413,7 +422,7 @@ fn snap(j: JointSpec) -> JointSpec {
         a_mm: len(j.a_mm),
         alpha_deg: ang(j.alpha_deg),
         beta_deg: ang(j.beta_deg),
-        limits_deg: j.limits_deg,
+        ..j
     }
 }
 
@@ -435,14 +444,8 @@ fn frame_of(spec: &RobotSpec, source_name: &str, limits: [f64; 2]) -> Result<Fra
     let mut s = spec.clone();
     if s.joints.is_empty() {
         // A placeholder joint to make a valid file: only its base frame is used.
-        s.joints.push(JointSpec {
-            theta_deg: 0.0,
-            d_mm: 0.0,
-            a_mm: 0.0,
-            alpha_deg: 0.0,
-            beta_deg: 0.0,
-            limits_deg: limits,
-        });
+        s.joints
+            .push(JointSpec::revolute(0.0, 0.0, 0.0, 0.0, 0.0, limits));
         s.validate(source_name)?;
         return Ok(Robot::from_spec(&s)?.base_frame());
     }
@@ -507,14 +510,14 @@ fn link_to_axis(p: &Vector3<f64>, u: &Vector3<f64>) -> JointSpec {
     } else {
         ((-ul.y).atan2(ul.z), 0.0)
     };
-    JointSpec {
-        theta_deg: wrap_deg(theta.to_degrees()),
-        d_mm: d,
-        a_mm: a,
-        alpha_deg: alpha.to_degrees(),
-        beta_deg: beta.to_degrees(),
-        limits_deg: [0.0, 0.0],
-    }
+    JointSpec::revolute(
+        wrap_deg(theta.to_degrees()),
+        d,
+        a,
+        alpha.to_degrees(),
+        beta.to_degrees(),
+        [0.0, 0.0],
+    )
 }
 
 /// The last link: a flange frame with the tip link's orientation `r` where that is possible
@@ -542,14 +545,14 @@ fn link_to_frame(r: &Matrix3<f64>, p: &Vector3<f64>) -> JointSpec {
         (0.0, 0.0, 0.0)
     };
     let (st, ct) = theta.sin_cos();
-    JointSpec {
-        theta_deg: wrap_deg(theta.to_degrees()),
-        d_mm: p.z,
-        a_mm: ct * p.x + st * p.y,
-        alpha_deg: alpha.to_degrees(),
-        beta_deg: beta.to_degrees(),
-        limits_deg: [0.0, 0.0],
-    }
+    JointSpec::revolute(
+        wrap_deg(theta.to_degrees()),
+        p.z,
+        ct * p.x + st * p.y,
+        alpha.to_degrees(),
+        beta.to_degrees(),
+        [0.0, 0.0],
+    )
 }
 
 fn rot_x(a: f64) -> Matrix3<f64> {

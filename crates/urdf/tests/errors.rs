@@ -38,14 +38,21 @@ fn a_good_chain_imports() {
 }
 
 #[test]
-fn prismatic_or_continuous_on_the_chain_is_refused_off_it_ignored() {
-    let e = import(&chain("prismatic", LIMIT, ""), "base", "tip")
+fn planar_or_continuous_on_the_chain_is_refused_off_it_ignored() {
+    let e = import(&chain("planar", LIMIT, ""), "base", "tip")
         .unwrap_err()
         .to_string();
     assert!(
-        e.contains("t.urdf") && e.contains("<joint name=\"j2\" type=\"prismatic\">"),
+        e.contains("t.urdf") && e.contains("<joint name=\"j2\" type=\"planar\">"),
         "{e}"
     );
+    // A prismatic joint imports, its limits metres → millimetres.
+    let r = import(&chain("prismatic", LIMIT, ""), "base", "tip").unwrap();
+    assert_eq!(
+        r.spec.joints[1].joint_type,
+        kinematics::JointType::Prismatic
+    );
+    assert_eq!(r.spec.joints[1].limits_deg, [-2000.0, 2000.0]);
     let e = import(&chain("continuous", "", ""), "base", "tip")
         .unwrap_err()
         .to_string();
@@ -58,8 +65,8 @@ fn prismatic_or_continuous_on_the_chain_is_refused_off_it_ignored() {
         <axis xyz="1 0 0"/><limit lower="0" upper="1" effort="1" velocity="1"/></joint>"#;
     let r = import(&chain("revolute", LIMIT, side), "base", "tip").unwrap();
     assert_eq!(r.joint_names.len(), 2);
-    // A chain ending before the prismatic joint is fine.
-    assert!(import(&chain("prismatic", LIMIT, ""), "base", "l1").is_ok());
+    // A chain ending before the planar joint is fine.
+    assert!(import(&chain("planar", LIMIT, ""), "base", "l1").is_ok());
 }
 
 #[test]

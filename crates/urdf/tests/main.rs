@@ -7,5 +7,6 @@ mod fuzz;
 mod import;
 #[path = "../../measurements/tests/mutate/mod.rs"]
 mod mutate;
+mod prismatic;
 mod reference;
 mod round_trip;

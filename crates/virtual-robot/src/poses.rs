@@ -131,6 +131,11 @@ pub struct PoseSampling {
     pub condition_orientation_scale_mm: f64,
     /// Draws allowed per wanted pose before sampling fails (default 1000).
     pub max_draws_per_pose: u64,
+    /// The length of track the random identification poses cover, mm: each prismatic
+    /// joint is drawn within this span about the middle of its limits (default: absent, the
+    /// whole limits; validation poses always use the whole limits).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub identification_track_span_mm: Option<f64>,
 }
 
 impl Default for PoseSampling {
@@ -143,6 +148,7 @@ impl Default for PoseSampling {
             max_condition: Some(100.0),
             condition_orientation_scale_mm: 1000.0,
             max_draws_per_pose: 1000,
+            identification_track_span_mm: None,
         }
     }
 }
@@ -174,6 +180,9 @@ impl PoseSampling {
             "poses.condition_orientation_scale_mm",
             self.condition_orientation_scale_mm,
         )?;
+        if let Some(span) = self.identification_track_span_mm {
+            positive("poses.identification_track_span_mm", span)?;
+        }
         if self.max_draws_per_pose == 0 {
             return Err(ConfigError::invalid(
                 "poses.max_draws_per_pose",
@@ -231,6 +240,26 @@ enum Reject {
 }
 
 impl PoseSampling {
+    /// The robot the random identification poses are drawn for: `nominal` with each
+    /// prismatic joint's limits narrowed to [`PoseSampling::identification_track_span_mm`]
+    /// about their middle (`None` without a span or a prismatic joint: `nominal` itself).
+    pub fn identification_robot(&self, nominal: &Robot) -> Option<Robot> {
+        let span = self.identification_track_span_mm?;
+        if !nominal.has_prismatic() {
+            return None;
+        }
+        let mut r = nominal.clone();
+        for i in 0..r.n_joints() {
+            if r.joint_type(i) == kinematics::JointType::Prismatic {
+                let [lo, hi] = r.limits_rad(i);
+                let mid = 0.5 * (lo + hi);
+                let half = 0.5 * kinematics::prismatic_internal(span);
+                r.set_limits_rad(i, [(mid - half).max(lo), (mid + half).min(hi)]);
+            }
+        }
+        Some(r)
+    }
+
     /// The admissibility rule of [`kinematics::sampling`] these settings give: the wrist
     /// margin, the condition limit and its orientation scale, the draws allowed per pose.
     pub fn sampler(&self) -> PoseSampler {

@@ -85,6 +85,14 @@ pub struct RandomErrors {
     pub base_translation_sigma_mm: f64,
     /// σ of `tool_x`, `tool_y`, `tool_z`, mm.
     pub tool_sigma_mm: f64,
+    /// σ of the axis scale `scale_i` of each prismatic joint, mm/mm (default 0; absent from
+    /// the echo when 0, so revolute scenarios read and write as before).
+    #[serde(skip_serializing_if = "is_zero")]
+    pub scale_sigma_mm_per_mm: f64,
+}
+
+fn is_zero(v: &f64) -> bool {
+    *v == 0.0
 }
 
 impl Default for RandomErrors {
@@ -96,6 +104,7 @@ impl Default for RandomErrors {
             base_rotation_sigma_deg: 0.005,
             base_translation_sigma_mm: 0.5,
             tool_sigma_mm: 0.2,
+            scale_sigma_mm_per_mm: 0.0,
         }
     }
 }
@@ -154,6 +163,10 @@ impl InjectedErrors {
             )?;
             non_negative("truth.random.length_sigma_mm", r.length_sigma_mm)?;
             non_negative(
+                "truth.random.scale_sigma_mm_per_mm",
+                r.scale_sigma_mm_per_mm,
+            )?;
+            non_negative(
                 "truth.random.base_rotation_sigma_deg",
                 r.base_rotation_sigma_deg,
             )?;
@@ -200,6 +213,7 @@ impl InjectedErrors {
                         r.base_translation_sigma_mm
                     }
                     ParamKind::ToolX | ParamKind::ToolY | ParamKind::ToolZ => r.tool_sigma_mm,
+                    ParamKind::Scale(_) => r.scale_sigma_mm_per_mm,
                     // The truth is geometric (its joint errors are `unmodelled`): no draw.
                     ParamKind::Extended(_) => continue,
                 };

@@ -724,6 +724,20 @@ impl Default for CmdTrig {
 }
 
 impl CmdTrig {
+    /// `robot`'s point at the commanded joints `q_cmd` whose trigonometry this holds
+    /// ([`kinematics::Robot::point_trig`]): a prismatic joint's pair is marked for the
+    /// kernels first ([`kinematics::Robot::mark_prismatic`]; nothing for a revolute chain).
+    #[inline]
+    pub(crate) fn point(&self, robot: &Robot, q_cmd: &[f64]) -> Vector3<f64> {
+        let n = q_cmd.len();
+        if robot.has_prismatic() {
+            let mut sc = self.sc;
+            robot.mark_prismatic(q_cmd, &mut sc[..n]);
+            return robot.point_trig(&sc[..n]);
+        }
+        robot.point_trig(&self.sc[..n])
+    }
+
     /// Fills in the trigonometry of `q_cmd` for `unmodelled`'s gear terms (of the joints
     /// only with `None`).
     #[inline]

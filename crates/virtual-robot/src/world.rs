@@ -111,12 +111,13 @@ fn reached_point_trig(
 ) -> Vector3<f64> {
     let n = q_cmd.len();
     if !unmodelled.perturbs_joints() {
-        return robot.point_trig(&trig.sc[..n]);
+        return trig.point(robot, q_cmd);
     }
     let mut q = [0.0; MAX_JOINTS];
     unmodelled.actual_joints_trig(robot, q_cmd, trig, &mut q[..n]);
     let mut sc = [[0.0; 2]; MAX_JOINTS];
     crate::sincos::joint_trig(&q[..n], &mut sc);
+    robot.mark_prismatic(&q[..n], &mut sc[..n]);
     robot.point_trig(&sc[..n])
 }
 
@@ -167,7 +168,7 @@ impl Setup {
         let tracker = Tracker::new(&cfg.tracker)?;
         let (scale_poses_rad, scale_stats) = match &cfg.truth.scale_to {
             Some(target) => {
-                let nominal_point = |q: &[f64], t: &CmdTrig| nominal.point_trig(&t.sc[..q.len()]);
+                let nominal_point = |q: &[f64], t: &CmdTrig| t.point(nominal, q);
                 let sampled = sample(
                     "truth.scale_to.poses",
                     target.poses,
@@ -183,7 +184,7 @@ impl Setup {
             None => (Arc::from(Vec::new()), None),
         };
         let scale_points = nominal.points(&scale_poses_rad);
-        let scale_trig = PoseTrig::new(nominal.n_joints(), &scale_poses_rad);
+        let scale_trig = PoseTrig::for_robot(nominal, &scale_poses_rad);
         Ok(Setup {
             seed,
             config: Arc::new(cfg.clone()),
@@ -262,6 +263,7 @@ impl Setup {
         // Pose sets, checked on where the true robot puts the point.
         let reached = |q: &[f64], t: &CmdTrig| reached_point_trig(&true_robot, &unmodelled, q, t);
         let mut sets = Vec::with_capacity(2);
+        let narrowed = cfg.poses.identification_robot(nominal);
         for (field, set, purpose) in [
             (
                 "poses.identification",
@@ -279,7 +281,10 @@ impl Setup {
                     field,
                     *count,
                     &cfg.poses,
-                    nominal,
+                    match (purpose, &narrowed) {
+                        (Purpose::IdentificationPoses, Some(r)) => r,
+                        _ => nominal,
+                    },
                     tracker,
                     Some(&unmodelled),
                     &reached,

@@ -424,6 +424,7 @@ impl CampaignSummary {
                     "deg" => ("″", Quantity::AngleArcsecFromDeg),
                     "arcsec" => ("″", Quantity::Index),
                     "urad/Nm" => ("µrad/(N·m)", Quantity::Index),
+                    "mm/mm" => ("mm/mm", Quantity::Index),
                     other => (other, MM),
                 };
                 let g = |s: &Option<Summary>, f: fn(&Summary) -> f64, q: Quantity| {
@@ -461,12 +462,14 @@ impl CampaignSummary {
 }
 
 /// Parameter names sorted in the kinematic order of `kinematics::ParamLayout` (per joint θ, d,
-/// a, α; then the β's; then the base rx … dz; then the tool x, y, z). Unknown names go last,
+/// a, α; then the β's; then the axis scales; then the base rx … dz; then the tool x, y, z). Unknown names go last,
 /// alphabetically.
 pub fn kinematic_order<'a>(names: impl IntoIterator<Item = &'a str>) -> Vec<&'a str> {
     // Sixteen joints with zero nominal twists: every joint parameter and every β exists, in
     // the same relative order as in any smaller chain.
-    let layout = kinematics::ParamLayout::new(&[0.0; 16]);
+    // Every joint prismatic too: the axis scales sit after the β's (absent from revolute
+    // chains, so their order is unchanged).
+    let layout = kinematics::ParamLayout::for_chain(&[0.0; 16], &[true; 16]);
     let mut v: Vec<&str> = names.into_iter().collect();
     // The non-geometric parameters of an extended model follow, compliances first, then the
     // gear terms by joint and harmonic.

@@ -126,7 +126,7 @@ pub fn run_trial(ctx: &Context, trial: u64) -> Result<TrialResult, CampaignError
     // Validation before compensation, then after.
     let val: Vec<f64> = world.validation_poses_rad().to_vec();
     // Sines and cosines of the validation poses, once for the four models evaluated there.
-    let val_trig = PoseTrig::new(n, &val);
+    let val_trig = PoseTrig::for_robot(nominal, &val);
     let mut before = Vec::with_capacity(val.len() / n);
     let mut measured_val = Vec::with_capacity(val.len() / n);
     for (j, q) in val.chunks_exact(n).enumerate() {

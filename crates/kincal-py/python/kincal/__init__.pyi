@@ -127,6 +127,12 @@ class Robot:
         """Number of joints N."""
 
     @property
+    def joint_types(self) -> list[str]:
+        """The type of each joint, base to flange: ``"revolute"`` or ``"prismatic"`` (a
+        prismatic joint's values and limits are millimetres where a revolute joint's are
+        degrees)."""
+
+    @property
     def n_params(self) -> int:
         """Number of entries in the parameter vector (``len(robot.parameters)``)."""
 

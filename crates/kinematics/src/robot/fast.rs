@@ -28,7 +28,7 @@
 
 use nalgebra::Vector3;
 
-use super::{Link, Robot};
+use super::{Link, PRISMATIC_SLOT, Robot, prismatic_mm};
 use crate::frame::Frame;
 use crate::model::MAX_JOINTS;
 use crate::trig::{sin_cos_slice, sin_cos_small_lanes};
@@ -118,6 +118,23 @@ impl PoseTrig {
     /// extended model. For a geometric robot this is [`PoseTrig::new`].
     pub fn for_robot(robot: &Robot, poses_rad: &[f64]) -> Self {
         let mut trig = PoseTrig::new(robot.n_joints(), poses_rad);
+        if robot.has_prismatic() {
+            // A prismatic joint's pair is its value and the marker (`Robot::joint_trig`).
+            let n = robot.n_joints();
+            let m = trig.n_poses();
+            for (j, q) in poses_rad.chunks_exact(n).enumerate() {
+                robot.mark_prismatic(q, &mut trig.sc[j * n..(j + 1) * n]);
+            }
+            for b in 0..trig.n_blocks() {
+                for t in 0..POSE_LANES {
+                    let j = (b * POSE_LANES + t).min(m - 1);
+                    for i in (0..n).filter(|&i| robot.links[i].prismatic) {
+                        trig.lane_sin[b * n + i][t] = poses_rad[j * n + i];
+                        trig.lane_cos[b * n + i][t] = PRISMATIC_SLOT;
+                    }
+                }
+            }
+        }
         if let Some(ext) = &robot.extended {
             let ne = ext.model.len();
             let m = trig.n_poses();
@@ -289,9 +306,19 @@ impl<const L: usize> V3<L> {
     }
 }
 
-/// `(sin(θ+q), cos(θ+q))` per lane from sin q, cos q and the link's cached sin/cos of θ.
+/// `(sin(θ+q), cos(θ+q))` per lane from sin q, cos q and the link's cached sin/cos of θ; a
+/// prismatic link's `(sin θ, cos θ)` (its pair holds q and [`PRISMATIC_SLOT`]: pairs built
+/// without the robot's joint types are refused).
 #[inline(always)]
 fn angle<const L: usize>(l: &Link, sq: &Lanes<L>, cq: &Lanes<L>) -> (Lanes<L>, Lanes<L>) {
+    if l.prismatic {
+        assert!(
+            cq.iter().all(|c| *c == PRISMATIC_SLOT),
+            "a prismatic joint's [sin, cos] pair must hold its value: build the pairs with \
+             Robot::joint_trig or PoseTrig::for_robot"
+        );
+        return ([l.sin_theta; L], [l.cos_theta; L]);
+    }
     let (mut st, mut ct) = (*sq, *cq);
     for t in 0..L {
         st[t] = l.sin_theta * cq[t] + l.cos_theta * sq[t];
@@ -300,21 +327,35 @@ fn angle<const L: usize>(l: &Link, sq: &Lanes<L>, cq: &Lanes<L>) -> (Lanes<L>, L
     (st, ct)
 }
 
+/// The offset along z per lane: d, or for a prismatic link `d + scale · prismatic_mm(q)`
+/// with q in the pair's sine slot.
+#[inline(always)]
+fn link_d<const L: usize>(l: &Link, sq: &Lanes<L>) -> Lanes<L> {
+    let mut d = [l.d_mm; L];
+    if l.prismatic {
+        for t in 0..L {
+            d[t] = l.d_mm + l.scale * prismatic_mm(sq[t]);
+        }
+    }
+    d
+}
+
 /// One link forwards: the rotation columns `c` and origin `o` of frame i−1 become those of
-/// frame i. Returns `(x'_i, y'_i)`, the x axis after `Rz(θ+q)` and the y axis after
-/// `Rz(θ+q)·Rx(α)`.
+/// frame i (`d` from [`link_d`]). Returns `(x'_i, y'_i)`, the x axis after `Rz(θ+q)` and the
+/// y axis after `Rz(θ+q)·Rx(α)`.
 #[inline(always)]
 fn step<const L: usize>(
     l: &Link,
     st: &Lanes<L>,
     ct: &Lanes<L>,
+    d: &Lanes<L>,
     c: &mut [V3<L>; 3],
     o: &mut V3<L>,
 ) -> (V3<L>, V3<L>) {
     // R·Rz(t): columns 0 and 1 mix; the origin moves by R·(a ct, a st, d).
     let x = V3::comb(&c[0], ct, &c[1], st);
     let c1 = V3::comb_minus(&c[1], ct, &c[0], st);
-    *o = V3::add(o, &V3::comb_u(&x, l.a_mm, &c[2], l.d_mm));
+    *o = V3::add(o, &V3::comb(&x, &[l.a_mm; L], &c[2], d));
     // ·Rx(α): columns 1 and 2 mix.
     let y = V3::comb_u(&c1, l.cos_alpha, &c[2], l.sin_alpha);
     let c2 = V3::comb_minus_u(&c[2], l.cos_alpha, &c1, l.sin_alpha);
@@ -367,6 +408,7 @@ impl Robot {
         let mut v = V3::splat(&t);
         for ((l, sq), cq) in self.links.iter().zip(s).zip(c).rev() {
             let (st, ct) = angle(l, sq, cq);
+            let d = link_d(l, sq);
             // Per lane: Ry(β) in a loop of its own (the β test outside it), then Rx(α), the
             // offset a, Rz(θ+q) and the offset d: two branch-free loops, both vectorised.
             if l.sin_beta != 0.0 {
@@ -379,7 +421,7 @@ impl Robot {
             for k in 0..L {
                 let (x, y, z) = (v.x[k] + l.a_mm, v.y[k], v.z[k]);
                 let ya = l.cos_alpha * y - l.sin_alpha * z;
-                v.z[k] = l.sin_alpha * y + l.cos_alpha * z + l.d_mm;
+                v.z[k] = l.sin_alpha * y + l.cos_alpha * z + d[k];
                 v.x[k] = ct[k] * x - st[k] * ya;
                 v.y[k] = st[k] * x + ct[k] * ya;
             }
@@ -418,7 +460,7 @@ impl Robot {
             let z = c[2];
             let r_prev = V3::sub(&p, &o);
             let (st, ct) = angle(l, sq, cqi);
-            let (x, y) = step(l, &st, &ct, &mut c, &mut o);
+            let (x, y) = step(l, &st, &ct, &link_d(l, sq), &mut c, &mut o);
             let r_this = V3::sub(&p, &o);
             set(4 * i, &V3::cross(&z, &r_prev));
             set(4 * i + 1, &z);
@@ -426,6 +468,14 @@ impl Robot {
             set(4 * i + 3, &V3::cross(&x, &r_this));
             if let Some(k) = self.beta_index[i] {
                 set(k, &V3::cross(&y, &r_this));
+            }
+            if let Some(k) = self.scale_index[i] {
+                let mut v = z;
+                for (t, q) in sq.iter().enumerate() {
+                    let q_mm = prismatic_mm(*q);
+                    (v.x[t], v.y[t], v.z[t]) = (z.x[t] * q_mm, z.y[t] * q_mm, z.z[t] * q_mm);
+                }
+                set(k, &v);
             }
         }
         let b = self.base_index;
@@ -660,7 +710,7 @@ impl Robot {
         for (i, ((l, sq), cqi)) in self.links.iter().zip(&s[..n]).zip(&cq[..n]).enumerate() {
             visit(i, &c, &o);
             let (st, ct) = angle(l, sq, cqi);
-            step(l, &st, &ct, &mut c, &mut o);
+            step(l, &st, &ct, &link_d(l, sq), &mut c, &mut o);
         }
         (c, o)
     }

@@ -13,7 +13,8 @@ pub fn fixture(name: &str) -> PathBuf {
 }
 
 /// The point `p_tip_mm` of link `tip` in link `base`'s frame, mm, for the revolute joints
-/// of the chain set to `q` (radians, base to tip), straight from the URDF.
+/// and prismatic joints of the chain set to `q` (internal units: radians, and millimetres
+/// as `kinematics::prismatic_internal` stores them; base to tip), straight from the URDF.
 pub fn urdf_point(
     robot: &urdf_rs::Robot,
     base: &str,
@@ -45,6 +46,11 @@ pub fn urdf_point(
         if j.joint_type == urdf_rs::JointType::Revolute {
             let axis = Unit::new_normalize(Vector3::from(j.axis.xyz.0));
             rot *= *Rotation3::from_axis_angle(&axis, q[k]).matrix();
+            k += 1;
+        } else if j.joint_type == urdf_rs::JointType::Prismatic {
+            // Along the axis by q (the robot file's millimetres, in internal units).
+            let axis = Vector3::from(j.axis.xyz.0).normalize();
+            pos += rot * axis * kinematics::prismatic_mm(q[k]);
             k += 1;
         }
     }
