@@ -10,7 +10,7 @@
 //! | folder | what |
 //! |---|---|
 //! | `scenario.rs` | the scenario file: everything a campaign needs, in one JSON document |
-//! | `trial/` | one trial end to end: the shared context, the point or frame identification ([`TrialFit`](trial) inside), the ISO test, the result |
+//! | `trial/` | one trial end to end: the shared context, the point or frame identification (one `TrialFit`), the ISO test, the result |
 //! | `run/` | many trials: the parallel fold into an exact aggregate, checkpoints, shards, the residual budget |
 //! | `outputs/` | what a campaign writes: summary, trial report, figures, the file set |
 //! | `sweep/` | a sweep: its file, its points as campaigns, its outputs |

@@ -82,7 +82,7 @@ pub struct CampaignSummary {
     /// Categorical outcomes.
     pub counts: BTreeMap<String, BTreeMap<String, u64>>,
     /// The paper's figures for comparison: only when the scenario simulates the paper's robot
-    /// ([`is_paper_robot`]); absent for any other robot, whose summary shows no paper column.
+    /// (`is_paper_robot`); absent for any other robot, whose summary shows no paper column.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub paper: Option<PaperFigures>,
     /// The residual budget, when the scenario asks for it ([`crate::residual_budget`]).
@@ -134,7 +134,7 @@ impl CampaignSummary {
     }
 
     /// The summary for the nominal robot the scenario loaded: the paper's figures are kept
-    /// only when its geometry is the paper's KR1000 ([`is_paper_robot`]; [`Self::new`] decides
+    /// only when its geometry is the paper's KR1000 (`is_paper_robot`; [`Self::new`] decides
     /// from the robot file's name alone, which is all a merge of shards knows).
     pub fn with_robot(mut self, nominal: &kinematics::Robot) -> Self {
         if !is_paper_robot(nominal) {

@@ -87,7 +87,7 @@ fn pow2(e: i32) -> f64 {
 pub struct Stat {
     /// Finite values pushed.
     pub n: u64,
-    /// Values that were NaN, infinite or beyond ±[`MAX_ABS`] (excluded from the statistics).
+    /// Values that were NaN, infinite or beyond ±`MAX_ABS` (10⁶) (excluded from the statistics).
     pub rejected: u64,
     /// Σ round(x·2^FRAC_BITS).
     pub sum_q: i128,

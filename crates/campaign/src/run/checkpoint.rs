@@ -72,7 +72,7 @@ impl CheckpointConfig {
 /// What a checkpoint belongs to; resuming requires every field to match.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct CheckpointManifest {
-    /// Checkpoint format ([`CHECKPOINT_FORMAT`]).
+    /// Checkpoint format (`CHECKPOINT_FORMAT`).
     pub format: u32,
     /// What is being run, e.g. `campaign`, `shard 1/4`, `sweep pose-count point 3`.
     pub what: String,
@@ -324,7 +324,7 @@ pub fn run_chunks(
 
 /// Runs `range` of `ctx`'s scenario with checkpoints (see the module docs): resumes from
 /// `cfg.path` if asked and possible, and returns the whole range's aggregate. The caller
-/// writes its outputs, then calls [`finish`].
+/// writes its outputs, then calls `finish`.
 pub fn run_range_checkpointed(
     ctx: &Context,
     what: &str,
@@ -439,7 +439,7 @@ pub fn fingerprint(bytes: &[u8]) -> u64 {
 /// The code version a checkpoint is tied to: the crate version and a fingerprint of the
 /// running executable, so that a rebuilt binary (which might compute other bits) does not
 /// resume an old run's checkpoint. Falls back to the crate version alone when the
-/// executable cannot be read. The executable is read in blocks ([`fingerprint_reader`]), not
+/// executable cannot be read. The executable is read in blocks (`fingerprint_reader`), not
 /// whole: it is tens of megabytes, which would otherwise be every run's peak memory.
 pub fn code_version() -> String {
     let version = env!("CARGO_PKG_VERSION");

@@ -368,7 +368,7 @@ impl SweepCheckpoint {
 /// [`run_sweep`] with checkpoints (see [`Checkpoint`](crate::Checkpoint)): with `cfg`, the finished
 /// points and the current point's aggregate are saved to `cfg.path` as the trials run, and
 /// with `cfg.resume` an interrupted sweep continues where it stopped. The caller writes the
-/// outputs, then calls [`crate::run::checkpoint::finish`] with their names.
+/// outputs, then calls `finish` (`run/checkpoint.rs`) with their names.
 pub fn run_sweep_checkpointed(
     spec: &SweepSpec,
     sweep_dir: &Path,

@@ -25,10 +25,10 @@
 //! it; plotters only estimates text extents, so labels are kept short and placed with margins
 //! (the legend's box is sized from a conservative character width).
 //!
-//! The parts: what a figure is ([`figure`]), the charts built on it ([`charts`]: CDF,
-//! histogram), the axes and their ticks ([`ticks`]), the validation and the pixel layout of
-//! a panel ([`layout`]), the colours, markers and dashes ([`style`]) and the drawing with
-//! plotters ([`draw`]).
+//! The parts: what a figure is (`figure.rs`), the charts built on it (`charts.rs`: CDF,
+//! histogram), the axes and their ticks (`ticks.rs`), the validation and the pixel layout of
+//! a panel (`layout.rs`), the colours, markers and dashes (`style.rs`) and the drawing with
+//! plotters (`draw.rs`).
 
 mod charts;
 mod draw;
