@@ -112,7 +112,7 @@ mod tests {
     use std::f64::consts::PI;
 
     #[test]
-    fn log_so3_matches_axis_angle_small_medium_and_near_pi() {
+    fn logarithm_matches_axis_angle_small_medium_and_near_pi() {
         for (axis, angle) in [
             (Vector3::new(1.0, 2.0, 3.0), 1e-11),
             (Vector3::new(-1.0, 0.5, 0.2), 1e-4),
@@ -137,7 +137,7 @@ mod tests {
     /// ε / sin θ. The one `log_so3` stays at rounding level there; the skew-part formula
     /// (what inverse kinematics used before) loses five digits at 1e-5 rad from π.
     #[test]
-    fn log_so3_near_pi_of_a_product_is_accurate_to_rounding() {
+    fn logarithm_near_pi_of_a_product_is_accurate_to_rounding() {
         let skew_only = |r: &Matrix3<f64>| {
             let v = Vector3::new(
                 r[(2, 1)] - r[(1, 2)],
