@@ -4,7 +4,7 @@
 //! anything is written (`docs/calibrating-real-data.md`, "Checks").
 
 use identify::proper_and_improper_rms;
-use kinematics::{ParamKind, Robot};
+use kinematics::Robot;
 use measurements::Measurement;
 use nalgebra::Vector3;
 
@@ -41,22 +41,9 @@ pub const MIRROR_RATIO: f64 = 3.0;
 /// 10 mm is no mirrored frame].
 pub const MIRROR_MIN_RMS_MM: f64 = 10.0;
 
-/// Largest plausible change of a link length or offset (a, d), mm [20: manufacturing and
-/// assembly errors are tenths of a millimetre to a few millimetres].
-pub const MAX_LINK_CHANGE_MM: f64 = 20.0;
-
-/// Largest plausible change of a joint angle offset or twist (θ, α, β), degrees [5: zero
-/// offsets of tenths of a degree are common, several degrees are a wrong model or frame].
-pub const MAX_ANGLE_CHANGE_DEG: f64 = 5.0;
-
-/// Largest plausible change of the measured point in the flange frame, mm [250: the
-/// reflector's offset is often unknown and a fit from zero finding 30 mm is good; a quarter
-/// metre is another tool or a wrong frame].
-pub const MAX_TOOL_CHANGE_MM: f64 = 250.0;
-
-/// Largest plausible change of a prismatic joint's axis scale, mm/mm [0.01: encoder and
-/// rack errors are tens to hundreds of ppm; a percent is a wrong unit or gear ratio].
-pub const MAX_SCALE_CHANGE: f64 = 0.01;
+pub use crate::tolerance::{
+    MAX_ANGLE_CHANGE_DEG, MAX_LINK_CHANGE_MM, MAX_SCALE_CHANGE, MAX_TOOL_CHANGE_MM, tolerance,
+};
 
 pub(crate) fn refuse(check: Check, evidence: String, remedy: &str) -> Refusal {
     Refusal::Implausible {
@@ -172,22 +159,6 @@ pub fn mirror(source: &str, nominal: &Robot, rows: &[Measurement]) -> Result<(),
         ));
     }
     Ok(())
-}
-
-/// The manufacturing tolerance of a parameter of kind `kind`, display units (mm, °): the
-/// change beyond which [`parameters`] refuses a fit, and the standard deviation of the
-/// default prior (`crate::prior`) — one source for both. `None` for the base (the
-/// measurement frame, anywhere) and the parameters beyond geometry.
-pub fn tolerance(kind: ParamKind) -> Option<f64> {
-    match kind {
-        ParamKind::A(_) | ParamKind::D(_) => Some(MAX_LINK_CHANGE_MM),
-        ParamKind::Theta(_) | ParamKind::Alpha(_) | ParamKind::Beta(_) => {
-            Some(MAX_ANGLE_CHANGE_DEG)
-        }
-        ParamKind::ToolX | ParamKind::ToolY | ParamKind::ToolZ => Some(MAX_TOOL_CHANGE_MM),
-        ParamKind::Scale(_) => Some(MAX_SCALE_CHANGE),
-        _ => None,
-    }
 }
 
 /// Identified parameters far from their start values, by name (the `identifiable` ones,

@@ -23,11 +23,7 @@ use crate::request::Check;
 /// chord is under a fifth of the radius and their standard errors grow as 1/range].
 pub const SMALL_RANGE_DEG: f64 = 10.0;
 
-/// A parameter is undetermined by the data when its standard error from the data alone
-/// exceeds this fraction of its manufacturing tolerance [0.5: the same line as the prior's
-/// "held by the prior" (`identify::HELD_BY_PRIOR`); the data then cannot tell a good robot
-/// from one at the edge of its tolerance].
-pub const UNDETERMINED_FRACTION: f64 = 0.5;
+pub use crate::tolerance::{UNDETERMINED_FRACTION, leaves_undetermined};
 
 /// The standard error sought when saying how far a joint should move: this fraction of the
 /// tolerance [0.25: half the undetermined line, so that the parameter is clearly determined].
@@ -63,18 +59,6 @@ pub struct Excitation {
     /// standard error would be a quarter of its tolerance (standard errors ∝ 1/range),
     /// at least 30° and at most 180°; `None` when no joint is small or nothing undetermined.
     pub recommended_deg: Option<f64>,
-}
-
-/// Whether the data of `fit` (its covariance, the data's alone) leave some free geometric
-/// parameter of `robot` undetermined: standard error above [`UNDETERMINED_FRACTION`] × its
-/// tolerance.
-pub fn leaves_undetermined(robot: &Robot, fit: &Fit) -> bool {
-    let layout = robot.layout();
-    fit.covariance.as_ref().is_some_and(|c| {
-        c.indices.iter().zip(&c.std_errors).any(|(&k, &se)| {
-            tolerance(layout.get(k).kind).is_some_and(|t| se > UNDETERMINED_FRACTION * t)
-        })
-    })
 }
 
 /// What the poses `rows` determine for the fit `fit` (its covariance: the data's alone).

@@ -24,6 +24,7 @@ mod memory;
 mod pipeline;
 pub mod prior;
 mod request;
+mod tolerance;
 pub mod tool_frame;
 mod tool_offset;
 mod workflow;

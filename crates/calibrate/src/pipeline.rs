@@ -12,11 +12,14 @@
 //! screen's blocks — is a [`Kind`]: points in `crate::workflow`, 6-DoF and multi-target
 //! data in `crate::tool_frame`.
 
+use identify::{RegistrationPolicy, RegistrationReport, mean_point_error, register_base_robust};
 use kinematics::Robot;
 use measurements::{Measurement, MeasurementError, MeasurementSet};
+use nalgebra::Vector3;
 
 use crate::checks;
-use crate::error::{CalibrateError, Refusal, Result};
+use crate::error::{CalibrateError, Refusal, Result, id_err};
+use crate::files::LoadedRobot;
 use crate::request::{Check, IdentifyRequest, Split};
 
 /// What the data measure at each pose: the kind of measurement a calibration fits. The
@@ -464,4 +467,119 @@ pub(crate) fn fit_and_check<K: Kind>(
         analysis,
         validation,
     })
+}
+
+/// The mean and the largest of `v` (0 and 0 for an empty slice).
+pub fn mean_max(v: &[f64]) -> (f64, f64) {
+    let mean = v.iter().sum::<f64>() / v.len().max(1) as f64;
+    (mean, v.iter().copied().fold(0.0, f64::max))
+}
+
+/// The registration decision with its evidence: the start model, the report (`None` when
+/// never considered) and a sentence saying what was decided and why. For every kind: the
+/// points are those of the rows (the mean of a pose's targets for multi-target data).
+pub(crate) fn register(
+    nominal: &Robot,
+    poses: &[f64],
+    points: &[Vector3<f64>],
+    policy: RegistrationPolicy,
+) -> Result<(Robot, Option<RegistrationReport>, String)> {
+    let before = mean_point_error(nominal, poses, points);
+    let threshold = match policy {
+        RegistrationPolicy::Never => {
+            return Ok((
+                nominal.clone(),
+                None,
+                format!(
+                    "not registered (registration never): nominal mean error {before:.3} mm \
+                     in the robot's base frame"
+                ),
+            ));
+        }
+        RegistrationPolicy::Always => None,
+        RegistrationPolicy::Auto { threshold_mm } => Some(threshold_mm),
+    };
+    if let Some(t) = threshold
+        && before.partial_cmp(&t) != Some(std::cmp::Ordering::Greater)
+    {
+        return Ok((
+            nominal.clone(),
+            Some(not_registered(nominal, before)),
+            format!(
+                "not registered: nominal mean error {before:.3} mm ≤ {t} mm, the data are taken \
+                 to be in the robot's base frame (the fit refines the base)"
+            ),
+        ));
+    }
+    let robust =
+        register_base_robust(nominal, poses, points).map_err(id_err("registering the base"))?;
+    let (robust, tool_note) = crate::tool_offset::prefer(nominal, poses, points, robust);
+    let n = points.len();
+    let mut evidence = format!(
+        "rigid fit on {} of {n} points (the others beyond {} × the median residual), median \
+         error {:.3} mm → {:.3} mm, mean {before:.3} mm → {:.3} mm",
+        robust.inliers.len(),
+        identify::ROBUST_INLIER_FACTOR,
+        robust.median_before_mm,
+        robust.median_after_mm,
+        robust.report.mean_error_after_mm
+    );
+    if let Some(note) = tool_note {
+        evidence = format!("{evidence}; {note}");
+    }
+    let better = robust.median_after_mm < robust.median_before_mm;
+    match threshold {
+        Some(t) if !better => Ok((
+            nominal.clone(),
+            Some(not_registered(nominal, before)),
+            format!(
+                "not registered: nominal mean error {before:.3} mm > {t} mm, but the \
+                 registration would make it worse ({evidence})"
+            ),
+        )),
+        Some(t) => Ok((
+            robust.robot,
+            Some(robust.report),
+            format!(
+                "registered (nominal mean error {before:.3} mm > {t} mm: the data are in \
+                 another frame): {evidence}; the base is refitted with the other parameters"
+            ),
+        )),
+        None => Ok((
+            robust.robot,
+            Some(robust.report),
+            format!("registered (registration always): {evidence}"),
+        )),
+    }
+}
+
+/// A report for "not registered" at a start error of `before` mm.
+fn not_registered(nominal: &Robot, before: f64) -> RegistrationReport {
+    let layout = nominal.layout();
+    let x = nominal.params();
+    let b = identify::base_parameter_indices(nominal).map(|k| layout.get(k).to_display(x[k]));
+    RegistrationReport {
+        applied: false,
+        mean_error_before_mm: before,
+        mean_error_after_mm: before,
+        rotation_deg: 0.0,
+        translation_mm: [0.0; 3],
+        base_before: b,
+        base_after: b,
+    }
+}
+
+/// What every kind's calibration starts from after the split and the data's checks.
+pub(crate) struct Common<'a> {
+    pub request: &'a IdentifyRequest,
+    /// The nominal, extended by the request's parameters.
+    pub nominal: LoadedRobot,
+    pub data: MeasurementSet,
+    /// The units (rows or poses) of `data`, each as the indices of its rows.
+    pub units: Vec<Vec<usize>>,
+    pub split: Units,
+    pub kind: MeasurementKind,
+    pub notices: Vec<String>,
+    /// The warning that validation rows are identification rows, if they are.
+    pub overlap_warning: Option<String>,
 }

@@ -4,7 +4,7 @@
 //! The prior (`tolerance`; by default `auto`: only when the data leave a parameter
 //! undetermined) centres each geometric parameter on the start model's value (the robot
 //! file's, after registration) with the standard deviation of its manufacturing tolerance,
-//! the one the parameters check uses ([`crate::checks::tolerance`]: 20 mm for a and d, 5° for
+//! the one the parameters check uses ([`crate::tolerance::tolerance`]: 20 mm for a and d, 5° for
 //! θ, α and β, 250 mm for the tool); the base (the measurement frame) and the parameters
 //! beyond geometry have none. The residual rows' noise σ_e that weighs it against the data is
 //! σ̂ of the fit without the prior: the prior fit is a second solve, from the same start.
@@ -12,8 +12,8 @@
 use identify::{Fit, IdentifyOptions, Prior, Problem, identify};
 use kinematics::Robot;
 
-use crate::checks::tolerance;
 use crate::error::{Result, id_err};
+use crate::tolerance::tolerance;
 
 /// Which prior identifies.
 #[derive(Clone, Debug, PartialEq)]
@@ -22,10 +22,10 @@ pub enum PriorSpec {
     None,
     /// The prior of [`PriorSpec::Tolerance`] when the data leave a free parameter
     /// undetermined (its standard error from the data alone above
-    /// [`crate::excitation::UNDETERMINED_FRACTION`] × its tolerance), else none: well-excited
+    /// [`crate::tolerance::UNDETERMINED_FRACTION`] × its tolerance), else none: well-excited
     /// data give the least-squares fit to the bit (`--prior auto`, the default).
     Auto,
-    /// The manufacturing tolerances of [`crate::checks::tolerance`], with the standard
+    /// The manufacturing tolerances of [`crate::tolerance::tolerance`], with the standard
     /// deviations (display units: mm, °) of the named parameters replaced.
     Tolerance {
         /// `(name, sd)` replacements, in the order given.
@@ -133,7 +133,7 @@ pub(crate) fn refit(
     options: &IdentifyOptions,
     fit: Fit,
 ) -> Result<Fit> {
-    if *spec == PriorSpec::Auto && !crate::excitation::leaves_undetermined(problem.robot(), &fit) {
+    if *spec == PriorSpec::Auto && !crate::tolerance::leaves_undetermined(problem.robot(), &fit) {
         return Ok(fit);
     }
     let (Some(prior), Some(sigma)) = (spec.on(problem.robot())?, fit.sigma_hat) else {

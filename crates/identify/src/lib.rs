@@ -84,6 +84,7 @@ pub use covariance::{
     CorrelatedPair, Covariance, NormalCovariance, covariance, covariance_at_solution,
 };
 pub use error::IdentifyError;
+pub use fit::posterior;
 pub use fit::{Fit, IdentifyOptions, ParamEstimate, identify};
 pub use generic::{GENERIC_POSE_COUNT, GENERIC_POSE_SEED, generic_poses};
 pub use identifiability::{
@@ -97,7 +98,7 @@ pub use lm::{
 pub use options_str::{UnknownName, parse_name};
 pub use outliers::{BlockOutlier, BlockScreen, Outlier, OutlierScreen};
 pub use params::ParamSpec;
-pub use prior::{HELD_BY_PRIOR, Posterior, PosteriorParam, Prior, PriorTerm, posterior};
+pub use prior::{HELD_BY_PRIOR, Posterior, PosteriorParam, Prior, PriorTerm};
 pub use problem::{Problem, SAME_POSE_TOL_RAD};
 pub use registration::{
     ROBUST_INLIER_FACTOR, RegistrationPolicy, RegistrationReport, RigidTransform,

@@ -964,25 +964,6 @@ pub struct LsSolution<M> {
     pub normal_matrix: DMatrix<f64>,
 }
 
-impl<M> LsSolution<M> {
-    /// The covariance of the unknowns at the solution, `σ̂²(JᵀJ)⁻¹` with `σ̂² = cost / (n −
-    /// P)`, for `n_equations` = n residual rows ([`crate::covariance::normal_covariance`]).
-    ///
-    /// # Errors
-    /// [`IdentifyError::Singular`] when `JᵀJ` is not positive definite.
-    pub fn covariance(
-        &self,
-        n_equations: usize,
-    ) -> Result<crate::covariance::NormalCovariance, IdentifyError> {
-        crate::covariance::normal_covariance(
-            &self.normal_matrix,
-            self.cost,
-            n_equations,
-            self.iterations,
-        )
-    }
-}
-
 /// The one damped least-squares solver: Levenberg–Marquardt on `problem` from `start`, with
 /// the damping, scaling and stopping tests of `options` (the module docs; every unknown of
 /// `problem` is solved: [`LmOptions::redundant`] is the caller's to apply, as [`solve`] does

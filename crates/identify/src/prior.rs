@@ -21,7 +21,6 @@ use nalgebra::{DMatrix, DVector};
 use serde::{Deserialize, Serialize};
 
 use crate::error::IdentifyError;
-use crate::problem::Problem;
 
 /// A parameter is said to be held by the prior when its posterior standard deviation exceeds
 /// this fraction of the prior's [0.5: the data then removed less than three quarters of the
@@ -165,62 +164,6 @@ impl Posterior {
     }
 }
 
-/// The posterior `σ_e² (JᵀJ + Λ)⁻¹` at `solution` of `problem` on the free parameters
-/// `solved` (those the solver moved: a subset of the problem's; `problem` carries the prior
-/// term). `None` when the problem has no prior or the matrix is not positive definite (a
-/// parameter that neither the data nor the prior determine).
-pub fn posterior(problem: &Problem, solution: &Robot, solved: &[usize]) -> Option<Posterior> {
-    let term = problem.prior()?;
-    if !solved.iter().all(|k| problem.free().contains(k)) {
-        return None;
-    }
-    let at = problem.with_robot(solution).with_free(solved.to_vec());
-    let free = at.free().to_vec();
-    let pf = free.len();
-    let mut a = DMatrix::zeros(pf, pf);
-    let mut g = DVector::zeros(pf);
-    at.normal_equations(&mut a, &mut g);
-    // Scaled to unit diagonal for the factorisation (angles against lengths).
-    let x = solution.params();
-    let ones = vec![1.0; pf];
-    term.add_scaled(&x, &free, &ones, &mut a, &mut g);
-    let s: Vec<f64> = (0..pf)
-        .map(|c| {
-            let d = a[(c, c)];
-            if d > 0.0 { 1.0 / d.sqrt() } else { 1.0 }
-        })
-        .collect();
-    let scaled = DMatrix::from_fn(pf, pf, |i, j| s[i] * a[(i, j)] * s[j]);
-    let chol = scaled.cholesky()?;
-    let inv = chol.inverse();
-    let layout = solution.layout();
-    let s2 = term.sigma_e * term.sigma_e;
-    let params = free
-        .iter()
-        .enumerate()
-        .map(|(c, &k)| {
-            let info = layout.get(k);
-            let to = info.to_display(1.0).abs();
-            let var = s2 * s[c] * s[c] * inv[(c, c)];
-            let posterior_sd = var.max(0.0).sqrt() * to;
-            let prior_sd =
-                (term.weight[k] > 0.0).then(|| term.sigma_e / term.weight[k].sqrt() * to);
-            PosteriorParam {
-                name: info.name.clone(),
-                unit: info.unit,
-                prior_sd,
-                posterior_sd,
-                information: prior_sd.map(|p| 1.0 - (posterior_sd / p).powi(2)),
-                held_by_prior: prior_sd.is_some_and(|p| posterior_sd > HELD_BY_PRIOR * p),
-            }
-        })
-        .collect();
-    Some(Posterior {
-        sigma_e: term.sigma_e,
-        params,
-    })
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -254,7 +197,7 @@ mod tests {
         let free = ParamSet::Minimal
             .resolve(&nominal, &poses, None, &Default::default())
             .unwrap();
-        let problem = Problem::new(&nominal, &poses, &points, free).unwrap();
+        let problem = crate::Problem::new(&nominal, &poses, &points, free).unwrap();
         let mut sd = vec![None; nominal.n_params()];
         sd[k] = Some(0.01);
         let prior = Prior::centred_on(&nominal, sd).unwrap();

@@ -255,7 +255,7 @@ impl PyCalibration {
     robot, q_deg, points_mm, *, params = None, validate = None, reject_outliers = false,
     every = None, offset = 0, select = None, criterion = "d", schedule = "levenberg",
     redundant = "hold", registration = "auto", outlier_k = 3.0, worst = 10,
-    joint_units = "deg", length_units = "mm", allow = None
+    joint_units = "deg", length_units = "mm", allow = None, prior = "auto"
 ))]
 #[allow(clippy::too_many_arguments)]
 fn py_identify<'py>(
@@ -278,6 +278,7 @@ fn py_identify<'py>(
     joint_units: &str,
     length_units: &str,
     allow: Option<Bound<'py, PyAny>>,
+    prior: &str,
 ) -> PyResult<PyCalibration> {
     let nominal = robot.loaded.clone();
     let n = nominal.robot.n_joints();
@@ -310,6 +311,7 @@ fn py_identify<'py>(
             joint_units,
             length_units,
             allow,
+            prior,
         },
     )?;
     py.detach(|| {

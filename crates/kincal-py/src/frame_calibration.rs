@@ -68,7 +68,7 @@ fn frame_set(
     orientation_weight = None, params = None, validate = None, reject_outliers = false,
     every = None, offset = 0, select = None, criterion = "d", schedule = "levenberg",
     redundant = "hold", registration = "auto", outlier_k = 3.0, worst = 10,
-    joint_units = "deg", length_units = "mm", allow = None
+    joint_units = "deg", length_units = "mm", allow = None, prior = "auto"
 ))]
 #[allow(clippy::too_many_arguments)]
 fn py_identify_frames<'py>(
@@ -95,6 +95,7 @@ fn py_identify_frames<'py>(
     joint_units: &str,
     length_units: &str,
     allow: Option<Bound<'py, PyAny>>,
+    prior: &str,
 ) -> PyResult<PyFrameCalibration> {
     if orientations_wxyz.is_none() && targets.is_none() {
         return Err(refuse(
@@ -183,6 +184,7 @@ fn py_identify_frames<'py>(
             joint_units,
             length_units,
             allow,
+            prior,
         },
     )?;
     let request = calibrate::IdentifyRequest {

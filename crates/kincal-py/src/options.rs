@@ -65,6 +65,8 @@ pub(crate) struct Shared<'a, 'py> {
     pub joint_units: &'a str,
     pub length_units: &'a str,
     pub allow: Option<Bound<'py, PyAny>>,
+    /// `--prior`: `auto`, `none`, `tolerance` or `tolerance,NAME=SD,…`.
+    pub prior: &'a str,
 }
 
 /// The request `kincal identify` builds from its flags, for the robot `robot`, the data
@@ -90,6 +92,7 @@ pub(crate) fn identify_request(
         joint_units,
         length_units,
         allow,
+        prior,
     } = o;
     let split = match (every, select) {
         (Some(_), Some(_)) => {
@@ -128,6 +131,7 @@ pub(crate) fn identify_request(
         joint_units: parse_arg("joint_units", joint_units)?,
         length_units: parse_arg("length_units", length_units)?,
         allow: allow_arg(allow.as_ref())?,
+        prior: parse_arg("prior", prior)?,
         ..calibrate::IdentifyRequest::new(robot, data)
     })
 }

@@ -132,6 +132,28 @@ def test_identify_options(readme_example):
     assert sum(r["free"] for r in cal.parameters) == 8
 
 
+def test_identify_prior_as_the_clis(readme_example, tmp_path):
+    """prior= is --prior: "auto" (the default) leaves the well-excited README example to the
+    data alone, "tolerance" gives the CLI's MAP fit, and a malformed value is refused."""
+    q, p = ur10_data()
+    robot = kincal.Robot.load(ROBOTS / "ur10.json")
+    auto = readme_example[2]
+    none = kincal.identify(robot, q, p, every=15, prior="none")
+    assert [r["identified"] for r in none.parameters] == [
+        r["identified"] for r in auto.parameters
+    ]
+    tol = kincal.identify(robot, q, p, every=15, prior="tolerance")
+    out = tmp_path / "tol"
+    run_cli(
+        "identify", "--robot", ROBOTS / "ur10.json", "--data", UR10_DATA,
+        "--every", 15, "--prior", "tolerance", "--out", out,
+    )
+    assert kincal.Robot.load(out / "identified.json").parameters == tol.robot.parameters
+    assert tol.robot.parameters != auto.robot.parameters
+    with pytest.raises(kincal.KincalError, match="prior"):
+        kincal.identify(robot, q, p, every=15, prior="gaussian")
+
+
 def test_compensate_equals_the_cli(readme_example, tmp_path):
     _, out, cal = readme_example
     q = ur10_data()[0][1:200:20]

@@ -99,7 +99,7 @@ fn bad_input_names_the_element_and_writes_nothing() {
     std::fs::write(
         &bad,
         r#"<robot name="r"><link name="a"/><link name="b"/>
-        <joint name="slide" type="prismatic"><parent link="a"/><child link="b"/>
+        <joint name="slide" type="planar"><parent link="a"/><child link="b"/>
         <axis xyz="1 0 0"/><limit lower="0" upper="1" effort="1" velocity="1"/></joint></robot>"#,
     )
     .unwrap();
@@ -118,7 +118,7 @@ fn bad_input_names_the_element_and_writes_nothing() {
     assert!(!out.status.success());
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(
-        err.contains("bad.urdf: <joint name=\"slide\" type=\"prismatic\">"),
+        err.contains("bad.urdf: <joint name=\"slide\" type=\"planar\">"),
         "{err}"
     );
     assert!(!out_file.exists());

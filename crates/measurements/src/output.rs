@@ -329,10 +329,32 @@ fn sibling(parent: &Path, name: &str, what: &str) -> PathBuf {
     parent.join(format!("{}{what}", sibling_prefix(name)))
 }
 
-/// `.NAME.kincal-`, with `NAME` shortened (`write::short_name`) so that every sibling's name
+/// The longest a name taken into a hidden helper file's name may be (bytes): 255, the
+/// usual file-name limit, less room for the helper's own prefix and suffix.
+pub(crate) const MAX_EMBEDDED_NAME: usize = 180;
+
+/// `name` if it is at most [`MAX_EMBEDDED_NAME`] bytes, else its first bytes (at a
+/// character boundary) and a 16-digit hash of the whole name, so that two long names
+/// sharing a prefix still get different helper files.
+pub(crate) fn short_name(name: &str) -> String {
+    if name.len() <= MAX_EMBEDDED_NAME {
+        return name.to_owned();
+    }
+    // FNV-1a, 64 bits: stable across runs and platforms.
+    let hash = name.bytes().fold(0xcbf2_9ce4_8422_2325_u64, |h, b| {
+        (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3)
+    });
+    let mut cut = MAX_EMBEDDED_NAME - 17;
+    while !name.is_char_boundary(cut) {
+        cut -= 1;
+    }
+    format!("{}~{hash:016x}", &name[..cut])
+}
+
+/// `.NAME.kincal-`, with `NAME` shortened ([`short_name`]) so that every sibling's name
 /// stays within the file-name limit (255 bytes) whatever the directory's name.
 fn sibling_prefix(name: &str) -> String {
-    format!(".{}.kincal-", crate::write::short_name(name))
+    format!(".{}.kincal-", short_name(name))
 }
 
 /// An output directory held by this process: checked, locked against other writers, and

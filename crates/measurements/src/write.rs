@@ -184,7 +184,8 @@ fn fill_and_rename(mut file: File, bytes: &[u8], tmp_path: &Path, path: &Path) -
 fn create_temp_file(dir: &Path, name: &str) -> io::Result<(PathBuf, File)> {
     static COUNTER: AtomicU64 = AtomicU64::new(0);
     let pid = std::process::id();
-    let name = short_name(name);
+    #[cfg(unix)]
+    let name = crate::output::short_name(name);
     #[cfg(unix)]
     remove_dead_temporaries_of(dir, &name);
     let mut attempt = 0;
@@ -221,28 +222,6 @@ fn remove_dead_temporaries_of(dir: &Path, name: &str) {
             let _ = fs::remove_file(e.path());
         }
     }
-}
-
-/// The longest a name taken into a hidden helper file's name may be (bytes): 255, the
-/// usual file-name limit, less room for the helper's own prefix and suffix.
-pub(crate) const MAX_EMBEDDED_NAME: usize = 180;
-
-/// `name` if it is at most [`MAX_EMBEDDED_NAME`] bytes, else its first bytes (at a
-/// character boundary) and a 16-digit hash of the whole name, so that two long names
-/// sharing a prefix still get different helper files.
-pub(crate) fn short_name(name: &str) -> String {
-    if name.len() <= MAX_EMBEDDED_NAME {
-        return name.to_owned();
-    }
-    // FNV-1a, 64 bits: stable across runs and platforms.
-    let hash = name.bytes().fold(0xcbf2_9ce4_8422_2325_u64, |h, b| {
-        (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3)
-    });
-    let mut cut = MAX_EMBEDDED_NAME - 17;
-    while !name.is_char_boundary(cut) {
-        cut -= 1;
-    }
-    format!("{}~{hash:016x}", &name[..cut])
 }
 
 /// Make the rename durable (best effort; only meaningful on Unix).

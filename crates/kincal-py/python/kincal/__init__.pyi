@@ -290,6 +290,7 @@ def identify(
     joint_units: Literal["deg", "rad"] = "deg",
     length_units: Literal["mm", "m", "in"] = "mm",
     allow: str | Sequence[str] | None = None,
+    prior: str = "auto",
 ) -> Calibration:
     """Identifies the robot's parameters from measured points ``(n, 3)`` (mm) at joints
     ``(n, N)`` (degrees), as ``kincal identify`` does on a file with the same rows; the
@@ -297,7 +298,8 @@ def identify(
     ``"paper+compliance"``; or a list of names), ``validate=(q_deg, points_mm)``,
     ``every``/``offset`` or ``select``/``criterion`` (hold-out splits), ``schedule``
     (levenberg, marquardt, nielsen), ``redundant`` (hold, damp), ``registration`` (auto,
-    always, never), ``reject_outliers``, ``outlier_k``, ``worst``.
+    always, never), ``reject_outliers``, ``outlier_k``, ``worst``, ``prior`` (``--prior``:
+    ``"auto"``, ``"none"``, ``"tolerance"`` or ``"tolerance,NAME=SD,..."``).
 
     ``joint_units`` and ``length_units`` declare the arrays' units (``--joint-units``,
     ``--length-units``: converted to degrees and millimetres, the joint limits checked in
@@ -421,6 +423,7 @@ def identify_frames(
     joint_units: Literal["deg", "rad"] = "deg",
     length_units: Literal["mm", "m", "in"] = "mm",
     allow: str | Sequence[str] | None = None,
+    prior: str = "auto",
 ) -> FrameCalibration:
     """Identifies the robot and its tool frame from 6-DoF measurements and/or several
     targets per pose, as ``kincal identify`` does on a file with ``qw,qx,qy,qz`` or
