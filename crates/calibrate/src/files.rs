@@ -38,6 +38,16 @@ impl LoadedRobot {
         })
     }
 
+    /// The robot file's `prior_sd` (name → standard deviation, display units), in name order.
+    pub fn prior_sd(&self) -> Vec<(String, f64)> {
+        self.spec
+            .prior_sd
+            .iter()
+            .flatten()
+            .map(|(name, sd)| (name.clone(), *sd))
+            .collect()
+    }
+
     /// Joint limits in degrees, exactly as in the file (millimetres for a prismatic joint,
     /// the file's `limits_mm`).
     pub fn limits_deg(&self) -> Vec<[f64; 2]> {

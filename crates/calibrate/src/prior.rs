@@ -92,16 +92,19 @@ impl std::str::FromStr for PriorSpec {
 }
 
 impl PriorSpec {
-    /// The prior on `start` (centred on its values), `None` for [`PriorSpec::None`].
+    /// The prior on `start` (centred on its values), `None` for [`PriorSpec::None`]: the
+    /// manufacturing tolerances, replaced by the robot file's `prior_sd` (`file`: name → sd,
+    /// display units), replaced in turn by the request's (`--prior tolerance,NAME=SD`).
     ///
     /// # Errors
     /// A replaced parameter the robot does not have.
-    pub fn on(&self, start: &Robot) -> Result<Option<Prior>> {
-        let replaced: &[(String, f64)] = match self {
+    pub fn on(&self, start: &Robot, file: &[(String, f64)]) -> Result<Option<Prior>> {
+        let given: &[(String, f64)] = match self {
             PriorSpec::None => return Ok(None),
             PriorSpec::Auto => &[],
             PriorSpec::Tolerance { sd } => sd,
         };
+        let replaced = file.iter().chain(given);
         let layout = start.layout();
         let mut sd: Vec<Option<f64>> = layout
             .params()
@@ -129,6 +132,7 @@ impl PriorSpec {
 /// As [`PriorSpec::on`]; the solver's.
 pub(crate) fn refit(
     spec: &PriorSpec,
+    file: &[(String, f64)],
     problem: &Problem,
     options: &IdentifyOptions,
     fit: Fit,
@@ -136,7 +140,7 @@ pub(crate) fn refit(
     if *spec == PriorSpec::Auto && !crate::tolerance::leaves_undetermined(problem.robot(), &fit) {
         return Ok(fit);
     }
-    let (Some(prior), Some(sigma)) = (spec.on(problem.robot())?, fit.sigma_hat) else {
+    let (Some(prior), Some(sigma)) = (spec.on(problem.robot(), file)?, fit.sigma_hat) else {
         return Ok(fit);
     };
     if !(sigma.is_finite() && sigma > 0.0) {

@@ -591,7 +591,7 @@ impl Kind for PointKind<'_> {
             (&p, &x),
             free.clone(),
             &self.options,
-            &self.request.prior,
+            (&self.request.prior, &self.nominal.prior_sd()),
             (nom.name(), self.source),
         )?;
         // An extended model evaluates its gravity torques on the geometry it was extended
@@ -713,14 +713,14 @@ fn fit_points(
     (poses, points): (&[f64], &[Vector3<f64>]),
     free: Vec<usize>,
     options: &IdentifyOptions,
-    prior: &crate::PriorSpec,
+    (prior, prior_file): (&crate::PriorSpec, &[(String, f64)]),
     (robot, source): (&str, &str),
 ) -> Result<Fit> {
     let problem = Problem::new(start, poses, points, free)
         .map_err(id_err(format!("setting up the identification on {source}")))?;
     let fit =
         identify(&problem, options).map_err(id_err(format!("identifying {robot} on {source}")))?;
-    crate::prior::refit(prior, &problem, options, fit)
+    crate::prior::refit(prior, prior_file, &problem, options, fit)
 }
 
 /// The point kind after the split: the pipeline's stages, then the result.

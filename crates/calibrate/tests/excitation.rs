@@ -298,3 +298,55 @@ fn the_prior_changes_nothing_on_well_excited_data() {
     assert!(worst < 0.005, "{worst} mm");
     assert!(a.warnings.is_empty(), "{:?}", a.warnings);
 }
+
+/// The robot file can set the prior's standard deviations (`prior_sd`, display units), and
+/// `--prior tolerance,NAME=SD` replaces them in turn: on the README's UR10 example with the
+/// prior on, a file's 1 µm on a2 holds a2 at the robot file's value (where the tolerance
+/// lets the data move it), and the command line's 20 mm for a2 lets it move again. A value
+/// that is not a standard deviation is refused naming the field.
+#[test]
+fn the_robot_file_sets_the_priors_standard_deviations() {
+    let tmp = tempfile::tempdir().unwrap();
+    let text = std::fs::read_to_string(root().join("scenarios/robots/ur10.json")).unwrap();
+    let mut json: serde_json::Value = serde_json::from_str(&text).unwrap();
+    json["prior_sd"] = serde_json::json!({ "a2": 0.001 });
+    let held = tmp.path().join("ur10-held.json");
+    std::fs::write(&held, json.to_string()).unwrap();
+    let request = |robot: PathBuf, prior: &str| IdentifyRequest {
+        split: Split::Every {
+            every: 15,
+            offset: 0,
+        },
+        prior: prior.parse().unwrap(),
+        ..IdentifyRequest::new(
+            robot,
+            root().join("data/ur10-ipa/series-b-joint-configurations.csv"),
+        )
+    };
+    let a2 = |robot: PathBuf, prior: &str| {
+        let c = calibrate::run(&request(robot, prior))
+            .unwrap()
+            .into_points()
+            .unwrap();
+        let k = c.start.layout().index_of("a2").unwrap();
+        (c.fit.robot.params()[k] - c.start.params()[k]).abs()
+    };
+    let free = a2(root().join("scenarios/robots/ur10.json"), "tolerance");
+    let fixed = a2(held.clone(), "tolerance");
+    let again = a2(held.clone(), "tolerance,a2=20");
+    assert!(free > 1e-2, "a2 moves {free} mm under the tolerance prior");
+    assert!(
+        fixed < free / 100.0,
+        "a2 moves {fixed} mm with the file's 1 µm"
+    );
+    assert!((again - free).abs() < 1e-9, "{again} vs {free}");
+    json["prior_sd"] = serde_json::json!({ "a2": -1.0 });
+    std::fs::write(&held, json.to_string()).unwrap();
+    let e = LoadedRobot::load(&held, "robot").unwrap_err();
+    let cause = std::error::Error::source(&e).map(|c| c.to_string());
+    let e = format!("{e}: {}", cause.unwrap_or_default());
+    assert!(
+        e.contains("prior_sd.a2") && e.contains("not a standard deviation"),
+        "{e}"
+    );
+}

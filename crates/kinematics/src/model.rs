@@ -417,6 +417,13 @@ pub struct RobotSpec {
     /// calibration then starts each from a closed-form estimate).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub targets: Option<Vec<TargetSpec>>,
+    /// Optional standard deviations of the identification's Gaussian prior, by parameter
+    /// name, in the parameter's display unit (mm, °, mm/mm): e.g. `{"a2": 0.5, "theta6":
+    /// 0.2}` for a robot whose tolerances are known better (or worse) than the manufacturing
+    /// tolerances the prior takes by default (`docs/model.md` §7). A `--prior` on the command
+    /// line replaces these in turn. Absent from files and output when not given.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub prior_sd: Option<std::collections::BTreeMap<String, f64>>,
 }
 
 /// One named target (reflector) of a robot file's `targets` section.
@@ -507,6 +514,14 @@ impl RobotSpec {
             field,
             message,
         };
+        for (name, sd) in self.prior_sd.iter().flatten() {
+            if !(sd.is_finite() && *sd > 0.0) {
+                return Err(invalid(
+                    format!("prior_sd.{name}"),
+                    format!("{sd} is not a standard deviation (finite and positive)"),
+                ));
+            }
+        }
         if self.joints.is_empty() || self.joints.len() > MAX_JOINTS {
             return Err(invalid(
                 "joints".into(),

@@ -641,6 +641,9 @@ impl Robot {
                     })
                     .collect()
             }),
+            // A prior is an input of an identification, not a property of the identified
+            // robot: `identified.json` carries none.
+            prior_sd: None,
         }
     }
 

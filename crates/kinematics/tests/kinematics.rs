@@ -109,6 +109,7 @@ fn random_chain(u: &[f64]) -> Robot {
         extended: None,
         tool_rotation_deg: None,
         targets: None,
+        prior_sd: None,
     };
     Robot::from_spec(&spec).unwrap()
 }

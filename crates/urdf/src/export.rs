@@ -69,6 +69,7 @@ fn link_transform(j: &JointSpec) -> Result<Frame, UrdfError> {
         extended: None,
         tool_rotation_deg: None,
         targets: None,
+        prior_sd: None,
     };
     Ok(Robot::from_spec(&one)?.flange_reference(&[0.0]))
 }

@@ -368,6 +368,7 @@ pub fn import_str(
         extended: None,
         tool_rotation_deg: None,
         targets: None,
+        prior_sd: None,
     };
 
     // Joints 1..N−1: frame i has z along axis i+1 and its origin on it; each frame is the
