@@ -131,7 +131,9 @@ impl PyRobot {
     #[getter]
     fn joint_types(&self) -> Vec<&'static str> {
         let r = self.robot();
-        (0..r.n_joints()).map(|i| r.joint_type(i).as_str()).collect()
+        (0..r.n_joints())
+            .map(|i| r.joint_type(i).as_str())
+            .collect()
     }
 
     /// Number of entries in the parameter vector.
