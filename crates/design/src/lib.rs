@@ -121,7 +121,7 @@ pub fn design_plan(
     Ok((candidates.plan(&selected, &candidates.source), rep))
 }
 
-/// [`design_plan`]'s choice as indices into `candidates` (in the order [`select`] gives
+/// [`design_plan`]'s choice as indices into `candidates` (in the order [`select()`] gives
 /// them), with the same comparison: for a front end that wants the rows rather than a plan
 /// file (the Python binding's `design`).
 pub fn design_selection(
