@@ -129,7 +129,7 @@ impl PoseSampler {
     }
 
     /// `count` poses of `robot` drawn from `rng` that pass the wrist test, then
-    /// `screen(q_rad, sc)` (`sc[i] = [sin q_i, cos q_i]`, [`joint_sin_cos`]'s bits), then
+    /// `screen(q_rad, sc)` (`sc[i] = [sin q_i, cos q_i]`, [`crate::trig::joint_sin_cos`]'s bits), then
     /// the condition test (see the module docs). Each rejection is reported to `rejected`;
     /// what `screen` returns for an accepted pose is kept in [`Sampled::kept`].
     pub fn sample_screened<R, T, E>(
@@ -209,7 +209,7 @@ impl PoseSampler {
 }
 
 /// `robot.singularity_condition(q_rad, scale_mm) ≤ limit`, decided without an SVD in most
-/// cases; `sc` holds `[sin q_i, cos q_i]` of `q_rad` ([`joint_sin_cos`]'s bits).
+/// cases; `sc` holds `[sin q_i, cos q_i]` of `q_rad` ([`crate::trig::joint_sin_cos`]'s bits).
 ///
 /// With `M = J Jᵀ` (6×6; its eigenvalues are the squared singular values σ² of the 6×N
 /// geometric Jacobian when N ≥ 6) and `c = 1/limit²`: every eigenvalue lies in
