@@ -192,18 +192,7 @@ pub fn register_base(
     let predicted = robot.points(poses_rad);
     let t = kabsch(&predicted, points_mm)?;
     let before = mean_point_error(robot, poses_rad, points_mm);
-    let bf = robot.base_frame();
-    // Orthonormal to rounding (Kabsch SVD times a rotation): no re-orthogonalisation needed.
-    let rot = Rotation3::from_matrix_unchecked(t.rotation * bf.rot);
-    let (rx, ry, rz) = rot.euler_angles();
-    let d = t.rotation * bf.pos_mm + t.translation_mm;
-    let mut x = robot.params();
-    let x_before = x.clone();
-    let idx = base_indices(robot);
-    for (k, v) in idx.iter().zip([rx, ry, rz, d.x, d.y, d.z]) {
-        x[*k] = v;
-    }
-    let registered = robot.with_params(&x)?;
+    let (registered, base_before, base_after) = base_moved_by(robot, &t)?;
     let after = mean_point_error(&registered, poses_rad, points_mm);
     Ok((
         registered,
@@ -213,10 +202,30 @@ pub fn register_base(
             mean_error_after_mm: after,
             rotation_deg: t.angle_deg(),
             translation_mm: t.translation_mm.into(),
-            base_before: base_display(robot, &x_before),
-            base_after: base_display(robot, &x),
+            base_before,
+            base_after,
         },
     ))
+}
+
+/// `robot` with its base re-expressed as `T · T_base` (the rigid `t` carries the robot's
+/// predictions onto the measurement frame), and the base parameters before and after
+/// (display units): what every registration applies, with or without the tool.
+pub(crate) fn base_moved_by(
+    robot: &Robot,
+    t: &RigidTransform,
+) -> Result<(Robot, [f64; 6], [f64; 6]), IdentifyError> {
+    let bf = robot.base_frame();
+    // Orthonormal to rounding (Kabsch SVD times a rotation): no re-orthogonalisation needed.
+    let rot = Rotation3::from_matrix_unchecked(t.rotation * bf.rot);
+    let (rx, ry, rz) = rot.euler_angles();
+    let d = t.rotation * bf.pos_mm + t.translation_mm;
+    let mut x = robot.params();
+    let before = base_display(robot, &x);
+    for (k, v) in base_indices(robot).iter().zip([rx, ry, rz, d.x, d.y, d.z]) {
+        x[*k] = v;
+    }
+    Ok((robot.with_params(&x)?, before, base_display(robot, &x)))
 }
 
 /// A report for "not registered".

@@ -29,13 +29,12 @@
 //! direction the estimate is refused ([`IdentifyError::Registration`]).
 
 use kinematics::{Frame, Robot};
-use nalgebra::{DMatrix, DVector, Matrix3, Rotation3, Vector3};
+use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
 
 use crate::error::IdentifyError;
 use crate::problem::check_poses_and_points;
 use crate::registration::{
-    RegistrationReport, RigidTransform, RobustRegistration, base_parameter_indices, kabsch,
-    kabsch_robust,
+    RegistrationReport, RigidTransform, RobustRegistration, kabsch, kabsch_robust,
 };
 use kinematics::rotation::project_so3;
 
@@ -301,20 +300,8 @@ pub fn register_base_and_tool(
         (t, tool) = alternate(&flanges, points_mm, &inliers, tool, &tool0)?;
     }
     // The base re-expressed as `T · T_base`, the tool replaced.
-    let bf = robot.base_frame();
-    let rot = Rotation3::from_matrix_unchecked(t.rotation * bf.rot);
-    let (rx, ry, rz) = rot.euler_angles();
-    let d = t.rotation * bf.pos_mm + t.translation_mm;
-    let mut x = robot.params();
-    let x_before = x.clone();
-    let idx = base_parameter_indices(robot);
-    for (k, v) in idx.iter().zip([rx, ry, rz, d.x, d.y, d.z]) {
-        x[*k] = v;
-    }
-    let mut registered = robot.with_params(&x)?;
+    let (mut registered, base_before, base_after) = crate::registration::base_moved_by(robot, &t)?;
     registered.set_tool_mm(tool);
-    let layout = robot.layout();
-    let display = |x: &[f64]| idx.map(|k| layout.get(k).to_display(x[k]));
     let mut before: Vec<f64> = robot
         .points(poses_rad)
         .iter()
@@ -334,8 +321,8 @@ pub fn register_base_and_tool(
         mean_error_after_mm: after.iter().sum::<f64>() / m,
         rotation_deg: t.angle_deg(),
         translation_mm: t.translation_mm.into(),
-        base_before: display(&x_before),
-        base_after: display(&x),
+        base_before,
+        base_after,
     };
     Ok(ToolRegistration {
         registration: RobustRegistration {
@@ -355,6 +342,7 @@ pub fn register_base_and_tool(
 mod tests {
     use super::*;
     use kinematics::{PoseSampler, RobotSpec};
+    use nalgebra::Rotation3;
     use rand::{SeedableRng, rngs::ChaCha8Rng};
 
     /// A KR1000 whose probe is 180 mm from where the file says, measured noise-free in a frame
