@@ -53,12 +53,13 @@ pub(crate) fn refuse(check: Check, evidence: String, remedy: &str) -> Refusal {
     }
 }
 
-/// Joint values read as degrees that look like radians: at least 3 rows, every |q| ≤ 2π,
-/// and a robot whose limits reach beyond ±90° on some joint.
+/// Joint values read as degrees that look like radians: at least 3 rows, every revolute
+/// |q| ≤ 2π, and a robot whose limits reach beyond ±90° on some revolute joint
+/// ([`crate::radians_evidence`]; `limits_deg` is `None` for a prismatic joint).
 pub fn joint_units(
     source: &str,
     rows: &[Measurement],
-    limits_deg: &[[f64; 2]],
+    limits_deg: &[Option<[f64; 2]>],
 ) -> Result<(), Refusal> {
     if let Some(note) = crate::files::radians_evidence(source, rows, limits_deg) {
         return Err(refuse(
@@ -76,11 +77,18 @@ pub fn joint_units(
 /// are the file's rows read as degrees (unconverted). Called where the declared-radians read
 /// failed, typically on a joint limit (the limits in radians are ±2.6 for ±150°), so that
 /// the refusal names the evidence instead of the first row beyond a limit.
-pub fn declared_radians(source: &str, deg_rows: &[Measurement]) -> Result<(), Refusal> {
+/// Only the revolute joints count: `limits_deg` is `None` for a prismatic joint, whose
+/// column holds a length.
+pub fn declared_radians(
+    source: &str,
+    deg_rows: &[Measurement],
+    limits_deg: &[Option<[f64; 2]>],
+) -> Result<(), Refusal> {
     let largest = deg_rows
         .iter()
-        .flat_map(|r| r.q_deg.iter())
-        .fold(0.0_f64, |m, q| m.max(q.abs()));
+        .flat_map(|r| r.q_deg.iter().zip(limits_deg))
+        .filter(|(_, l)| l.is_some())
+        .fold(0.0_f64, |m, (q, _)| m.max(q.abs()));
     if largest > std::f64::consts::TAU {
         return Err(refuse(
             Check::JointUnits,

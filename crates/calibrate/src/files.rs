@@ -54,6 +54,13 @@ impl LoadedRobot {
         self.spec.joints.iter().map(|j| j.limits_deg).collect()
     }
 
+    /// Each revolute joint's limits, degrees; `None` for a prismatic joint, whose column is a
+    /// length and never radians (the input of [`radians_evidence`]).
+    pub fn revolute_limits_deg(&self) -> Vec<Option<[f64; 2]>> {
+        let revolute = |j: &kinematics::JointSpec| (!j.is_prismatic()).then_some(j.limits_deg);
+        self.spec.joints.iter().map(revolute).collect()
+    }
+
     /// The unit factor of each joint column of a file in units of `deg_per_unit` degrees and
     /// `mm_per_unit` millimetres: a revolute joint's column is an angle (`--joint-units`),
     /// a prismatic joint's a length (`--length-units`, as the points).
@@ -120,28 +127,27 @@ impl LoadedRobot {
             opts = opts.with_euler(e);
         }
         let mut set = read_file(path, &opts).map_err(|source| {
-            // A joint beyond its limit, checked in the file's units, reported in degrees.
+            // A joint beyond its limit, checked in the file's units, reported in degrees (a
+            // revolute joint) or millimetres (a prismatic one).
             let source = match source {
                 MeasurementError::JointOutOfLimits {
                     file,
                     line,
                     column,
-                    value_deg,
+                    value,
                     ..
-                } if factors.iter().any(|f| *f != 1.0) => {
+                } => {
                     let j = column
                         .strip_prefix('q')
                         .and_then(|k| k.parse::<usize>().ok())
                         .map_or(0, |k| k.saturating_sub(1));
-                    let [min_deg, max_deg] = self.limits_deg().get(j).copied().unwrap_or([0.0; 2]);
-                    MeasurementError::JointOutOfLimits {
+                    self.out_of_limits(
                         file,
                         line,
                         column,
-                        value_deg: value_deg * factors.get(j).copied().unwrap_or(1.0),
-                        min_deg,
-                        max_deg,
-                    }
+                        j,
+                        value * factors[j.min(factors.len() - 1)],
+                    )
                 }
                 other => other,
             };
@@ -160,8 +166,35 @@ impl LoadedRobot {
                 _ => err,
             }
         })?;
-        to_degrees_and_mm(&mut set, (&factors, mm_per_unit), &self.limits_deg());
+        to_degrees_and_mm(
+            &mut set,
+            (&factors, mm_per_unit),
+            &self.revolute_limits_deg(),
+        );
         Ok(set)
+    }
+
+    /// The error for joint `j`'s value `value` (degrees, or millimetres for a prismatic
+    /// joint) beyond its limits at `file:line`, in the joint's own unit.
+    pub(crate) fn out_of_limits(
+        &self,
+        file: String,
+        line: usize,
+        column: String,
+        j: usize,
+        value: f64,
+    ) -> MeasurementError {
+        let joint = &self.spec.joints[j.min(self.spec.joints.len() - 1)];
+        let [min, max] = joint.limits_deg;
+        MeasurementError::JointOutOfLimits {
+            file,
+            line,
+            column,
+            value,
+            min,
+            max,
+            unit: if joint.is_prismatic() { "mm" } else { "deg" },
+        }
     }
 
     /// The joint limits in units of `deg_per_unit` degrees (`mm_per_unit` millimetres for a
@@ -179,11 +212,11 @@ impl LoadedRobot {
 /// `joint_factors[i]` degrees, or millimetres for a prismatic joint, points in units of
 /// `mm_per_unit` millimetres), to degrees and millimetres (joints, points and their σ). Rows
 /// already in degrees and millimetres get the radians notice instead ([`radians_notice`]
-/// against `limits_deg`): declared units are not second-guessed.
+/// against the revolute joints' `limits_deg`): declared units are not second-guessed.
 pub(crate) fn to_degrees_and_mm(
     set: &mut MeasurementSet,
     (joint_factors, mm_per_unit): (&[f64], f64),
-    limits_deg: &[[f64; 2]],
+    limits_deg: &[Option<[f64; 2]>],
 ) {
     if joint_factors.iter().any(|f| *f != 1.0) || mm_per_unit != 1.0 {
         for r in &mut set.rows {
@@ -205,25 +238,29 @@ pub(crate) fn to_degrees_and_mm(
 
 /// A notice when the joint values of a file read as degrees look like radians
 /// ([`radians_evidence`]). `None` otherwise.
-pub fn radians_notice(set: &MeasurementSet, limits_deg: &[[f64; 2]]) -> Option<String> {
+pub fn radians_notice(set: &MeasurementSet, limits_deg: &[Option<[f64; 2]>]) -> Option<String> {
     radians_evidence(&set.source, &set.rows, limits_deg)
 }
 
-/// The evidence that joint values read as degrees are radians: at least 3 rows, every |q| ≤
-/// 2π (joints such as a UR's turn beyond ±π), and a robot whose limits reach beyond ±90° on
-/// some joint (degrees data of such a robot that never leave ±6.3° on any joint would be a
-/// strange calibration set). `None` otherwise.
+/// The evidence that joint values read as degrees are radians: at least 3 rows, every
+/// revolute |q| ≤ 2π (joints such as a UR's turn beyond ±π), and a robot whose limits reach
+/// beyond ±90° on some revolute joint (degrees data of such a robot that never leave ±6.3° on
+/// any joint would be a strange calibration set). `limits_deg` holds each joint's limits,
+/// `None` for a prismatic joint: its column is a length (a track at 0–5 mm is no evidence of
+/// radians) and is left out. `None` otherwise.
 pub fn radians_evidence(
     source: &str,
     rows: &[Measurement],
-    limits_deg: &[[f64; 2]],
+    limits_deg: &[Option<[f64; 2]>],
 ) -> Option<String> {
     let largest = rows
         .iter()
-        .flat_map(|r| r.q_deg.iter())
-        .fold(0.0_f64, |m, q| m.max(q.abs()));
+        .flat_map(|r| r.q_deg.iter().zip(limits_deg))
+        .filter(|(_, l)| l.is_some())
+        .fold(0.0_f64, |m, (q, _)| m.max(q.abs()));
     let widest = limits_deg
         .iter()
+        .flatten()
         .fold(0.0_f64, |m, l| m.max(l[0].abs()).max(l[1].abs()));
     (rows.len() >= 3 && largest <= std::f64::consts::TAU && widest > 90.0).then(|| {
         format!(

@@ -113,16 +113,14 @@ impl LoadedRobot {
                     return Err(err(non_finite(column, v)));
                 }
                 if !(min..=max).contains(&v) {
-                    // Checked in the rows' units, reported in degrees.
-                    let [min_deg, max_deg] = self.limits_deg()[j];
-                    return Err(err(MeasurementError::JointOutOfLimits {
-                        file: source.clone(),
+                    // Checked in the rows' units, reported in degrees or millimetres.
+                    return Err(err(self.out_of_limits(
+                        source.clone(),
                         line,
                         column,
-                        value_deg: v * factors[j],
-                        min_deg,
-                        max_deg,
-                    }));
+                        j,
+                        v * factors[j],
+                    )));
                 }
             }
             match row.point_mm {
@@ -155,7 +153,11 @@ impl LoadedRobot {
             }
         }
         set.check_rows().map_err(err)?;
-        to_degrees_and_mm(&mut set, (&factors, mm_per_unit), &self.limits_deg());
+        to_degrees_and_mm(
+            &mut set,
+            (&factors, mm_per_unit),
+            &self.revolute_limits_deg(),
+        );
         Ok(set)
     }
 }
@@ -187,7 +189,7 @@ impl Inputs {
                 && !request.allows(Check::JointUnits))
             .then(|| set.clone());
             nominal.check_set_in(set, true, what, units).map_err(|err| {
-                declared_radians(request, err, || {
+                declared_radians(request, &nominal, err, || {
                     kept.and_then(|deg| nominal.check_set_in(deg, true, what, (1.0, units.1)).ok())
                 })
             })

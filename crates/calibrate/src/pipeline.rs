@@ -272,7 +272,7 @@ pub(crate) fn check_data(
     request: &IdentifyRequest,
     source: &str,
     nominal: &Robot,
-    limits_deg: &[[f64; 2]],
+    limits_deg: &[Option<[f64; 2]>],
     rows: &[Measurement],
 ) -> Result<()> {
     if !request.allows(Check::JointUnits) {

@@ -313,7 +313,7 @@ impl Inputs {
         };
         let as_degrees = |path: &Path| read(path, 0, "data", (1.0, units.1)).ok();
         let data = read(&request.data, min_rows, "identification data", units)
-            .map_err(|e| declared_radians(request, e, || as_degrees(&request.data)))
+            .map_err(|e| declared_radians(request, &nominal, e, || as_degrees(&request.data)))
             .map_err(|e| {
                 if points {
                     too_few_rows(request, n_free, min_rows, e)
@@ -324,7 +324,7 @@ impl Inputs {
         let validate = match (&request.validate, &request.split) {
             (Some(path), Split::All) => {
                 let set = read(path, 0, "validation data", units)
-                    .map_err(|e| declared_radians(request, e, || as_degrees(path)))?;
+                    .map_err(|e| declared_radians(request, &nominal, e, || as_degrees(path)))?;
                 Some(with_rows(set, "validation")?)
             }
             _ => None,
@@ -361,6 +361,7 @@ pub(crate) fn header_names_poses(path: &Path) -> bool {
 /// the `joint-units` check or declares degrees (`as_degrees` is then not called).
 pub(crate) fn declared_radians(
     request: &IdentifyRequest,
+    nominal: &LoadedRobot,
     err: CalibrateError,
     as_degrees: impl FnOnce() -> Option<MeasurementSet>,
 ) -> CalibrateError {
@@ -368,10 +369,12 @@ pub(crate) fn declared_radians(
         return err;
     }
     match as_degrees() {
-        Some(set) => match checks::declared_radians(&set.source, &set.rows) {
-            Err(refusal) => refusal.into(),
-            Ok(()) => err,
-        },
+        Some(set) => {
+            match checks::declared_radians(&set.source, &set.rows, &nominal.revolute_limits_deg()) {
+                Err(refusal) => refusal.into(),
+                Ok(()) => err,
+            }
+        }
         None => err,
     }
 }
@@ -494,7 +497,13 @@ pub fn calibrate(request: &IdentifyRequest, inputs: Inputs) -> Result<Calibratio
     )?;
     let id_rows = pipeline::rows_of(&data, &units, &split.id);
     // Plausibility of the data, before any fit: units and handedness.
-    pipeline::check_data(request, &data.source, nom, &nominal.limits_deg(), &id_rows)?;
+    pipeline::check_data(
+        request,
+        &data.source,
+        nom,
+        &nominal.revolute_limits_deg(),
+        &id_rows,
+    )?;
     let overlap = split.val.as_ref().map_or(0, |(_, held)| match held {
         Held::Rest(rest) => {
             pipeline::overlapping(&id_rows, &pipeline::rows_of(&data, &units, rest))

@@ -641,15 +641,73 @@ fn a_prismatic_column_converts_with_the_lengths() {
             source:
                 measurements::MeasurementError::JointOutOfLimits {
                     column,
-                    value_deg,
-                    max_deg,
+                    value,
+                    max,
+                    unit,
                     ..
                 },
             ..
         } => assert_eq!(
-            (column.as_str(), *value_deg, *max_deg),
-            ("q1", 12000.0, 10000.0)
+            (column.as_str(), *value, *max, *unit),
+            ("q1", 12000.0, 10000.0, "mm")
         ),
         other => panic!("{other}"),
     }
+    let CalibrateError::Read { source, .. } = &e else {
+        unreachable!()
+    };
+    let message = source.to_string();
+    assert!(
+        message.contains("12000 mm is outside its limits [0, 10000] mm"),
+        "{message}"
+    );
+    // A revolute joint beyond its limit is still reported in degrees.
+    std::fs::write(&path, text.replace(",0.1,", ",3.1,")).unwrap();
+    let e = robot
+        .read_set_in(&path, true, (1, None), "data", units)
+        .unwrap_err();
+    let CalibrateError::Read { source, .. } = &e else {
+        panic!("{e}")
+    };
+    let e = source.to_string();
+    assert!(
+        e.contains("column \"q2\"") && e.contains(" deg is outside"),
+        "{e}"
+    );
+}
+
+/// The looks-like-radians evidence reads the revolute columns only: a track in millimetres
+/// beside revolute joints in radians is radians data, and is noticed (a track's thousands of
+/// millimetres used to hide it), while degrees data with a short track travel are not.
+#[test]
+fn a_prismatic_column_is_no_evidence_about_radians() {
+    let robot =
+        LoadedRobot::load(&root().join("scenarios/robots/kr1000-track.json"), "robot").unwrap();
+    let tmp = tempfile::tempdir().unwrap();
+    let path = tmp.path().join("m.csv");
+    let write = |joints: [f64; 6], track_mm: [f64; 3]| {
+        let mut text = String::from("id,q1,q2,q3,q4,q5,q6,q7,x,y,z\n");
+        for (k, t) in track_mm.iter().enumerate() {
+            let q: Vec<String> = joints
+                .iter()
+                .map(|v| (v * (k + 1) as f64).to_string())
+                .collect();
+            text.push_str(&format!("p{k},{t},{},1500,2500,3500\n", q.join(",")));
+        }
+        std::fs::write(&path, &text).unwrap();
+        robot
+            .read_set_in(&path, true, (1, None), "data", (1.0, 1.0))
+            .unwrap()
+            .notices
+    };
+    let radians = write([0.1, -0.2, 0.3, 0.4, 0.5, -0.6], [2500.0, 7250.0, 9000.0]);
+    assert!(
+        radians.iter().any(|n| n.contains("are these radians")),
+        "{radians:?}"
+    );
+    let degrees = write([10.0, 20.0, 5.0, 15.0, 20.0, 30.0], [1.0, 2.0, 3.0]);
+    assert!(
+        !degrees.iter().any(|n| n.contains("radians")),
+        "{degrees:?}"
+    );
 }

@@ -128,9 +128,10 @@ pub enum MeasurementError {
         first_missing_column: Option<String>,
     },
 
-    /// A joint value lies outside its limits.
+    /// A joint value lies outside its limits: degrees for a revolute joint, millimetres for a
+    /// prismatic one (`unit`).
     #[error(
-        "{file}:{line}: column \"{column}\": joint value {value_deg} deg is outside its limits [{min_deg}, {max_deg}] deg"
+        "{file}:{line}: column \"{column}\": joint value {value} {unit} is outside its limits [{min}, {max}] {unit}"
     )]
     JointOutOfLimits {
         /// File path or label.
@@ -139,12 +140,15 @@ pub enum MeasurementError {
         line: usize,
         /// Joint column name (`q1`…).
         column: String,
-        /// The value read, degrees.
-        value_deg: f64,
-        /// Lower limit, degrees.
-        min_deg: f64,
-        /// Upper limit, degrees.
-        max_deg: f64,
+        /// The value read, in `unit`.
+        value: f64,
+        /// Lower limit, in `unit`.
+        min: f64,
+        /// Upper limit, in `unit`.
+        max: f64,
+        /// The unit of `value`, `min` and `max`: `"deg"` (a revolute joint, and the reader's
+        /// own limits, [`crate::ReadOptions::limits_deg`]) or `"mm"` (a prismatic joint).
+        unit: &'static str,
     },
 
     /// The file has fewer data rows than required.

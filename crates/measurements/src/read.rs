@@ -385,9 +385,10 @@ fn parse_row(
                             file: source.to_owned(),
                             line,
                             column: name.clone(),
-                            value_deg: v,
-                            min_deg: min,
-                            max_deg: max,
+                            value: v,
+                            min,
+                            max,
+                            unit: "deg",
                         });
                     }
                 }

@@ -227,11 +227,15 @@ fn joint_outside_limits_gives_value_and_limits() {
     let err = read_str(&text, "l.csv", &opts).unwrap_err();
     match &err {
         MeasurementError::JointOutOfLimits {
-            value_deg,
-            min_deg,
-            max_deg,
+            value,
+            min,
+            max,
+            unit,
             ..
-        } => assert_eq!((*value_deg, *min_deg, *max_deg), (107.50001, -40.0, 107.5)),
+        } => assert_eq!(
+            (*value, *min, *max, *unit),
+            (107.50001, -40.0, 107.5, "deg")
+        ),
         other => panic!("{other:?}"),
     }
     assert_names(&err, "l.csv", 3, "q2");
