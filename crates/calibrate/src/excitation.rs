@@ -10,6 +10,7 @@
 //! poses leave undetermined, it says so instead of suspecting the units and frame.
 
 use identify::Fit;
+use identify::frames::{FrameData, FrameFit};
 use kinematics::Robot;
 use measurements::Measurement;
 
@@ -63,13 +64,54 @@ pub struct Excitation {
 
 /// What the poses `rows` determine for the fit `fit` (its covariance: the data's alone).
 pub fn diagnose(robot: &Robot, rows: &[Measurement], fit: &Fit) -> Excitation {
+    let poses: Vec<&[f64]> = rows.iter().map(|r| r.q_deg.as_slice()).collect();
+    let std_errors = fit
+        .covariance
+        .as_ref()
+        .map(|c| {
+            c.indices
+                .iter()
+                .copied()
+                .zip(c.std_errors.iter().copied())
+                .collect()
+        })
+        .unwrap_or_default();
+    let held = fit.posterior.as_ref();
+    diagnose_with(robot, &poses, std_errors, held)
+}
+
+/// What the poses of `data` determine for the 6-DoF / multi-target fit `fit` (its standard
+/// errors: the data's alone; the robot parameters only, the tool frame and targets have no
+/// tolerance): the same diagnosis as [`diagnose`] for points.
+pub fn diagnose_frames(robot: &Robot, data: &FrameData, fit: &FrameFit) -> Excitation {
+    let q_deg: Vec<f64> = data.poses_rad.iter().map(|q| q.to_degrees()).collect();
+    let poses: Vec<&[f64]> = q_deg.chunks(data.n_joints.max(1)).collect();
+    let std_errors = fit
+        .free
+        .robot
+        .iter()
+        .zip(&fit.estimates)
+        .map(|(&k, e)| (k, e.std_error))
+        .collect();
+    diagnose_with(robot, &poses, std_errors, fit.posterior.as_ref())
+}
+
+/// The diagnosis from each pose's joints (`poses`, degrees; millimetres for a prismatic
+/// joint), the standard errors from the data alone (`(layout index, display units)`) and the
+/// posterior of a prior fit.
+fn diagnose_with(
+    robot: &Robot,
+    poses: &[&[f64]],
+    std_errors: Vec<(usize, f64)>,
+    posterior: Option<&identify::Posterior>,
+) -> Excitation {
     let n = robot.n_joints();
     let ranges_deg: Vec<f64> = (0..n)
         .map(|j| {
-            let (lo, hi) = rows
+            let (lo, hi) = poses
                 .iter()
-                .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), r| {
-                    (lo.min(r.q_deg[j]), hi.max(r.q_deg[j]))
+                .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), q| {
+                    (lo.min(q[j]), hi.max(q[j]))
                 });
             (hi - lo).max(0.0)
         })
@@ -78,26 +120,19 @@ pub fn diagnose(robot: &Robot, rows: &[Measurement], fit: &Fit) -> Excitation {
         .filter(|&j| ranges_deg[j] < SMALL_RANGE_DEG)
         .collect();
     let layout = robot.layout();
-    let undetermined: Vec<Undetermined> = fit
-        .covariance
-        .as_ref()
-        .map(|c| {
-            c.indices
-                .iter()
-                .zip(&c.std_errors)
-                .filter_map(|(&k, &se)| {
-                    let p = layout.get(k);
-                    let tol = tolerance(p.kind)?;
-                    (se > UNDETERMINED_FRACTION * tol).then(|| Undetermined {
-                        name: p.name.clone(),
-                        std_error: se,
-                        tolerance: tol,
-                    })
-                })
-                .collect()
+    let undetermined: Vec<Undetermined> = std_errors
+        .into_iter()
+        .filter_map(|(k, se)| {
+            let p = layout.get(k);
+            let tol = tolerance(p.kind)?;
+            (se > UNDETERMINED_FRACTION * tol).then(|| Undetermined {
+                name: p.name.clone(),
+                std_error: se,
+                tolerance: tol,
+            })
         })
-        .unwrap_or_default();
-    let held_by_prior = fit.posterior.as_ref().map_or_else(Vec::new, |p| {
+        .collect();
+    let held_by_prior = posterior.map_or_else(Vec::new, |p| {
         p.held_by_prior().into_iter().map(String::from).collect()
     });
     let worst = undetermined

@@ -9,7 +9,8 @@
 //! beyond geometry have none. The residual rows' noise σ_e that weighs it against the data is
 //! σ̂ of the fit without the prior: the prior fit is a second solve, from the same start.
 
-use identify::{Fit, IdentifyOptions, Prior, Problem, identify};
+use identify::frames::{FrameData, FrameFit, FrameFree, FrameModel, fit_frames_with_prior};
+use identify::{Fit, IdentifyOptions, LmOptions, Prior, Problem, identify};
 use kinematics::Robot;
 
 use crate::error::{Result, id_err};
@@ -152,4 +153,36 @@ pub(crate) fn refit(
         .with_prior(&term)
         .map_err(id_err("the prior"))?;
     identify(&with, options).map_err(id_err("identifying with the prior"))
+}
+
+/// [`refit`] for the 6-DoF / multi-target kind: the fit of `free` on `data` from `start` with
+/// the prior of `spec` on the robot parameters (the tool frame and the targets have none),
+/// weighed with σ̂ of `fit` (the fit without it, returned as it is for [`PriorSpec::None`],
+/// for [`PriorSpec::Auto`] when the data determine every free robot parameter
+/// ([`crate::excitation::diagnose_frames`]), or when σ̂ is unknown).
+///
+/// # Errors
+/// As [`PriorSpec::on`]; the solver's.
+pub(crate) fn refit_frames(
+    (spec, file): (&PriorSpec, &[(String, f64)]),
+    (start, data, free): (&FrameModel, &FrameData, &FrameFree),
+    options: &LmOptions,
+    fit: FrameFit,
+) -> Result<FrameFit> {
+    if *spec == PriorSpec::Auto
+        && crate::excitation::diagnose_frames(&start.robot, data, &fit)
+            .undetermined
+            .is_empty()
+    {
+        return Ok(fit);
+    }
+    let (Some(prior), sigma) = (spec.on(&start.robot, file)?, fit.sigma_hat) else {
+        return Ok(fit);
+    };
+    if !(sigma.is_finite() && sigma > 0.0) {
+        return Ok(fit);
+    }
+    let term = prior.term(sigma);
+    fit_frames_with_prior(start, data, free, options, Some(&term))
+        .map_err(id_err("identifying with the prior (6-DoF)"))
 }

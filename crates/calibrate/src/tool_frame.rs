@@ -288,16 +288,25 @@ pub fn pose_lines(set: &MeasurementSet) -> Vec<usize> {
 
 /// The fit of the tool-frame kind: `free` from `data`, starting at `start` (errors naming
 /// the robot and the data's source), with the request's solver options (its damping
-/// schedule: `--schedule`, `schedule=`). The one place this kind calls the solver.
+/// schedule: `--schedule`, `schedule=`) and its prior (`--prior`, `prior=`; by default only
+/// where the data leave a robot parameter undetermined, as for points). The one place this
+/// kind calls the solver.
 fn fit_tool_frame(
     start: &FrameModel,
     data: &FrameData,
     free: &FrameFree,
-    request: &IdentifyRequest,
+    (request, prior_file): (&IdentifyRequest, &[(String, f64)]),
     (robot, source): (&str, &str),
 ) -> Result<FrameFit> {
-    fit_frames(start, data, free, &request.lm_options())
-        .map_err(id_err(format!("identifying {robot} on {source} (6-DoF)")))
+    let options = request.lm_options();
+    let fit = fit_frames(start, data, free, &options)
+        .map_err(id_err(format!("identifying {robot} on {source} (6-DoF)")))?;
+    crate::prior::refit_frames(
+        (&request.prior, prior_file),
+        (start, data, free),
+        &options,
+        fit,
+    )
 }
 
 /// This kind's stages (`crate::pipeline::Kind`).
@@ -317,8 +326,9 @@ impl Kind for ToolFrameKind<'_> {
     type Data = FrameData;
     type Pass = Pass;
     type Screen = BlockScreen;
-    /// The unknowns chosen are identifiable: nothing to add.
-    type Analysis = ();
+    /// What the poses determine (the unknowns chosen are identifiable: the rank decision is
+    /// made before the fit, [`identify::frames::select_free`]).
+    type Analysis = crate::excitation::Excitation;
     type Held = FrameData;
     type Validation = PoseValidation;
 
@@ -344,7 +354,13 @@ impl Kind for ToolFrameKind<'_> {
         .map_err(|e| e.context(format!("identification data {}", self.source)))?;
         let (start, rotation_given, targets_estimated) = start_model(&registered, d);
         let (free, held) = free_set(self.request, &start, d)?;
-        let mut fit = fit_tool_frame(&start, d, &free, self.request, (robot.name(), self.source))?;
+        let mut fit = fit_tool_frame(
+            &start,
+            d,
+            &free,
+            (self.request, &self.nominal.prior_sd()),
+            (robot.name(), self.source),
+        )?;
         // As for points: an extended model's gravity torques were evaluated on the geometry
         // it was extended from; `identified.json` re-extends its own geometry when read, so
         // the model validated and reported is that one (the frame's own tool fields are
@@ -392,11 +408,27 @@ impl Kind for ToolFrameKind<'_> {
         &mut pass.decision
     }
 
-    fn analyse(&self, _: &Pass, _: &FrameData) -> Result<()> {
+    fn analyse(&self, pass: &Pass, used: &FrameData) -> Result<Self::Analysis> {
+        Ok(crate::excitation::diagnose_frames(
+            &pass.start.robot,
+            used,
+            &pass.fit,
+        ))
+    }
+
+    /// The parameters check with the evidence of what the poses determine
+    /// ([`crate::excitation::parameters`]), as for points.
+    fn check_parameters(&self, pass: &Pass, excitation: &Self::Analysis) -> Result<()> {
+        crate::excitation::parameters(
+            &pass.start.robot,
+            &pass.fit.model.robot,
+            &pass.fit.free.robot,
+            excitation,
+        )?;
         Ok(())
     }
 
-    fn moved<'a>(pass: &'a Pass, _: &'a ()) -> (&'a Robot, &'a Robot, &'a [usize]) {
+    fn moved<'a>(pass: &'a Pass, _: &'a Self::Analysis) -> (&'a Robot, &'a Robot, &'a [usize]) {
         (
             &pass.start.robot,
             &pass.fit.model.robot,
@@ -510,7 +542,10 @@ pub(crate) fn calibrate(common: Common<'_>) -> Result<ToolFrameCalibration> {
         validation_data,
         notices,
         elapsed_ms,
-        warnings: overlap_warning.into_iter().collect(),
+        warnings: overlap_warning
+            .into_iter()
+            .chain(out.analysis.warning(&request.prior))
+            .collect(),
     })
 }
 

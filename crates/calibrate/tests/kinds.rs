@@ -57,6 +57,12 @@ fn truth(nominal: &Robot) -> Robot {
 /// with ±0.02 mm of deterministic noise on the points: a row per pose (points, 6-DoF) or per
 /// reflector (targets, `id` and `target` named).
 fn measured(kind: Data, n: usize) -> Vec<Measurement> {
+    measured_q6(kind, n, None)
+}
+
+/// [`measured`] with q6 within `[10°, 10° + range]` when `q6_range` is given (a wrist that
+/// barely moves: weak excitation).
+fn measured_q6(kind: Data, n: usize, q6_range: Option<f64>) -> Vec<Measurement> {
     let robot = kr1000();
     let truth = truth(&robot.robot);
     let limits = robot.limits_deg();
@@ -76,7 +82,11 @@ fn measured(kind: Data, n: usize) -> Vec<Measurement> {
         let q: Vec<f64> = (0..6)
             .map(|j| {
                 let [lo, hi] = limits[j];
-                0.5 * (lo + (hi - lo) * next()) + 0.25 * (lo + hi)
+                let u = next();
+                match q6_range {
+                    Some(r) if j == 5 => 10.0 + r * u,
+                    _ => 0.5 * (lo + (hi - lo) * u) + 0.25 * (lo + hi),
+                }
             })
             .collect();
         let qr: Vec<f64> = q.iter().map(|v| v.to_radians()).collect();
@@ -413,4 +423,91 @@ fn validation_targets_are_matched_by_name() {
         matches!(*e, CalibrateError::Refused(Refusal::ValidationTarget { ref target, .. }) if target == "T9"),
         "{e}"
     );
+}
+
+/// Weak excitation and the prior, on every kind. A wrist (q6) moving 3° leaves the point
+/// fit's wrist parameters undetermined (the prior holds them by default, the warning names
+/// the joint); 6-DoF and multi-target data of the same poses determine them (the orientation
+/// or the three reflectors see the wrist), so no prior is applied by default and the fit is
+/// the least-squares one to the bit. An explicit prior applies to every kind: a 1 µm prior
+/// on a2 holds it at the robot file's value. And the parameters check of every kind reads
+/// the diagnosis: a parameter with a standard error beyond half its tolerance that moved too
+/// far is weak excitation ("do not determine", what to measure), a determined one the robot
+/// file, units and frame.
+#[test]
+fn weak_excitation_and_the_prior_apply_to_every_kind() {
+    let nominal = kr1000();
+    let k = nominal.robot.layout().index_of("a2").unwrap();
+    for kind in KINDS {
+        let rows = measured_q6(kind, 60, Some(3.0));
+        let with = |prior: &str| IdentifyRequest {
+            prior: prior.parse().unwrap(),
+            ..request(&[])
+        };
+        let run = |prior: &str| {
+            calibrate(kind, &nominal, &with(prior), rows.clone(), None)
+                .unwrap_or_else(|e| panic!("{kind:?} --prior {prior}: {e}"))
+        };
+        let (auto, none) = (run("auto"), run("none"));
+        let (diag, posterior) = match &auto {
+            Calibration::Points(c) => (
+                calibrate::excitation::diagnose(&c.start, &c.used, &c.fit),
+                c.fit.posterior.clone(),
+            ),
+            Calibration::ToolFrame(c) => (
+                calibrate::excitation::diagnose_frames(&c.start.robot, &c.data, &c.fit),
+                c.fit.posterior.clone(),
+            ),
+        };
+        assert_eq!(diag.small_joints, [5], "{kind:?}: {diag:?}");
+        let w = auto.warnings().join("\n");
+        if kind == Data::Points {
+            let held = posterior.expect("the prior holds the wrist by default");
+            assert!(!held.held_by_prior().is_empty());
+            assert!(w.contains("weak excitation") && w.contains("q6 ("), "{w}");
+        } else {
+            assert!(diag.undetermined.is_empty(), "{kind:?}: {diag:?}");
+            assert!(posterior.is_none() && w.is_empty(), "{kind:?}: {w}");
+            assert_eq!(
+                auto.identified_robot().params(),
+                none.identified_robot().params(),
+                "{kind:?}: auto is least squares when the data determine every parameter"
+            );
+        }
+        // An explicit prior of 1 µm on a2 holds a2 within a tenth of its error (0.4 mm) of
+        // the robot file's value.
+        let a2 = |c: &Calibration| c.identified_robot().params()[k] - nominal.robot.params()[k];
+        let held = run("tolerance,a2=0.001");
+        assert!(a2(&none) > 0.3, "{kind:?}: a2 {:+.4}", a2(&none));
+        assert!(
+            a2(&held).abs() < 0.04,
+            "{kind:?}: a2 {:+.4} held",
+            a2(&held)
+        );
+        // The parameters check reads the diagnosis: standard errors beyond half the
+        // tolerance (as weak data give) on theta5 make it undetermined.
+        let robot = none.identified_robot();
+        let mut weak = diag.clone();
+        weak.undetermined = vec![calibrate::excitation::Undetermined {
+            name: "theta5".into(),
+            std_error: 14.0,
+            tolerance: 5.0,
+        }];
+        weak.recommended_deg = Some(60.0);
+        let moved = |name: &str, by: f64| {
+            let mut x = robot.params();
+            x[robot.layout().index_of(name).unwrap()] += by;
+            let far = robot.with_params(&x).unwrap();
+            let free: Vec<usize> = (0..robot.n_params()).collect();
+            calibrate::excitation::parameters(&robot, &far, &free, &weak)
+                .unwrap_err()
+                .to_string()
+        };
+        let e = moved("theta5", 0.5);
+        assert!(
+            e.contains("do not determine") && e.contains("joint 6"),
+            "{kind:?}: {e}"
+        );
+        assert!(moved("a2", 150.0).contains("units and frame"), "{kind:?}");
+    }
 }

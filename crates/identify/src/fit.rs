@@ -261,44 +261,5 @@ pub fn posterior(
     let mut a = DMatrix::zeros(pf, pf);
     let mut g = DVector::zeros(pf);
     at.normal_equations(&mut a, &mut g);
-    // Scaled to unit diagonal for the factorisation (angles against lengths).
-    let x = solution.params();
-    let ones = vec![1.0; pf];
-    term.add_scaled(&x, &free, &ones, &mut a, &mut g);
-    let s: Vec<f64> = (0..pf)
-        .map(|c| {
-            let d = a[(c, c)];
-            if d > 0.0 { 1.0 / d.sqrt() } else { 1.0 }
-        })
-        .collect();
-    let scaled = DMatrix::from_fn(pf, pf, |i, j| s[i] * a[(i, j)] * s[j]);
-    let chol = scaled.cholesky()?;
-    let inv = chol.inverse();
-    let layout = solution.layout();
-    let s2 = term.sigma_e * term.sigma_e;
-    let params = free
-        .iter()
-        .enumerate()
-        .map(|(c, &k)| {
-            let info = layout.get(k);
-            let to = info.to_display(1.0).abs();
-            let var = s2 * s[c] * s[c] * inv[(c, c)];
-            let posterior_sd = var.max(0.0).sqrt() * to;
-            let prior_sd =
-                (term.weight[k] > 0.0).then(|| term.sigma_e / term.weight[k].sqrt() * to);
-            crate::prior::PosteriorParam {
-                name: info.name.clone(),
-                unit: info.unit,
-                prior_sd,
-                posterior_sd,
-                information: prior_sd.map(|p| 1.0 - (posterior_sd / p).powi(2)),
-                held_by_prior: prior_sd
-                    .is_some_and(|p| posterior_sd > crate::prior::HELD_BY_PRIOR * p),
-            }
-        })
-        .collect();
-    Some(crate::prior::Posterior {
-        sigma_e: term.sigma_e,
-        params,
-    })
+    crate::prior::posterior_from(a, term, solution, &free)
 }

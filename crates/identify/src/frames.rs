@@ -651,8 +651,12 @@ pub struct FrameFit {
     pub sigma_hat: f64,
     /// Condition number of the column-scaled Jacobian at the solution.
     pub condition_number: f64,
-    /// Covariance of the unknowns (internal units: rad, mm), `σ̂²(JᵀJ)⁻¹`.
+    /// Covariance of the unknowns (internal units: rad, mm), `σ̂²(JᵀJ)⁻¹`: the data's alone,
+    /// also with a prior (as for points).
     pub covariance: DMatrix<f64>,
+    /// With a prior ([`fit_frames_with_prior`]): the posterior of the free robot parameters
+    /// and which of them the prior rather than the data determine (`crate::prior`).
+    pub posterior: Option<crate::prior::Posterior>,
 }
 
 /// The 6-DoF / multi-target problem as the one solver ([`crate::lm::least_squares`]) sees
@@ -661,6 +665,16 @@ struct FrameProblem<'d> {
     data: &'d FrameData,
     free: &'d FrameFree,
     jac: DMatrix<f64>,
+    /// A prior on the free robot parameters (the first columns), if any (`crate::prior`).
+    prior: Option<&'d crate::prior::PriorTerm>,
+}
+
+impl FrameProblem<'_> {
+    /// The prior's cost at `m` (0 without one).
+    fn prior_cost_at(&self, m: &FrameModel) -> f64 {
+        self.prior
+            .map_or(0.0, |p| p.cost(&m.robot.params(), &self.free.robot))
+    }
 }
 
 impl LeastSquares for FrameProblem<'_> {
@@ -684,7 +698,40 @@ impl LeastSquares for FrameProblem<'_> {
     }
 
     fn cost(&mut self, m: &FrameModel, _likely_accepted: bool) -> f64 {
-        residual_jacobian(m, self.data, self.free, None).norm_squared()
+        residual_jacobian(m, self.data, self.free, None).norm_squared() + self.prior_cost_at(m)
+    }
+
+    /// The default's assembly and scaling, plus the prior's rows (`crate::prior`).
+    fn accept(
+        &mut self,
+        m: &FrameModel,
+        a: &mut DMatrix<f64>,
+        g: &mut DVector<f64>,
+        s: &[f64],
+        sa: &mut DMatrix<f64>,
+        sg: &mut DVector<f64>,
+        _cost_trial: f64,
+    ) -> f64 {
+        let cost = self.normal_equations(m, a, g);
+        crate::lm::scale_system(a, g, s, sa, sg);
+        self.add_prior_scaled(m, s, sa, sg);
+        cost + self.prior_cost_at(m)
+    }
+
+    fn prior_cost(&self, m: &FrameModel) -> Option<f64> {
+        self.prior.map(|_| self.prior_cost_at(m))
+    }
+
+    fn add_prior_scaled(
+        &self,
+        m: &FrameModel,
+        s: &[f64],
+        sa: &mut DMatrix<f64>,
+        sg: &mut DVector<f64>,
+    ) {
+        if let Some(p) = self.prior {
+            p.add_scaled(&m.robot.params(), &self.free.robot, s, sa, sg);
+        }
     }
 
     fn step(&self, m: &FrameModel, dx: &[f64], out: &mut FrameModel) -> Result<(), IdentifyError> {
@@ -729,7 +776,34 @@ pub fn fit_frames(
     free: &FrameFree,
     options: &LmOptions,
 ) -> Result<FrameFit, IdentifyError> {
+    fit_frames_with_prior(start, data, free, options, None)
+}
+
+/// [`fit_frames`] with a Gaussian prior on the free robot parameters (`crate::prior`: its rows
+/// `√λ_k (x_k − x0_k)` join the residual's; the tool frame and the targets have none): the
+/// maximum a posteriori fit. `None` is [`fit_frames`], bit for bit. σ̂ and the covariance are
+/// the data's alone (the residual without the prior's rows); [`FrameFit::posterior`] is the
+/// posterior `σ_e² (JᵀJ + Λ)⁻¹` of the robot parameters.
+///
+/// # Errors
+/// As [`fit_frames`]; a prior whose length is not the robot's parameter count.
+pub fn fit_frames_with_prior(
+    start: &FrameModel,
+    data: &FrameData,
+    free: &FrameFree,
+    options: &LmOptions,
+    prior: Option<&crate::prior::PriorTerm>,
+) -> Result<FrameFit, IdentifyError> {
     data.check(&start.robot)?;
+    if let Some(p) = prior
+        && (p.mean.len() != start.robot.n_params() || p.weight.len() != p.mean.len())
+    {
+        return Err(IdentifyError::InvalidOption {
+            name: "prior",
+            value: format!("{} parameters", p.mean.len()),
+            reason: "a prior has one mean and one weight per parameter of the robot",
+        });
+    }
     if options.redundant != Redundant::Hold {
         return Err(IdentifyError::InvalidOption {
             name: "redundant",
@@ -755,9 +829,22 @@ pub fn fit_frames(
         data,
         free,
         jac: DMatrix::zeros(neq, pf),
+        prior,
     };
     let sol = least_squares(&mut problem, start, options)?;
-    let cov = sol.covariance(neq)?;
+    // The data's cost alone: with a prior the solver's holds the prior's rows too.
+    let cov = match prior {
+        None => sol.covariance(neq)?,
+        Some(_) => crate::covariance::normal_covariance(
+            &sol.normal_matrix,
+            residual_jacobian(&sol.model, data, free, None).norm_squared(),
+            neq,
+            sol.iterations,
+        )?,
+    };
+    let posterior = prior.and_then(|p| {
+        crate::prior::posterior_from(sol.normal_matrix.clone(), p, &sol.model.robot, &free.robot)
+    });
     let model = &sol.model;
     let names = free.names(&model.robot, &data.target_names);
     let units = free.units(&model.robot);
@@ -810,5 +897,6 @@ pub fn fit_frames(
         sigma_hat: cov.sigma_hat,
         condition_number: cov.condition_number,
         covariance: cov.covariance,
+        posterior,
     })
 }

@@ -457,7 +457,7 @@ pub(crate) struct FinalSystem {
 }
 
 /// The column-scaled system `S a S`, `S g` (S = diag(s)) into `sa`, `sg`.
-fn scale_system(
+pub(crate) fn scale_system(
     a: &DMatrix<f64>,
     g: &DVector<f64>,
     s: &[f64],

@@ -126,6 +126,62 @@ impl PriorTerm {
     }
 }
 
+/// The posterior `σ_e² (A + Λ)⁻¹` from the data's normal matrix `a` (`JᵀJ`, unscaled) at
+/// `solution`, whose first `free.len()` columns are the robot parameters `free` (layout
+/// indices; further columns, such as a tool frame's, have no prior and are not reported).
+/// `None` when `A + Λ` is not positive definite (a parameter that neither the data nor the
+/// prior determine). The one computation of [`crate::posterior`] (points) and of the 6-DoF
+/// fit with a prior ([`crate::frames::fit_frames_with_prior`]).
+pub(crate) fn posterior_from(
+    mut a: DMatrix<f64>,
+    term: &PriorTerm,
+    solution: &Robot,
+    free: &[usize],
+) -> Option<Posterior> {
+    let pf = a.nrows();
+    for (c, &k) in free.iter().enumerate() {
+        let w = term.weight[k];
+        if w > 0.0 {
+            a[(c, c)] += w;
+        }
+    }
+    // Scaled to unit diagonal for the factorisation (angles against lengths).
+    let s: Vec<f64> = (0..pf)
+        .map(|c| {
+            let d = a[(c, c)];
+            if d > 0.0 { 1.0 / d.sqrt() } else { 1.0 }
+        })
+        .collect();
+    let scaled = DMatrix::from_fn(pf, pf, |i, j| s[i] * a[(i, j)] * s[j]);
+    let inv = scaled.cholesky()?.inverse();
+    let layout = solution.layout();
+    let s2 = term.sigma_e * term.sigma_e;
+    let params = free
+        .iter()
+        .enumerate()
+        .map(|(c, &k)| {
+            let info = layout.get(k);
+            let to = info.to_display(1.0).abs();
+            let var = s2 * s[c] * s[c] * inv[(c, c)];
+            let posterior_sd = var.max(0.0).sqrt() * to;
+            let prior_sd =
+                (term.weight[k] > 0.0).then(|| term.sigma_e / term.weight[k].sqrt() * to);
+            PosteriorParam {
+                name: info.name.clone(),
+                unit: info.unit,
+                prior_sd,
+                posterior_sd,
+                information: prior_sd.map(|p| 1.0 - (posterior_sd / p).powi(2)),
+                held_by_prior: prior_sd.is_some_and(|p| posterior_sd > HELD_BY_PRIOR * p),
+            }
+        })
+        .collect();
+    Some(Posterior {
+        sigma_e: term.sigma_e,
+        params,
+    })
+}
+
 /// One parameter's prior, posterior and the information the data gave it (display units).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct PosteriorParam {
