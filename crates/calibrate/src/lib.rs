@@ -24,6 +24,7 @@ mod memory;
 mod pipeline;
 pub mod prior;
 mod request;
+pub mod scale;
 mod tolerance;
 pub mod tool_frame;
 mod tool_offset;

@@ -446,6 +446,12 @@ pub(crate) fn fit_and_check<K: Kind>(
         );
     }
     let analysis = kind.analyse(&current, &used)?;
+    // A scale of the measurements moves every length in proportion: named as such before the
+    // parameters check blames the robot file (`crate::scale`).
+    if !request.allows(Check::Scale) {
+        let (start, identified, identifiable) = K::moved(&current, &analysis);
+        crate::scale::check(source, start, identified, identifiable)?;
+    }
     if !request.allows(Check::Parameters) {
         kind.check_parameters(&current, &analysis)?;
     }

@@ -86,6 +86,12 @@ pub struct IdentifyRequest {
     /// Calibrate from the points alone, ignoring the data's orientations (the
     /// [`crate::MeasurementKind::Points`] fit of 6-DoF data, for comparison) \[no\].
     pub points_only: bool,
+    /// Identify the measurements' scale factor (`crate::scale`): fit, take the common scale
+    /// of the identified lengths, divide the points (identification and validation) by it
+    /// when it is significant and identify again; the calibration reports the factor \[no: a
+    /// significant scale is refused by the `scale` check, since a tracker's scale is known to
+    /// a few ppm and the robot file's lengths are the better reference\].
+    pub fit_scale: bool,
     /// Gaussian prior on the parameters (`crate::prior`) \[`auto`: the manufacturing
     /// tolerances when the data leave a parameter undetermined, so that weakly excited data
     /// give a fit held near the robot file where the poses say nothing; none otherwise. The
@@ -187,21 +193,25 @@ pub enum Check {
     Validation,
     /// An outlier threshold that rejects too much, or a k below the minimum.
     Outliers,
+    /// Every identified length moved in proportion to itself: measurements scaled
+    /// (`crate::scale`).
+    Scale,
 }
 
 impl Check {
     /// Every check, in the order they run.
-    pub const ALL: [Check; 6] = [
+    pub const ALL: [Check; 7] = [
         Check::JointUnits,
         Check::LengthUnits,
         Check::Mirror,
         Check::Outliers,
+        Check::Scale,
         Check::Parameters,
         Check::Validation,
     ];
 
-    /// The check's name (`joint-units`, `length-units`, `mirror`, `outliers`, `parameters`,
-    /// `validation`).
+    /// The check's name (`joint-units`, `length-units`, `mirror`, `outliers`, `scale`,
+    /// `parameters`, `validation`).
     pub fn name(self) -> &'static str {
         match self {
             Check::JointUnits => "joint-units",
@@ -210,6 +220,7 @@ impl Check {
             Check::Parameters => "parameters",
             Check::Validation => "validation",
             Check::Outliers => "outliers",
+            Check::Scale => "scale",
         }
     }
 }
@@ -249,6 +260,7 @@ impl IdentifyRequest {
             euler: None,
             weighting: Weighting::default(),
             points_only: false,
+            fit_scale: false,
             prior: crate::prior::PriorSpec::default(),
         }
     }

@@ -121,6 +121,10 @@ pub struct ToolFrameCalibration {
     /// Warnings about the data (validation rows that are identification rows), to show
     /// prominently.
     pub warnings: Vec<String>,
+    /// The measurements' scale factor identified with `--fit-scale` (`crate::scale`): the
+    /// points were divided by it before this calibration; `None` without `--fit-scale` or
+    /// when the factor was not significant (the points were left as measured).
+    pub measurement_scale: Option<crate::scale::ScaleEvidence>,
 }
 
 /// The rows of `set` as [`FrameData`] (poses in [`MeasurementSet::poses`] order), weighted
@@ -546,6 +550,7 @@ pub(crate) fn calibrate(common: Common<'_>) -> Result<ToolFrameCalibration> {
             .into_iter()
             .chain(out.analysis.warning(&request.prior))
             .collect(),
+        measurement_scale: None,
     })
 }
 

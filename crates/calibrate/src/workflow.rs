@@ -106,6 +106,10 @@ pub struct PointCalibration {
     /// Warnings about the data (joints that do not move and the parameters that costs,
     /// validation rows that are identification rows), to show prominently.
     pub warnings: Vec<String>,
+    /// The measurements' scale factor identified with `--fit-scale` (`crate::scale`): the
+    /// points were divided by it before this calibration; `None` without `--fit-scale` or
+    /// when the factor was not significant (the points were left as measured).
+    pub measurement_scale: Option<crate::scale::ScaleEvidence>,
 }
 
 /// Joint range of motion below which a joint is said not to move, degrees [1: a joint that
@@ -449,6 +453,43 @@ pub fn run(request: &IdentifyRequest) -> Result<Calibration> {
 /// [`CalibrateError::TooFewRows`] as when reading.
 pub fn calibrate(request: &IdentifyRequest, inputs: Inputs) -> Result<Calibration> {
     check(request)?;
+    if !request.fit_scale {
+        return calibrate_as_measured(request, inputs);
+    }
+    // `--fit-scale`: a first fit with the checks that a scale trips off, its common scale,
+    // and, when significant, the fit of the points divided by it (`crate::scale`).
+    let probe = IdentifyRequest {
+        fit_scale: false,
+        allow: [
+            request.allow.clone(),
+            vec![Check::Scale, Check::Parameters, Check::Validation],
+        ]
+        .concat(),
+        ..request.clone()
+    };
+    let first = calibrate_as_measured(&probe, inputs.clone())?;
+    let Some(e) = first.scale_evidence().filter(|e| e.significant()) else {
+        return calibrate_as_measured(request, inputs);
+    };
+    let divide = |set: &mut MeasurementSet| {
+        for r in &mut set.rows {
+            if let Some(p) = &mut r.point_mm {
+                p.iter_mut().for_each(|v| *v /= e.factor);
+            }
+        }
+    };
+    let mut scaled = inputs;
+    divide(&mut scaled.data);
+    if let Some(v) = &mut scaled.validate {
+        divide(v);
+    }
+    let mut c = calibrate_as_measured(request, scaled)?;
+    c.set_measurement_scale(e);
+    Ok(c)
+}
+
+/// [`calibrate`] of the points as measured (no `--fit-scale`).
+fn calibrate_as_measured(request: &IdentifyRequest, inputs: Inputs) -> Result<Calibration> {
     let kind = MeasurementKind::of(&inputs.data, request.points_only);
     let Inputs {
         mut nominal,
@@ -802,10 +843,42 @@ fn calibrate_points(common: Common<'_>, id_rows: Vec<Measurement>) -> Result<Poi
         elapsed_ms,
         registration_decision: decision,
         warnings,
+        measurement_scale: None,
     })
 }
 
 impl Calibration {
+    /// The common scale of the identified lengths ([`crate::scale::common_scale`] of the start
+    /// model, the identified one and the identifiable parameters).
+    pub fn scale_evidence(&self) -> Option<crate::scale::ScaleEvidence> {
+        match self {
+            Calibration::Points(c) => {
+                crate::scale::common_scale(&c.start, &c.fit.robot, &c.analysis.identifiable_indices)
+            }
+            Calibration::ToolFrame(c) => {
+                crate::scale::common_scale(&c.start.robot, &c.fit.model.robot, &c.fit.free.robot)
+            }
+        }
+    }
+
+    /// The measurements' scale factor identified with `--fit-scale`, if any.
+    pub fn measurement_scale(&self) -> Option<&crate::scale::ScaleEvidence> {
+        match self {
+            Calibration::Points(c) => c.measurement_scale.as_ref(),
+            Calibration::ToolFrame(c) => c.measurement_scale.as_ref(),
+        }
+    }
+
+    fn set_measurement_scale(&mut self, e: crate::scale::ScaleEvidence) {
+        let line = format!("measurement scale: {}", e.describe());
+        let (notices, scale) = match self {
+            Calibration::Points(c) => (&mut c.notices, &mut c.measurement_scale),
+            Calibration::ToolFrame(c) => (&mut c.notices, &mut c.measurement_scale),
+        };
+        notices.push(line);
+        *scale = Some(e);
+    }
+
     /// The kind of measurement calibrated from.
     pub fn kind(&self) -> MeasurementKind {
         match self {

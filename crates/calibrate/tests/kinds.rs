@@ -300,6 +300,18 @@ fn the_outliers_check_runs_for_every_kind() {
     });
 }
 
+/// Every point 2 % too large (a tracker's scale): the lengths all move in proportion.
+#[test]
+fn the_scale_check_runs_for_every_kind() {
+    refused_on_every_kind(Check::Scale, "scaled by 1.02", &request(&[]), |rows| {
+        for r in rows {
+            if let Some(p) = &mut r.point_mm {
+                p.iter_mut().for_each(|v| *v *= 1.02);
+            }
+        }
+    });
+}
+
 /// A robot file whose a2 is 150 mm shorter than the robot measured.
 #[test]
 fn the_parameters_check_runs_for_every_kind() {

@@ -107,7 +107,7 @@ pub struct IdentifyArgs {
     )]
     pub(crate) length_units: LengthUnits,
     /// Pass over a plausibility check (docs/calibrating-real-data.md, "Checks"), repeatable:
-    /// joint-units, length-units, mirror, outliers, parameters, validation.
+    /// joint-units, length-units, mirror, outliers, scale, parameters, validation.
     #[arg(long, value_name = "CHECK")]
     pub(crate) allow: Vec<calibrate::Check>,
     /// Gaussian prior on the parameters (maximum a posteriori; point data): `tolerance`
@@ -139,6 +139,12 @@ pub struct IdentifyArgs {
     /// point-only fit of the same poses, for comparison).
     #[arg(long)]
     pub(crate) points_only: bool,
+    /// Identify the measurements' scale factor (a tracker's scale or temperature
+    /// compensation): fit, take the common scale of the identified lengths, divide the points
+    /// by it when significant and identify again [off: a significant scale is refused by the
+    /// `scale` check].
+    #[arg(long)]
+    pub(crate) fit_scale: bool,
 }
 
 impl IdentifyArgs {
@@ -169,6 +175,7 @@ impl IdentifyArgs {
             euler: self.euler,
             weighting: OrientationWeight::options(self.orientation_weight),
             points_only: self.points_only,
+            fit_scale: self.fit_scale,
             prior: self.prior.clone(),
             ..IdentifyRequest::new(&self.robot, &self.data)
         }

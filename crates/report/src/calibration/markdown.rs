@@ -211,6 +211,9 @@ pub fn markdown(o: &PointCalibration) -> String {
         None => s.push_str("- registration: off (`--registration never`)\n"),
     }
     let _ = writeln!(s, "- registration decision: {}", o.registration_decision);
+    if let Some(e) = &o.measurement_scale {
+        let _ = writeln!(s, "- measurement scale: {}", e.describe());
+    }
     for w in &o.warnings {
         let _ = writeln!(s, "- **warning**: {w}");
     }

@@ -68,6 +68,9 @@ pub fn summary(c: &ToolFrameCalibration) -> String {
         );
     }
     let _ = writeln!(out, "registration decision: {}", c.registration_decision);
+    if let Some(e) = &c.measurement_scale {
+        let _ = writeln!(out, "measurement scale: {}", e.describe());
+    }
     if ori {
         let _ = writeln!(
             out,
