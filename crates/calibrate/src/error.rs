@@ -327,6 +327,20 @@ pub enum Refusal {
         /// The calibrated robot's name.
         robot: String,
     },
+    /// The calibrated and nominal robots given to compensation do not belong together
+    /// ([`crate::provenance::check_pair`]).
+    #[error(
+        "{robot} and {nominal}: {reason}; nothing written — give the identified.json and the \
+         registered-nominal.json of one identify run, or override the check (allow provenance)"
+    )]
+    MismatchedPair {
+        /// The calibrated robot's file.
+        robot: String,
+        /// The nominal robot's file.
+        nominal: String,
+        /// What does not match.
+        reason: String,
+    },
     /// No target is reachable.
     #[error("{}\nno target in {file} is reachable; nothing written", unreachable.join("\n"))]
     NoneReachable {

@@ -23,6 +23,7 @@ mod joints;
 mod memory;
 mod pipeline;
 pub mod prior;
+pub mod provenance;
 mod request;
 pub mod scale;
 mod tolerance;

@@ -109,6 +109,11 @@ pub struct CompensateArgs {
     /// stderr and in the output's header with its reason.
     #[arg(long, default_value_t = identify::DEFAULT_FLAG_CHANGE_DEG, value_name = "DEG")]
     flag_change_deg: f64,
+    /// Skip a check of the pair: `provenance` takes an `identified.json` and a
+    /// `registered-nominal.json` that do not come from one identify run (or are swapped)
+    /// as given.
+    #[arg(long, value_name = "CHECK", value_parser = ["provenance"])]
+    allow: Vec<String>,
 }
 
 /// `kincal compensate`.
@@ -127,6 +132,12 @@ pub fn compensate(args: &CompensateArgs) -> Result<()> {
     }
     let calibrated = LoadedRobot::load(&args.robot, "calibrated robot")?;
     let nominal = LoadedRobot::load(&args.nominal, "nominal robot")?;
+    if args.allow.is_empty() {
+        calibrate::provenance::check_pair(&calibrated, &nominal).map_err(|e| {
+            anyhow::Error::new(e)
+                .context("refused by the provenance check (override: --allow provenance)")
+        })?;
+    }
     if !(args.flag_change_deg.is_finite() && args.flag_change_deg > 0.0) {
         anyhow::bail!(
             "--flag-change-deg {} must be a positive number of degrees",

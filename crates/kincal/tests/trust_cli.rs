@@ -453,3 +453,91 @@ fn a_campaign_needing_a_mass_model_the_robot_lacks_is_refused() {
         "{err}"
     );
 }
+
+/// Issue 38, item 4: the robot files `identify` writes say what they are and which run and
+/// data they come from, and `compensate` refuses the pair swapped (which wrote the
+/// anti-compensation with exit 0) or from two runs, naming both files; `--allow provenance`
+/// takes them as given.
+#[test]
+fn compensate_refuses_a_swapped_pair_or_two_runs() {
+    let tmp = tempfile::tempdir().unwrap();
+    let data = root().join("data/ur10-ipa/series-b-joint-configurations.csv");
+    let run = |offset: &str| {
+        let dir = tmp.path().join(format!("cal-{offset}"));
+        ok(&kincal(&[
+            "identify",
+            "--robot",
+            "scenarios/robots/ur10.json",
+            "--data",
+            s(&data),
+            "--every",
+            "15",
+            "--offset",
+            offset,
+            "--out",
+            s(&dir),
+        ]));
+        dir
+    };
+    let (a, b) = (run("0"), run("7"));
+    let spec = |p: &Path| -> serde_json::Value {
+        serde_json::from_str(&std::fs::read_to_string(p).unwrap()).unwrap()
+    };
+    let (id_a, reg_a) = (
+        spec(&a.join("identified.json")),
+        spec(&a.join("registered-nominal.json")),
+    );
+    assert_eq!(id_a["provenance"]["role"], "identified");
+    assert_eq!(reg_a["provenance"]["role"], "registered-nominal");
+    assert_eq!(id_a["provenance"]["run"], reg_a["provenance"]["run"]);
+    assert_eq!(id_a["provenance"]["data_sha256"].as_str().unwrap().len(), 64);
+    let id_b = spec(&b.join("identified.json"));
+    assert_ne!(id_a["provenance"]["run"], id_b["provenance"]["run"]);
+    // A few commanded joints.
+    let targets = tmp.path().join("targets.csv");
+    let text = std::fs::read_to_string(&data).unwrap();
+    let head: Vec<&str> = text.lines().take(12).collect();
+    std::fs::write(&targets, head.join("\n") + "\n").unwrap();
+    let out = tmp.path().join("commands.csv");
+    let compensate = |robot: &Path, nominal: &Path, allow: bool| {
+        let mut args = vec![
+            "compensate",
+            "--robot",
+            s(robot),
+            "--nominal",
+            s(nominal),
+            "--targets",
+            s(&targets),
+            "--allow-unreachable",
+            "--out",
+            s(&out),
+        ];
+        if allow {
+            args.extend(["--allow", "provenance"]);
+        }
+        kincal(&args)
+    };
+    let refused = |o: Output, says: &str| {
+        let e = stderr(&o);
+        assert!(!o.status.success(), "{e}");
+        assert!(
+            e.contains(says) && e.contains("--allow provenance") && e.contains("nothing written"),
+            "{e}"
+        );
+        assert!(!out.exists());
+        e
+    };
+    let (ida, rega, regb) = (
+        a.join("identified.json"),
+        a.join("registered-nominal.json"),
+        b.join("registered-nominal.json"),
+    );
+    let e = refused(compensate(&rega, &ida, false), "swapped");
+    assert!(e.contains(s(&rega)) && e.contains(s(&ida)), "{e}");
+    let e = refused(compensate(&ida, &regb, false), "different calibration runs");
+    assert!(e.contains(s(&ida)) && e.contains(s(&regb)), "{e}");
+    ok(&compensate(&ida, &regb, true));
+    std::fs::remove_file(&out).unwrap();
+    ok(&compensate(&ida, &rega, false));
+    assert!(out.exists());
+}

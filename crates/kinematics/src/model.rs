@@ -424,6 +424,47 @@ pub struct RobotSpec {
     /// line replaces these in turn. Absent from files and output when not given.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub prior_sd: Option<std::collections::BTreeMap<String, f64>>,
+    /// What the file is and where it came from, for the files a calibration writes
+    /// (`identified.json`, `registered-nominal.json`): readers such as `compensate` refuse a
+    /// swapped pair or a pair from different runs. Absent from a robot file written by hand.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub provenance: Option<Provenance>,
+}
+
+/// What a robot file written by a calibration is ([`RobotSpec::provenance`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum FileRole {
+    /// The calibrated robot (`identified.json`).
+    Identified,
+    /// The nominal robot in the data's measurement frame (`registered-nominal.json`): the
+    /// targets of compensation.
+    RegisteredNominal,
+}
+
+impl std::fmt::Display for FileRole {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            FileRole::Identified => "the identified (calibrated) robot",
+            FileRole::RegisteredNominal => "the registered nominal robot",
+        })
+    }
+}
+
+/// Where a robot file written by a calibration came from.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Provenance {
+    /// What the file is.
+    pub role: FileRole,
+    /// The run that wrote it: one digest shared by the files of one calibration (SHA-256 of
+    /// the data's digest and both robots, hex, 16 bytes).
+    pub run: String,
+    /// The identification data, as named to the calibration.
+    pub data: String,
+    /// SHA-256 of the data (hex): the file's bytes (`sha256sum` gives the same), or of the
+    /// rows for data given in memory.
+    pub data_sha256: String,
 }
 
 /// One named target (reflector) of a robot file's `targets` section.

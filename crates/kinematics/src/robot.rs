@@ -644,6 +644,7 @@ impl Robot {
             // A prior is an input of an identification, not a property of the identified
             // robot: `identified.json` carries none.
             prior_sd: None,
+            provenance: None,
         }
     }
 

@@ -369,6 +369,7 @@ pub fn import_str(
         tool_rotation_deg: None,
         targets: None,
         prior_sd: None,
+        provenance: None,
     };
 
     // Joints 1..N−1: frame i has z along axis i+1 and its origin on it; each frame is the

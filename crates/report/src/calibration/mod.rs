@@ -47,10 +47,17 @@ pub const REPORT_HTML_FILE: &str = "report.html";
 /// # Errors
 /// [`PlotError`] when an error is not finite (nothing can be drawn).
 pub fn render(cal: &Calibration) -> Result<Vec<(String, String)>, PlotError> {
-    match cal {
+    // The robot files with their provenance (`calibrate::provenance`), then the kind's own.
+    let (identified, registered) = cal.written_specs();
+    let mut files = vec![
+        (ROBOT_FILE.to_string(), identified.to_json_string()),
+        (REGISTERED_FILE.to_string(), registered.to_json_string()),
+    ];
+    files.extend(match cal {
         Calibration::Points(c) => points::render(c),
         Calibration::ToolFrame(c) => tool_frame::render(c),
-    }
+    }?);
+    Ok(files)
 }
 
 /// The console summary of `cal`, of any kind.
@@ -81,9 +88,7 @@ pub fn parameters_json(cal: &Calibration) -> String {
 pub mod points {
     use calibrate::{PointCalibration, file_name, row_label};
 
-    use super::{
-        PARAMETERS_FILE, REGISTERED_FILE, REPORT_FILE, REPORT_HTML_FILE, ROBOT_FILE, plots,
-    };
+    use super::{PARAMETERS_FILE, REPORT_FILE, REPORT_HTML_FILE, plots};
     use crate::plot::PlotError;
 
     pub use super::markdown::markdown;
@@ -125,14 +130,6 @@ pub mod points {
             &plots,
         );
         let mut files = vec![
-            (
-                ROBOT_FILE.to_string(),
-                cal.identified_robot().to_spec().to_json_string(),
-            ),
-            (
-                REGISTERED_FILE.to_string(),
-                cal.registered_robot().to_spec().to_json_string(),
-            ),
             (PARAMETERS_FILE.to_string(), parameters_json(cal)),
             (REPORT_FILE.to_string(), report_md),
             (REPORT_HTML_FILE.to_string(), html),

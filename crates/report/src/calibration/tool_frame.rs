@@ -14,7 +14,7 @@ use calibrate::tool_frame::PoseErrors;
 use nalgebra::Vector3;
 
 use super::parameters::{ParamRow, ParamTable, columns};
-use super::{PARAMETERS_FILE, REGISTERED_FILE, REPORT_FILE, REPORT_HTML_FILE, ROBOT_FILE, plots};
+use super::{PARAMETERS_FILE, REPORT_FILE, REPORT_HTML_FILE, ROBOT_FILE, plots};
 use crate::fmt::fixed;
 use crate::plot::{PlotError, cdf_figure, figure_svg};
 
@@ -399,14 +399,6 @@ pub fn render(c: &ToolFrameCalibration) -> Result<Vec<(String, String)>, PlotErr
     );
     let html = plots::identify_page(&title, &md, &pics);
     let mut files = vec![
-        (
-            ROBOT_FILE.to_string(),
-            c.identified_robot().to_spec().to_json_string(),
-        ),
-        (
-            REGISTERED_FILE.to_string(),
-            c.registered_robot().to_spec().to_json_string(),
-        ),
         (PARAMETERS_FILE.to_string(), parameters_json(c)),
         (REPORT_FILE.to_string(), md),
         (REPORT_HTML_FILE.to_string(), html),
