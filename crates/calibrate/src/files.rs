@@ -4,7 +4,7 @@
 use std::path::{Path, PathBuf};
 
 use kinematics::{Robot, RobotSpec};
-use measurements::{Measurement, MeasurementError, MeasurementSet, ReadOptions, read_file};
+use measurements::{Measurement, MeasurementError, MeasurementSet, ReadOptions, read_str};
 use nalgebra::Vector3;
 
 use crate::error::{CalibrateError, Result};
@@ -108,6 +108,33 @@ impl LoadedRobot {
         (deg_per_unit, mm_per_unit): (f64, f64),
         euler: Option<measurements::EulerConvention>,
     ) -> Result<MeasurementSet> {
+        let source = path.display().to_string();
+        let text = measurements::read_text(path)
+            .map_err(|e| self.read_error(&source, (min_rows, why), what, (1.0, 1.0), e))?;
+        self.read_text_with(
+            &text,
+            &source,
+            require_points,
+            (min_rows, why),
+            what,
+            (deg_per_unit, mm_per_unit),
+            euler,
+        )
+    }
+
+    /// [`LoadedRobot::read_set_with`] of a file's text, read once ([`measurements::read_text`]: a pipe
+    /// cannot be read twice), named `source` in errors and in the set.
+    #[allow(clippy::too_many_arguments)]
+    pub fn read_text_with(
+        &self,
+        text: &str,
+        source: &str,
+        require_points: bool,
+        (min_rows, why): (usize, Option<&str>),
+        what: &str,
+        (deg_per_unit, mm_per_unit): (f64, f64),
+        euler: Option<measurements::EulerConvention>,
+    ) -> Result<MeasurementSet> {
         let limits = self.limits_in((deg_per_unit, mm_per_unit));
         let factors = self.joint_factors((deg_per_unit, mm_per_unit));
         let mut opts = ReadOptions::new(self.robot.n_joints())
@@ -119,7 +146,32 @@ impl LoadedRobot {
         if let Some(e) = euler {
             opts = opts.with_euler(e);
         }
-        let mut set = read_file(path, &opts).map_err(|source| {
+        let mut set = read_str(text, source, &opts).map_err(|e| {
+            self.read_error(
+                source,
+                (min_rows, why),
+                what,
+                (deg_per_unit, mm_per_unit),
+                e,
+            )
+        })?;
+        to_degrees_and_mm(&mut set, (&factors, mm_per_unit), &self.limits_deg());
+        Ok(set)
+    }
+
+    /// A reading error of the `what` file `path` in units of `deg_per_unit` degrees and
+    /// `mm_per_unit` millimetres, with what was read for which robot: a joint beyond its
+    /// limit, checked in the file's units, reported in degrees; too few rows with `why`.
+    fn read_error(
+        &self,
+        path: &str,
+        (_, why): (usize, Option<&str>),
+        what: &str,
+        (deg_per_unit, mm_per_unit): (f64, f64),
+        source: MeasurementError,
+    ) -> CalibrateError {
+        let factors = self.joint_factors((deg_per_unit, mm_per_unit));
+        {
             // A joint beyond its limit, checked in the file's units, reported in degrees.
             let source = match source {
                 MeasurementError::JointOutOfLimits {
@@ -148,8 +200,7 @@ impl LoadedRobot {
             let too_few = matches!(source, MeasurementError::TooFewRows { .. });
             let err = CalibrateError::Read {
                 context: format!(
-                    "reading the {what} {} for {} ({} joints)",
-                    path.display(),
+                    "reading the {what} {path} for {} ({} joints)",
                     self.robot.name(),
                     self.robot.n_joints()
                 ),
@@ -159,9 +210,7 @@ impl LoadedRobot {
                 Some(why) if too_few => err.context(why),
                 _ => err,
             }
-        })?;
-        to_degrees_and_mm(&mut set, (&factors, mm_per_unit), &self.limits_deg());
-        Ok(set)
+        }
     }
 
     /// The joint limits in units of `deg_per_unit` degrees (`mm_per_unit` millimetres for a

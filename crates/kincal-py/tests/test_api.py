@@ -392,7 +392,11 @@ def test_units_and_plausibility_checks_as_the_cli(readme_example, tmp_path):
                          refused.stderr).group(0)
     with pytest.raises(kincal.KincalError) as e:
         kincal.identify(robot, q_rad, p, every=15)
-    assert evidence in message(e) and "allow joint-units" in message(e)
+    # The CLI names its options, Python its keywords.
+    assert "declare it (--joint-units rad)" in refused.stderr
+    assert "(--allow joint-units)" in refused.stderr
+    assert evidence in message(e) and 'allow="joint-units"' in message(e)
+    assert 'declare it (joint_units="rad")' in message(e) and "--" not in message(e)
     # Degrees declared radians.
     with pytest.raises(kincal.KincalError) as e:
         kincal.identify(robot, q, p, every=15, joint_units="rad")
@@ -400,7 +404,15 @@ def test_units_and_plausibility_checks_as_the_cli(readme_example, tmp_path):
     # Metres: refused, or declared and equal to millimetres.
     with pytest.raises(kincal.KincalError) as e:
         kincal.identify(robot, q, p / 1000, every=15)
-    assert "look like metres" in message(e) and "allow length-units" in message(e)
+    assert "look like metres" in message(e) and 'allow="length-units"' in message(e)
+    assert 'length_units="m"' in message(e)
+    # Centimetres: refused naming them, or declared and equal to millimetres.
+    with pytest.raises(kincal.KincalError) as e:
+        kincal.identify(robot, q, p / 10, every=15)
+    assert "look like centimetres" in message(e) and 'length_units="cm"' in message(e)
+    centimetres = kincal.identify(robot, q, p / 10, every=15, length_units="cm")
+    assert centimetres.validation["after_mean_mm"] == pytest.approx(
+        cal.validation["after_mean_mm"], rel=1e-9)
     metres = kincal.identify(robot, q, p / 1000, every=15, length_units="m")
     assert metres.validation["after_mean_mm"] == pytest.approx(
         cal.validation["after_mean_mm"], rel=1e-9)

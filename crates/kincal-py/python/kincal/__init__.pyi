@@ -288,7 +288,7 @@ def identify(
     outlier_k: float = 3.0,
     worst: int = 10,
     joint_units: Literal["deg", "rad"] = "deg",
-    length_units: Literal["mm", "m", "in"] = "mm",
+    length_units: Literal["mm", "m", "cm", "in"] = "mm",
     allow: str | Sequence[str] | None = None,
     prior: str = "auto",
 ) -> Calibration:
@@ -421,7 +421,7 @@ def identify_frames(
     outlier_k: float = 3.0,
     worst: int = 10,
     joint_units: Literal["deg", "rad"] = "deg",
-    length_units: Literal["mm", "m", "in"] = "mm",
+    length_units: Literal["mm", "m", "cm", "in"] = "mm",
     allow: str | Sequence[str] | None = None,
     prior: str = "auto",
 ) -> FrameCalibration:
