@@ -187,6 +187,8 @@ pub enum Setting {
     LengthUnits(LengthUnits),
     /// A check in [`IdentifyRequest::allow`].
     Allow(Check),
+    /// [`IdentifyRequest::prior`], as written (`auto`).
+    Prior(&'static str),
 }
 
 /// Whose words a message uses for the request's settings ([`Setting::spelled`]).
@@ -206,6 +208,7 @@ impl Setting {
             Setting::JointUnits(u) => ("joint_units", u.name()),
             Setting::LengthUnits(u) => ("length_units", u.name()),
             Setting::Allow(c) => ("allow", c.name()),
+            Setting::Prior(p) => ("prior", p),
         };
         match front {
             Front::Keywords => format!("{field}=\"{value}\""),

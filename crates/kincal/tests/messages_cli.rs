@@ -428,4 +428,33 @@ fn the_docs_redundant_damp_command_runs_as_written() {
         .find(|l| l.contains("`--params paper --redundant damp`"))
         .unwrap();
     assert!(row.ends_with("| 0.452 | 1.766 |"), "{row}");
+    // Without the prior the parameters check refuses it, as the doc says, naming the
+    // options that go on (`--prior auto`, `--allow parameters`).
+    let out = kincal(&[
+        "identify",
+        "--robot",
+        "scenarios/robots/ur10.json",
+        "--data",
+        "data/ur10-ipa/series-b-joint-configurations.csv",
+        "--every",
+        "15",
+        "--params",
+        "paper",
+        "--redundant",
+        "damp",
+        "--prior",
+        "none",
+        "--out",
+        s(&dir.join("out2")),
+    ]);
+    let err = stderr(&out);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("(--prior auto), or override the check (--allow parameters)"),
+        "{err}"
+    );
+    assert!(
+        !err.contains("prior=\"") && !err.contains("allow=\""),
+        "{err}"
+    );
 }
