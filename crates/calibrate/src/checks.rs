@@ -237,7 +237,7 @@ fn far_rows(
         .collect();
     let typical = median(distance.clone()).max(MIN_SPREAD_MM);
     let far: Vec<usize> = (0..rows.len())
-        .filter(|&i| !(distance[i] <= FAR_ROW_FACTOR * typical))
+        .filter(|&i| distance[i].is_nan() || distance[i] > FAR_ROW_FACTOR * typical)
         .collect();
     if far.is_empty() || 2 * far.len() >= rows.len() {
         return None;

@@ -108,18 +108,26 @@ impl LoadedRobot {
         (deg_per_unit, mm_per_unit): (f64, f64),
         euler: Option<measurements::EulerConvention>,
     ) -> Result<MeasurementSet> {
-        let source = path.display().to_string();
-        let text = measurements::read_text(path)
-            .map_err(|e| self.read_error(&source, (min_rows, why), what, (1.0, 1.0), e))?;
+        let text = self.read_text(path, what)?;
         self.read_text_with(
             &text,
-            &source,
+            &path.display().to_string(),
             require_points,
             (min_rows, why),
             what,
             (deg_per_unit, mm_per_unit),
             euler,
         )
+    }
+
+    /// The text of the `what` file `path`, read once, whole ([`measurements::read_text`]: a
+    /// pipe or a FIFO reads as a file does); errors name the file and the robot as reading
+    /// errors do.
+    pub fn read_text(&self, path: &Path, what: &str) -> Result<String> {
+        measurements::read_text(path).map_err(|e| {
+            let source = path.display().to_string();
+            self.read_error(&source, (0, None), what, (1.0, 1.0), e)
+        })
     }
 
     /// [`LoadedRobot::read_set_with`] of a file's text, read once ([`measurements::read_text`]: a pipe
@@ -171,45 +179,43 @@ impl LoadedRobot {
         source: MeasurementError,
     ) -> CalibrateError {
         let factors = self.joint_factors((deg_per_unit, mm_per_unit));
-        {
-            // A joint beyond its limit, checked in the file's units, reported in degrees.
-            let source = match source {
+        // A joint beyond its limit, checked in the file's units, reported in degrees.
+        let source = match source {
+            MeasurementError::JointOutOfLimits {
+                file,
+                line,
+                column,
+                value_deg,
+                ..
+            } if factors.iter().any(|f| *f != 1.0) => {
+                let j = column
+                    .strip_prefix('q')
+                    .and_then(|k| k.parse::<usize>().ok())
+                    .map_or(0, |k| k.saturating_sub(1));
+                let [min_deg, max_deg] = self.limits_deg().get(j).copied().unwrap_or([0.0; 2]);
                 MeasurementError::JointOutOfLimits {
                     file,
                     line,
                     column,
-                    value_deg,
-                    ..
-                } if factors.iter().any(|f| *f != 1.0) => {
-                    let j = column
-                        .strip_prefix('q')
-                        .and_then(|k| k.parse::<usize>().ok())
-                        .map_or(0, |k| k.saturating_sub(1));
-                    let [min_deg, max_deg] = self.limits_deg().get(j).copied().unwrap_or([0.0; 2]);
-                    MeasurementError::JointOutOfLimits {
-                        file,
-                        line,
-                        column,
-                        value_deg: value_deg * factors.get(j).copied().unwrap_or(1.0),
-                        min_deg,
-                        max_deg,
-                    }
+                    value_deg: value_deg * factors.get(j).copied().unwrap_or(1.0),
+                    min_deg,
+                    max_deg,
                 }
-                other => other,
-            };
-            let too_few = matches!(source, MeasurementError::TooFewRows { .. });
-            let err = CalibrateError::Read {
-                context: format!(
-                    "reading the {what} {path} for {} ({} joints)",
-                    self.robot.name(),
-                    self.robot.n_joints()
-                ),
-                source,
-            };
-            match why {
-                Some(why) if too_few => err.context(why),
-                _ => err,
             }
+            other => other,
+        };
+        let too_few = matches!(source, MeasurementError::TooFewRows { .. });
+        let err = CalibrateError::Read {
+            context: format!(
+                "reading the {what} {path} for {} ({} joints)",
+                self.robot.name(),
+                self.robot.n_joints()
+            ),
+            source,
+        };
+        match why {
+            Some(why) if too_few => err.context(why),
+            _ => err,
         }
     }
 

@@ -306,18 +306,7 @@ impl Inputs {
         );
         // Each file is read once, whole, and parsed from memory: a pipe (`--data <(…)`)
         // cannot be read a second time.
-        let text = |path: &Path, what: &str| {
-            measurements::read_text(path).map_err(|source| CalibrateError::Read {
-                context: format!(
-                    "reading the {what} {} for {} ({} joints)",
-                    path.display(),
-                    nominal.robot.name(),
-                    nominal.robot.n_joints()
-                ),
-                source,
-            })
-        };
-        let data_text = text(&request.data, "identification data")?;
+        let data_text = nominal.read_text(&request.data, "identification data")?;
         // Points need a row per three free parameters, checked on reading; 6-DoF and
         // multi-target data one row (the fit says when their equations are too few).
         let points = request.euler.is_none() && !header_names_poses(&data_text);
@@ -344,7 +333,7 @@ impl Inputs {
         })?;
         let validate = match (&request.validate, &request.split) {
             (Some(path), Split::All) => {
-                let val_text = text(path, "validation data")?;
+                let val_text = nominal.read_text(path, "validation data")?;
                 let set = read(&val_text, path, 0, "validation data", units)
                     .map_err(|e| declared_radians(request, e, || as_degrees(&val_text, path)))?;
                 Some(with_rows(set, "validation")?)

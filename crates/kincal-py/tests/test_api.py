@@ -246,7 +246,7 @@ def test_a_refusal_names_its_check_and_allow_retries_with_it():
             kincal.identify(robot, *args, every=15, **kw)
         assert isinstance(e.value, kincal.KincalError) and isinstance(e.value, ValueError)
         assert e.value.check == check, (kw, message(e))
-        assert f"allow {check}" in message(e)
+        assert f'allow="{check}"' in message(e)
     # The retry the attribute is for: each refusal's check allowed in turn.
     allowed = []
     while True:
@@ -416,19 +416,19 @@ def test_units_and_plausibility_checks_as_the_cli(readme_example, tmp_path):
     metres = kincal.identify(robot, q, p / 1000, every=15, length_units="m")
     assert metres.validation["after_mean_mm"] == pytest.approx(
         cal.validation["after_mean_mm"], rel=1e-9)
-    # A mirrored frame: refused naming `allow mirror`; allowed, the fit is refused anyway
+    # A mirrored frame: refused naming `allow="mirror"`; allowed, the fit is refused anyway
     # (no rotation maps a reflection: the parameters go far from the nominal).
     mirrored = p[:, [1, 0, 2]]
     with pytest.raises(kincal.KincalError) as e:
         kincal.identify(robot, q, mirrored, every=15)
-    assert "left-handed" in message(e) and "allow mirror" in message(e)
+    assert "left-handed" in message(e) and 'allow="mirror"' in message(e)
     with pytest.raises(kincal.KincalError) as e:
         kincal.identify(robot, q, mirrored, every=15, allow=["mirror"])
     assert "far beyond manufacturing errors" in message(e)
     for kw, text in [({"allow": "nope"}, "unknown check `nope`"),
                      ({"allow": 3}, "allow: expected"),
                      ({"joint_units": "grad"}, 'joint_units: unknown value "grad"'),
-                     ({"length_units": "cm"}, 'length_units: unknown value "cm"')]:
+                     ({"length_units": "ft"}, 'length_units: unknown value "ft"')]:
         with pytest.raises(kincal.KincalError) as e:
             kincal.identify(robot, q, p, every=15, **kw)
         assert text in message(e), kw

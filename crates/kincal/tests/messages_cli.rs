@@ -213,48 +213,29 @@ fn separators_decimal_commas_and_header_case_are_named() {
 #[test]
 fn a_huge_row_is_named_and_huge_numbers_print_short() {
     let dir = scratch("huge");
-    let far = dir.join("far.csv");
-    std::fs::write(
-        &far,
-        rows(0..100, |k, f| {
+    // The identification rows with one field of line 40 (data row 38) replaced.
+    let with_line_40 = |name: &str, column: usize, value: &str| {
+        let file = dir.join(name);
+        let edit = |k: usize, f: &mut Vec<String>| {
             if k == 38 {
-                f[6] = "1000000".into()
+                f[column] = value.to_string();
             }
-        }),
-    )
-    .unwrap();
-    let err = refused(&dir, &identify(&dir, &far, &[]));
+        };
+        std::fs::write(&file, rows(0..100, edit)).unwrap();
+        refused(&dir, &identify(&dir, &file, &[]))
+    };
+    let err = with_line_40("far.csv", 6, "1000000");
     assert!(
         err.contains("one row lies far from all the others: line 40 (x, y, z = 1e6,"),
         "{err}"
     );
     assert!(err.contains("correct or remove the row"), "{err}");
-    let huge = dir.join("huge.csv");
-    std::fs::write(
-        &huge,
-        rows(0..100, |k, f| {
-            if k == 38 {
-                f[6] = "1e300".into()
-            }
-        }),
-    )
-    .unwrap();
-    let err = refused(&dir, &identify(&dir, &huge, &[]));
+    let err = with_line_40("huge.csv", 6, "1e300");
     assert!(
         err.contains("line 40 (x, y, z = 1e300,") && err.contains("1e300 mm from"),
         "{err}"
     );
-    let q = dir.join("q.csv");
-    std::fs::write(
-        &q,
-        rows(0..100, |k, f| {
-            if k == 38 {
-                f[0] = "1e300".into()
-            }
-        }),
-    )
-    .unwrap();
-    let err = refused(&dir, &identify(&dir, &q, &[]));
+    let err = with_line_40("q.csv", 0, "1e300");
     assert!(
         err.contains(":40: column \"q1\": joint value 1e300 deg is outside"),
         "{err}"
@@ -267,55 +248,35 @@ fn a_huge_row_is_named_and_huge_numbers_print_short() {
 #[test]
 fn data_and_validation_read_from_a_pipe() {
     let dir = scratch("pipe");
-    let run = |args: &[&str], input: &str| {
+    let (id, val, out, robot) = (
+        dir.join("id.csv"),
+        dir.join("val.csv"),
+        dir.join("out"),
+        ur10(),
+    );
+    // identify with `data` and `validate`, one of them `/dev/stdin` fed with `input`'s text.
+    let run = |data: &Path, validate: &Path, input: &Path| {
+        let _ = std::fs::remove_dir_all(&out);
         let mut child = Command::new(env!("CARGO_BIN_EXE_kincal"))
-            .args(args)
+            .args(["identify", "--robot", s(&robot), "--data", s(data)])
+            .args(["--validate", s(validate), "--out", s(&out)])
             .current_dir(root())
             .stdin(Stdio::piped())
             .stdout(Stdio::piped())
             .stderr(Stdio::piped())
             .spawn()
             .unwrap();
-        child
-            .stdin
-            .take()
-            .unwrap()
-            .write_all(input.as_bytes())
-            .unwrap();
-        child.wait_with_output().unwrap()
+        let text = std::fs::read(input).unwrap();
+        child.stdin.take().unwrap().write_all(&text).unwrap();
+        ok(&child.wait_with_output().unwrap())
     };
-    let (id, val) = (dir.join("id.csv"), dir.join("val.csv"));
-    let robot = ur10();
-    let base = ["identify", "--robot", s(&robot)];
-    let out = dir.join("out");
-    let args: Vec<&str> = base
-        .iter()
-        .copied()
-        .chain([
-            "--data",
-            "/dev/stdin",
-            "--validate",
-            s(&val),
-            "--out",
-            s(&out),
-        ])
-        .collect();
-    let stdout = ok(&run(&args, &std::fs::read_to_string(&id).unwrap()));
-    assert!(stdout.contains("100 poses"), "{stdout}");
-    let _ = std::fs::remove_dir_all(&out);
-    let args: Vec<&str> = base
-        .iter()
-        .copied()
-        .chain([
-            "--data",
-            s(&id),
-            "--validate",
-            "/dev/stdin",
-            "--out",
-            s(&out),
-        ])
-        .collect();
-    let stdout = ok(&run(&args, &std::fs::read_to_string(&val).unwrap()));
+    let stdin = Path::new("/dev/stdin");
+    let stdout = run(stdin, &val, &id);
+    assert!(
+        stdout.contains("fit: RMS 0.295 mm") && stdout.contains("100 poses"),
+        "{stdout}"
+    );
+    let stdout = run(&id, stdin, &val);
     assert!(
         stdout.contains("validation: 99 poses of /dev/stdin"),
         "{stdout}"

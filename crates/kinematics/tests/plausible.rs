@@ -33,9 +33,12 @@ fn theta1_of_two_to_the_64_is_refused_naming_the_field_and_its_value() {
     assert!(msg.starts_with("robot.json: "), "{msg}");
 }
 
+/// A change of the robot file's JSON.
+type Edit = fn(&mut serde_json::Value);
+
 #[test]
 fn every_angle_and_length_has_its_bound() {
-    let cases: [(&str, fn(&mut serde_json::Value)); 8] = [
+    let cases: [(&str, Edit); 8] = [
         ("joints[2].alpha_deg", |v| {
             v["joints"][2]["alpha_deg"] = (-400.0).into()
         }),
