@@ -52,11 +52,22 @@ fn scratch(name: &str) -> PathBuf {
 
 /// `identify --robot ur10 --data DATA [extra…] --out dir/out`.
 fn identify(dir: &Path, data: &Path, extra: &[&str]) -> Output {
-    let (out, robot) = (dir.join("out"), ur10());
-    let mut args = vec!["identify", "--robot", s(&robot), "--data", s(data)];
+    identify_with(&ur10(), dir, data, extra)
+}
+
+/// `identify --robot ROBOT --data DATA [extra…] --out dir/out`.
+fn identify_with(robot: &Path, dir: &Path, data: &Path, extra: &[&str]) -> Output {
+    let out = dir.join("out");
+    let mut args = vec!["identify", "--robot", s(robot), "--data", s(data)];
     args.extend_from_slice(extra);
     args.extend_from_slice(&["--out", s(&out)]);
     kincal(&args)
+}
+
+/// `text` contains `what` (else both in the panic).
+#[track_caller]
+fn says(text: &str, what: &str) {
+    assert!(text.contains(what), "{what:?} not in:\n{text}");
 }
 
 /// The stderr of a refused run (exit 1, nothing written).
@@ -82,19 +93,16 @@ fn a_validation_file_gets_the_checks_of_the_data() {
     std::fs::write(&val_m, rows(100..199, scaled(6..9, 1e-3))).unwrap();
     std::fs::write(&val_rad, rows(100..199, scaled(0..6, 1f64.to_radians()))).unwrap();
     let err = refused(&dir, &identify(&dir, &id, &["--validate", s(&val_m)]));
-    assert!(
-        err.contains(&format!("{}: the measured points spread", s(&val_m))),
-        "{err}"
-    );
-    assert!(err.contains("look like metres"), "{err}");
+    says(&err, &format!("{}: the measured points spread", s(&val_m)));
+    says(&err, "look like metres");
     assert!(
         err.contains("(--length-units m)") && err.contains("(--allow length-units)"),
         "{err}"
     );
     let err = refused(&dir, &identify(&dir, &id, &["--validate", s(&val_rad)]));
-    assert!(
-        err.contains(&format!("{}: every joint value is within ±2π", s(&val_rad))),
-        "{err}"
+    says(
+        &err,
+        &format!("{}: every joint value is within ±2π", s(&val_rad)),
     );
     assert!(
         err.contains("(--joint-units rad)") && err.contains("(--allow joint-units)"),
@@ -113,7 +121,7 @@ fn a_validation_file_gets_the_checks_of_the_data() {
         &id,
         &["--validate", s(&dir.join("val.csv"))],
     ));
-    assert!(stdout.contains("validation: 99 poses of"), "{stdout}");
+    says(&stdout, "validation: 99 poses of");
 }
 
 /// A robot file with θ1 = 2⁶⁴ is refused on reading, naming the field and the value in
@@ -126,36 +134,13 @@ fn a_robot_file_with_theta1_of_two_to_the_64_is_refused_naming_the_field() {
     robot["joints"][0]["theta_deg"] = 2f64.powi(64).into();
     let file = dir.join("robot.json");
     std::fs::write(&file, robot.to_string()).unwrap();
-    let out = kincal(&[
-        "identify",
-        "--robot",
-        s(&file),
-        "--data",
-        s(&dir.join("id.csv")),
-        "--out",
-        s(&dir.join("out")),
-    ]);
-    let err = refused(&dir, &out);
-    assert!(
-        err.contains("joints[0].theta_deg = 1.8446744073709552e19°"),
-        "{err}"
-    );
-    assert!(err.contains("beyond ±360°"), "{err}");
+    let data = dir.join("id.csv");
+    let err = refused(&dir, &identify_with(&file, &dir, &data, &[]));
+    says(&err, "joints[0].theta_deg = 1.8446744073709552e19°");
+    says(&err, "beyond ±360°");
     // A measurement CSV given as the robot says what it is (done earlier, held here).
-    let out = kincal(&[
-        "identify",
-        "--robot",
-        s(&dir.join("id.csv")),
-        "--data",
-        s(&dir.join("id.csv")),
-        "--out",
-        s(&dir.join("out")),
-    ]);
-    let err = refused(&dir, &out);
-    assert!(
-        err.contains("not a robot model file: it starts with `q1,q2,q3"),
-        "{err}"
-    );
+    let err = refused(&dir, &identify_with(&data, &dir, &data, &[]));
+    says(&err, "not a robot model file: it starts with `q1,q2,q3");
 }
 
 /// `;`, tab and space separators, decimal commas and upper-case headers: the message names
@@ -225,21 +210,18 @@ fn a_huge_row_is_named_and_huge_numbers_print_short() {
         refused(&dir, &identify(&dir, &file, &[]))
     };
     let err = with_line_40("far.csv", 6, "1000000");
-    assert!(
-        err.contains("one row lies far from all the others: line 40 (x, y, z = 1e6,"),
-        "{err}"
+    says(
+        &err,
+        "one row lies far from all the others: line 40 (x, y, z = 1e6,",
     );
-    assert!(err.contains("correct or remove the row"), "{err}");
+    says(&err, "correct or remove the row");
     let err = with_line_40("huge.csv", 6, "1e300");
     assert!(
         err.contains("line 40 (x, y, z = 1e300,") && err.contains("1e300 mm from"),
         "{err}"
     );
     let err = with_line_40("q.csv", 0, "1e300");
-    assert!(
-        err.contains(":40: column \"q1\": joint value 1e300 deg is outside"),
-        "{err}"
-    );
+    says(&err, ":40: column \"q1\": joint value 1e300 deg is outside");
     assert!(err.len() < 600, "{err}");
 }
 
@@ -277,10 +259,7 @@ fn data_and_validation_read_from_a_pipe() {
         "{stdout}"
     );
     let stdout = run(&id, stdin, &val);
-    assert!(
-        stdout.contains("validation: 99 poses of /dev/stdin"),
-        "{stdout}"
-    );
+    says(&stdout, "validation: 99 poses of /dev/stdin");
 }
 
 /// The command line's refusals name its options (`--joint-units rad`, `--allow …`), never
@@ -291,9 +270,9 @@ fn refusals_name_the_command_lines_options() {
     let rad = dir.join("rad.csv");
     std::fs::write(&rad, rows(0..100, scaled(0..6, 1f64.to_radians()))).unwrap();
     let err = refused(&dir, &identify(&dir, &rad, &[]));
-    assert!(
-        err.contains("declare it (--joint-units rad), or override the check (--allow joint-units)"),
-        "{err}"
+    says(
+        &err,
+        "declare it (--joint-units rad), or override the check (--allow joint-units)",
     );
     assert!(
         !err.contains("joint_units") && !err.contains("allow="),
@@ -304,10 +283,7 @@ fn refusals_name_the_command_lines_options() {
         &dir,
         &identify(&dir, &dir.join("id.csv"), &["--joint-units", "rad"]),
     );
-    assert!(
-        err.contains("declare degrees (the default) (--joint-units deg)"),
-        "{err}"
-    );
+    says(&err, "declare degrees (the default) (--joint-units deg)");
     assert!(!err.contains("joint_units"), "{err}");
 }
 
@@ -324,14 +300,14 @@ fn centimetres_are_recognised_both_ways_and_declared_with_cm() {
         err.contains("ratio 0.1000") && err.contains("look like centimetres"),
         "{err}"
     );
-    assert!(
-        err.contains("multiply them by 10 or declare their unit (--length-units cm)"),
-        "{err}"
+    says(
+        &err,
+        "multiply them by 10 or declare their unit (--length-units cm)",
     );
     let tenfold = dir.join("tenfold.csv");
     std::fs::write(&tenfold, rows(0..100, scaled(6..9, 10.0))).unwrap();
     let err = refused(&dir, &identify(&dir, &tenfold, &[]));
-    assert!(err.contains("divide the points by 10"), "{err}");
+    says(&err, "divide the points by 10");
     assert!(!err.contains("multiply"), "{err}");
     let val = dir.join("val.csv");
     let val_cm = dir.join("val-cm.csv");
@@ -364,25 +340,26 @@ fn centimetres_are_recognised_both_ways_and_declared_with_cm() {
 #[test]
 fn the_docs_redundant_damp_command_runs_as_written() {
     let dir = scratch("damp");
-    let stdout = ok(&kincal(&[
-        "identify",
-        "--robot",
-        "scenarios/robots/ur10.json",
-        "--data",
-        "data/ur10-ipa/series-b-joint-configurations.csv",
-        "--every",
-        "15",
-        "--params",
-        "paper",
-        "--redundant",
-        "damp",
-        "--out",
-        s(&dir.join("out")),
-    ]));
-    assert!(
-        stdout.contains("calibrated mean 0.452 mm, max 1.766 mm"),
-        "{stdout}"
-    );
+    // The doc's command, with `extra` options.
+    let run = |extra: &[&str]| {
+        let mut args = vec![
+            "identify",
+            "--robot",
+            "scenarios/robots/ur10.json",
+            "--data",
+            "data/ur10-ipa/series-b-joint-configurations.csv",
+            "--every",
+            "15",
+            "--params",
+            "paper",
+            "--redundant",
+            "damp",
+        ];
+        args.extend_from_slice(extra);
+        kincal(&args)
+    };
+    let stdout = ok(&run(&["--out", s(&dir.join("out"))]));
+    says(&stdout, "calibrated mean 0.452 mm, max 1.766 mm");
     let doc = std::fs::read_to_string(root().join("docs/calibrating-real-data.md")).unwrap();
     let row = doc
         .lines()
@@ -391,28 +368,12 @@ fn the_docs_redundant_damp_command_runs_as_written() {
     assert!(row.ends_with("| 0.452 | 1.766 |"), "{row}");
     // Without the prior the parameters check refuses it, as the doc says, naming the
     // options that go on (`--prior auto`, `--allow parameters`).
-    let out = kincal(&[
-        "identify",
-        "--robot",
-        "scenarios/robots/ur10.json",
-        "--data",
-        "data/ur10-ipa/series-b-joint-configurations.csv",
-        "--every",
-        "15",
-        "--params",
-        "paper",
-        "--redundant",
-        "damp",
-        "--prior",
-        "none",
-        "--out",
-        s(&dir.join("out2")),
-    ]);
+    let out = run(&["--prior", "none", "--out", s(&dir.join("out2"))]);
     let err = stderr(&out);
     assert_eq!(out.status.code(), Some(1), "{err}");
-    assert!(
-        err.contains("(--prior auto), or override the check (--allow parameters)"),
-        "{err}"
+    says(
+        &err,
+        "(--prior auto), or override the check (--allow parameters)",
     );
     assert!(
         !err.contains("prior=\"") && !err.contains("allow=\""),
