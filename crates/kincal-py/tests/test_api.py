@@ -450,3 +450,14 @@ def test_identify_releases_the_gil_and_is_deterministic_across_threads():
     for t in threads:
         t.join()
     assert all(r == results[0] for r in results)
+
+
+def test_a_robot_file_of_implausible_numbers_is_refused_naming_the_field(tmp_path):
+    """Issue 38: θ1 = 2⁶⁴ parses as a number but is no robot's; the field is named."""
+    robot = json.loads((ROBOTS / "ur10.json").read_text())
+    robot["joints"][0]["theta_deg"] = 2.0**64
+    path = tmp_path / "robot.json"
+    path.write_text(json.dumps(robot))
+    with pytest.raises(kincal.KincalError) as e:
+        kincal.Robot.load(path)
+    assert "joints[0].theta_deg = 1.8446744073709552e19°" in message(e)
