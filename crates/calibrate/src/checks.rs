@@ -10,7 +10,8 @@ use nalgebra::Vector3;
 
 use crate::error::Refusal;
 use crate::files::{points_mm, poses_rad};
-use crate::request::{Check, IdentifyRequest};
+use crate::request::{Check, IdentifyRequest, JointUnits, LengthUnits, Setting};
+use measurements::number;
 
 /// Smallest outlier factor k accepted [2: the cut k·σ̂₃ = 2·√3·σ already flags one clean
 /// Gaussian point in 135 (P(χ²₃ > 12) = 0.0074); below 2 the screen rejects good data, not
@@ -46,10 +47,22 @@ pub use crate::tolerance::{
 };
 
 pub(crate) fn refuse(check: Check, evidence: String, remedy: &str) -> Refusal {
+    refuse_with(check, evidence, remedy, None)
+}
+
+/// [`refuse`] with the setting the remedy suggests, which each front end spells in its own
+/// words ([`Setting::spelled`]).
+pub(crate) fn refuse_with(
+    check: Check,
+    evidence: String,
+    remedy: &str,
+    setting: Option<Setting>,
+) -> Refusal {
     Refusal::Implausible {
         check,
         evidence,
         remedy: remedy.to_string(),
+        setting,
     }
 }
 
@@ -62,16 +75,17 @@ pub fn joint_units(
     limits_deg: &[Option<[f64; 2]>],
 ) -> Result<(), Refusal> {
     if let Some(note) = crate::files::radians_evidence(source, rows, limits_deg) {
-        return Err(refuse(
+        return Err(refuse_with(
             Check::JointUnits,
             note,
-            "if the joints are in radians, declare it (joint_units = rad)",
+            "if the joints are in radians, declare it",
+            Some(Setting::JointUnits(JointUnits::Rad)),
         ));
     }
     Ok(())
 }
 
-/// Joint values declared radians (`joint_units = rad`) that are degrees: the file, read in
+/// Joint values declared radians (`joint_units="rad"`) that are degrees: the file, read in
 /// degrees, is within the robot's limits, and some |q| exceeds 2π — no revolute joint
 /// value in radians does (one turn), while degrees data of almost any pose do. `deg_rows`
 /// are the file's rows read as degrees (unconverted). Called where the declared-radians read
@@ -90,14 +104,16 @@ pub fn declared_radians(
         .filter(|(_, l)| l.is_some())
         .fold(0.0_f64, |m, (q, _)| m.max(q.abs()));
     if largest > std::f64::consts::TAU {
-        return Err(refuse(
+        return Err(refuse_with(
             Check::JointUnits,
             format!(
-                "{source}: the joint values are declared radians (joint_units = rad) but reach \
-                 |q| = {largest:.4}, beyond one turn (2π = 6.2832), and read as degrees every \
-                 row is within the robot's joint limits: these look like degrees"
+                "{source}: the joint values are declared radians but reach |q| = {}, beyond \
+                 one turn (2π = 6.2832), and read as degrees every row is within the robot's \
+                 joint limits: these look like degrees",
+                number(largest, 4)
             ),
-            "if the joints are in degrees, leave joint_units at deg (the default)",
+            "if the joints are in degrees, declare degrees (the default)",
+            Some(Setting::JointUnits(JointUnits::Deg)),
         ));
     }
     Ok(())
@@ -109,42 +125,188 @@ fn spread(points: &[Vector3<f64>]) -> f64 {
     (points.iter().map(|p| (p - c).norm_squared()).sum::<f64>() / n).sqrt()
 }
 
+/// A measured spread of `ratio` times the nominal's, within `[1/SPREAD_RATIO_MAX,
+/// SPREAD_RATIO_MAX]`.
+fn spread_matches(ratio: f64) -> bool {
+    (1.0 / SPREAD_RATIO_MAX..=SPREAD_RATIO_MAX).contains(&ratio)
+}
+
+/// The units the length check recognises by the ratio of the measured spread to the
+/// nominal's (within 25 %): what the lengths look like, what to do, and the setting that
+/// declares them where there is one. Points in centimetres spread a tenth of the
+/// millimetres' (ratio 0.1: declare `cm`, or multiply by 10); points ten times the robot's
+/// are tenths of a millimetre or a robot file in centimetres (divide by 10).
+const UNIT_GUESSES: [(f64, &str, &str, Option<LengthUnits>); 5] = [
+    (0.001, "metres", "declare their unit", Some(LengthUnits::M)),
+    (
+        0.1,
+        "centimetres",
+        "multiply them by 10 or declare their unit",
+        Some(LengthUnits::Cm),
+    ),
+    (
+        1.0 / 25.4,
+        "inches",
+        "declare their unit",
+        Some(LengthUnits::In),
+    ),
+    (
+        10.0,
+        "tenths of a millimetre — or the robot file's lengths are centimetres (its a, d and \
+         tool must be millimetres)",
+        "divide the points by 10, or write the robot file in millimetres",
+        None,
+    ),
+    (
+        1000.0,
+        "micrometres — or the robot file's lengths are metres (its a, d and tool must be \
+         millimetres)",
+        "divide the points by 1000, or write the robot file in millimetres",
+        None,
+    ),
+];
+
+/// A row is far from the others when its point lies more than this many times the median
+/// row's distance from the median point [10: the points of one robot spread over its
+/// workspace, a reading ten times farther out than the typical one is a wrong reading or a
+/// unit slip in that row (10⁶ mm, 1e300), not a different unit of the whole file].
+pub const FAR_ROW_FACTOR: f64 = 10.0;
+
+/// Rows named at most in a refusal of far rows.
+const FAR_ROWS_NAMED: usize = 5;
+
 /// The measured points' spread (RMS distance from their centroid, independent of the frame)
-/// against the nominal robot's at the same joints.
+/// against the nominal robot's at the same joints. A few rows far from all the others
+/// (beyond [`FAR_ROW_FACTOR`] times the typical distance, fewer than half) without which the
+/// spreads match are named as such (line, point, distance), not as a unit of the file.
 pub fn length_units(source: &str, nominal: &Robot, rows: &[Measurement]) -> Result<(), Refusal> {
     let predicted = nominal.points(&poses_rad(rows));
-    let (sp, sm) = (spread(&predicted), spread(&points_mm(rows)));
+    let measured = points_mm(rows);
+    let (sp, sm) = (spread(&predicted), spread(&measured));
     // Scale evidence needs motion: of the nominal points, or of the measured ones (a robot
     // file in metres spreads its points over millimetres while the tracker's spread metres).
     if (sp < MIN_SPREAD_MM && sm < MIN_SPREAD_MM) || rows.len() < 3 {
         return Ok(());
     }
     let ratio = sm / sp;
-    if (1.0 / SPREAD_RATIO_MAX..=SPREAD_RATIO_MAX).contains(&ratio) {
+    if spread_matches(ratio) {
         return Ok(());
     }
-    let guess = [
-        (0.001, "metres: length_units = m"),
-        (0.01, "centimetres: multiply by 10"),
-        (1.0 / 25.4, "inches: length_units = in"),
-        (
-            1000.0,
-            "micrometres (divide by 1000) — or the robot file's lengths are metres \
-             (its a, d and tool must be millimetres)",
-        ),
-    ]
-    .iter()
-    .find(|(f, _)| (ratio / f - 1.0).abs() < 0.25)
-    .map_or("a different robot or unit", |(_, g)| g);
-    Err(refuse(
+    if let Some(refusal) = far_rows(source, rows, &predicted, &measured) {
+        return Err(refusal);
+    }
+    let (looks, remedy, setting) = UNIT_GUESSES
+        .iter()
+        .find(|(f, ..)| (ratio / f - 1.0).abs() < 0.25)
+        .map_or(
+            (
+                "a different robot or unit",
+                "check the robot file and convert the points to millimetres",
+                None,
+            ),
+            |(_, looks, remedy, setting)| (looks, remedy, *setting),
+        );
+    Err(refuse_with(
         Check::LengthUnits,
         format!(
-            "{source}: the measured points spread {sm:.4} (RMS about their centroid) where the \
-             nominal robot's points at the same joints spread {sp:.1} mm: ratio {ratio:.4}, \
-             outside [{:.2}, {SPREAD_RATIO_MAX}] — the lengths look like {guess}",
+            "{source}: the measured points spread {} (RMS about their centroid) where the \
+             nominal robot's points at the same joints spread {} mm: ratio {}, outside \
+             [{:.2}, {SPREAD_RATIO_MAX}] — the lengths look like {looks}",
+            number(sm, 4),
+            number(sp, 1),
+            number(ratio, 4),
             1.0 / SPREAD_RATIO_MAX
         ),
-        "convert the points to millimetres (length_units)",
+        remedy,
+        setting.map(Setting::LengthUnits),
+    ))
+}
+
+/// The refusal of rows whose points lie far from all the others ([`FAR_ROW_FACTOR`]), when
+/// without them the measured spread matches the nominal one; `None` otherwise.
+fn far_rows(
+    source: &str,
+    rows: &[Measurement],
+    predicted: &[Vector3<f64>],
+    measured: &[Vector3<f64>],
+) -> Option<Refusal> {
+    let median = |mut v: Vec<f64>| {
+        v.sort_by(f64::total_cmp);
+        v[v.len() / 2]
+    };
+    let centre = Vector3::from_fn(|k, _| median(measured.iter().map(|p| p[k]).collect()));
+    // hypot: a point at 1e300 mm is 1e300 mm away, not an overflow to infinity.
+    let distance: Vec<f64> = measured
+        .iter()
+        .map(|p| {
+            let d = p - centre;
+            d.x.hypot(d.y).hypot(d.z)
+        })
+        .collect();
+    let typical = median(distance.clone()).max(MIN_SPREAD_MM);
+    let far: Vec<usize> = (0..rows.len())
+        .filter(|&i| distance[i].is_nan() || distance[i] > FAR_ROW_FACTOR * typical)
+        .collect();
+    if far.is_empty() || 2 * far.len() >= rows.len() {
+        return None;
+    }
+    let rest = |v: &[Vector3<f64>]| -> Vec<Vector3<f64>> {
+        (0..v.len())
+            .filter(|i| !far.contains(i))
+            .map(|i| v[i])
+            .collect()
+    };
+    let ratio = spread(&rest(measured)) / spread(&rest(predicted));
+    if !spread_matches(ratio) {
+        return None;
+    }
+    let within = (0..rows.len())
+        .filter(|i| !far.contains(i))
+        .map(|i| distance[i])
+        .fold(0.0_f64, f64::max);
+    let named: Vec<String> = far
+        .iter()
+        .take(FAR_ROWS_NAMED)
+        .map(|&i| {
+            let p = &measured[i];
+            format!(
+                "{} (x, y, z = {}, {}, {} mm: {} mm from the median point)",
+                crate::files::row_label(&rows[i]),
+                number(p.x, 3),
+                number(p.y, 3),
+                number(p.z, 3),
+                number(distance[i], 1)
+            )
+        })
+        .collect();
+    let more = far.len().saturating_sub(FAR_ROWS_NAMED);
+    Some(refuse(
+        Check::LengthUnits,
+        format!(
+            "{source}: {} far from all the others: {}{}; the other rows lie within {} mm of \
+             the median point, and without {} the measured points spread as the nominal \
+             robot's (ratio {}): a wrong reading or a unit slip in {}, not the file's unit",
+            if far.len() == 1 {
+                "one row lies".to_string()
+            } else {
+                format!("{} rows lie", far.len())
+            },
+            named.join(", "),
+            if more > 0 {
+                format!(" and {more} more")
+            } else {
+                String::new()
+            },
+            number(within, 1),
+            if far.len() == 1 { "it" } else { "them" },
+            number(ratio, 4),
+            if far.len() == 1 {
+                "that row"
+            } else {
+                "those rows"
+            },
+        ),
+        "correct or remove the row",
     ))
 }
 
@@ -159,9 +321,11 @@ pub fn mirror(source: &str, nominal: &Robot, rows: &[Measurement]) -> Result<(),
         return Err(refuse(
             Check::Mirror,
             format!(
-                "{source}: the best rotation fits the nominal robot's points to {proper:.1} mm \
-                 RMS, the best reflection to {improper:.1} mm: the measurement frame is \
-                 left-handed (axes swapped or one negated)"
+                "{source}: the best rotation fits the nominal robot's points to {} mm RMS, the \
+                 best reflection to {} mm: the measurement frame is left-handed (axes swapped \
+                 or one negated)",
+                number(proper, 1),
+                number(improper, 1)
             ),
             "write the x, y, z columns of a right-handed frame",
         ));
@@ -179,7 +343,10 @@ pub fn parameters(
 ) -> Result<(), Refusal> {
     let far: Vec<String> = far_parameters(start, identified, identifiable)
         .into_iter()
-        .map(|(name, d, limit)| format!("{name} {d:+.3} (limit ±{limit})"))
+        .map(|(name, d, limit)| {
+            let sign = if d >= 0.0 { "+" } else { "" };
+            format!("{name} {sign}{} (limit ±{limit})", number(d, 3))
+        })
         .collect();
     if far.is_empty() {
         return Ok(());
@@ -228,8 +395,10 @@ pub fn validation(source: &str, before_mean_mm: f64, after_mean_mm: f64) -> Resu
         return Err(refuse(
             Check::Validation,
             format!(
-                "{source}: the calibrated model predicts worse than the nominal one (mean \
-                 {before_mean_mm:.3} mm → {after_mean_mm:.3} mm)"
+                "{source}: the calibrated model predicts worse than the nominal one (mean {} mm \
+                 → {} mm)",
+                number(before_mean_mm, 3),
+                number(after_mean_mm, 3)
             ),
             "check the data (units, frame, outliers) and the parameter set",
         ));

@@ -225,14 +225,19 @@ pub enum Refusal {
         free: usize,
     },
     /// A plausibility check failed (`crate::checks`): the data or the result look wrong.
-    #[error("{evidence}; nothing written — {remedy}, or override the check (allow {})", check.name())]
+    /// Its text names settings as the request's fields, Python's keywords
+    /// (`length_units="cm"`, `allow="length-units"`); [`Refusal::in_words`] with
+    /// [`crate::Front::Flags`] names the command line's options instead.
+    #[error("{}", implausible(*.check, .evidence, .remedy, *.setting, crate::Front::Keywords))]
     Implausible {
         /// The check, which a request may override ([`crate::IdentifyRequest::allow`]).
         check: crate::Check,
-        /// What it saw, with the figures.
+        /// What it saw, with the figures (naming no setting).
         evidence: String,
-        /// What to do.
+        /// What to do (naming no setting: that is `setting`).
         remedy: String,
+        /// The setting the remedy suggests, if any, shown after it.
+        setting: Option<crate::Setting>,
     },
     /// A data file with a header and no data rows.
     #[error("{file}: the {what} file has no data rows")]
@@ -351,6 +356,38 @@ pub enum Refusal {
     },
 }
 
+impl Refusal {
+    /// The refusal's text with the settings it names spelled by `front`
+    /// ([`crate::Setting::spelled`]): `--length-units cm` and `--allow length-units` on the
+    /// command line, `length_units="cm"` and `allow="length-units"` in Python (the
+    /// `Display`). Only [`Refusal::Implausible`] names settings that way; the others are
+    /// their `Display`.
+    pub fn in_words(&self, front: crate::Front) -> String {
+        match self {
+            Refusal::Implausible {
+                check,
+                evidence,
+                remedy,
+                setting,
+            } => implausible(*check, evidence, remedy, *setting, front),
+            other => other.to_string(),
+        }
+    }
+}
+
+/// The text of [`Refusal::Implausible`] in `front`'s words.
+fn implausible(
+    check: crate::Check,
+    evidence: &str,
+    remedy: &str,
+    setting: Option<crate::Setting>,
+    front: crate::Front,
+) -> String {
+    let setting = setting.map_or(String::new(), |s| format!(" ({})", s.spelled(front)));
+    let allow = crate::Setting::Allow(check).spelled(front);
+    format!("{evidence}; nothing written — {remedy}{setting}, or override the check ({allow})")
+}
+
 /// `Result` with [`CalibrateError`].
 pub type Result<T, E = CalibrateError> = std::result::Result<T, E>;
 
@@ -372,6 +409,7 @@ mod tests {
                 check: Check::Mirror,
                 evidence: "a reflection fits".to_string(),
                 remedy: "check the frame".to_string(),
+                setting: None,
             })
         };
         assert_eq!(refusal().refused_check(), Some(Check::Mirror));

@@ -14,10 +14,10 @@ use identify::frames::{FrameData, FrameFit};
 use kinematics::Robot;
 use measurements::Measurement;
 
-use crate::checks::{self, refuse, tolerance};
+use crate::checks::{self, refuse_with, tolerance};
 use crate::error::Refusal;
 use crate::prior::PriorSpec;
-use crate::request::Check;
+use crate::request::{Check, Setting};
 
 /// Range of motion in the data below which a joint is said to move little, degrees [10: the
 /// parameters of a joint's axis are seen through the arc its motion draws; below 10° the
@@ -275,13 +275,14 @@ pub fn parameters(
             excitation.joints_text()
         ));
     }
-    Err(refuse(
+    Err(refuse_with(
         Check::Parameters,
         evidence,
         &format!(
-            "{}, or identify with the prior (--prior auto, the default, or tolerance), which \
-             holds what the data do not determine",
+            "{}, or identify with the prior (auto, the default, or tolerance), which holds what \
+             the data do not determine",
             excitation.what_to_measure()
         ),
+        Some(Setting::Prior("auto")),
     ))
 }

@@ -4,7 +4,7 @@
 use std::path::{Path, PathBuf};
 
 use kinematics::{Robot, RobotSpec};
-use measurements::{Measurement, MeasurementError, MeasurementSet, ReadOptions, read_file};
+use measurements::{Measurement, MeasurementError, MeasurementSet, ReadOptions, read_str};
 use nalgebra::Vector3;
 
 use crate::error::{CalibrateError, Result};
@@ -61,6 +61,29 @@ impl LoadedRobot {
         self.spec.joints.iter().map(revolute).collect()
     }
 
+    /// The error for joint `j`'s value `value` (degrees, or millimetres for a prismatic
+    /// joint) beyond its limits at `file:line`, in the joint's own unit.
+    pub(crate) fn out_of_limits(
+        &self,
+        file: String,
+        line: usize,
+        column: String,
+        j: usize,
+        value: f64,
+    ) -> MeasurementError {
+        let joint = &self.spec.joints[j.min(self.spec.joints.len() - 1)];
+        let [min, max] = joint.limits_deg;
+        MeasurementError::JointOutOfLimits {
+            file,
+            line,
+            column,
+            value,
+            min,
+            max,
+            unit: if joint.is_prismatic() { "mm" } else { "deg" },
+        }
+    }
+
     /// The unit factor of each joint column of a file in units of `deg_per_unit` degrees and
     /// `mm_per_unit` millimetres: a revolute joint's column is an angle (`--joint-units`),
     /// a prismatic joint's a length (`--length-units`, as the points).
@@ -115,6 +138,41 @@ impl LoadedRobot {
         (deg_per_unit, mm_per_unit): (f64, f64),
         euler: Option<measurements::EulerConvention>,
     ) -> Result<MeasurementSet> {
+        let text = self.read_text(path, what)?;
+        self.read_text_with(
+            &text,
+            &path.display().to_string(),
+            require_points,
+            (min_rows, why),
+            what,
+            (deg_per_unit, mm_per_unit),
+            euler,
+        )
+    }
+
+    /// The text of the `what` file `path`, read once, whole ([`measurements::read_text`]: a
+    /// pipe or a FIFO reads as a file does); errors name the file and the robot as reading
+    /// errors do.
+    pub fn read_text(&self, path: &Path, what: &str) -> Result<String> {
+        measurements::read_text(path).map_err(|e| {
+            let source = path.display().to_string();
+            self.read_error(&source, (0, None), what, (1.0, 1.0), e)
+        })
+    }
+
+    /// [`LoadedRobot::read_set_with`] of a file's text, read once ([`measurements::read_text`]: a pipe
+    /// cannot be read twice), named `source` in errors and in the set.
+    #[allow(clippy::too_many_arguments)]
+    pub fn read_text_with(
+        &self,
+        text: &str,
+        source: &str,
+        require_points: bool,
+        (min_rows, why): (usize, Option<&str>),
+        what: &str,
+        (deg_per_unit, mm_per_unit): (f64, f64),
+        euler: Option<measurements::EulerConvention>,
+    ) -> Result<MeasurementSet> {
         let limits = self.limits_in((deg_per_unit, mm_per_unit));
         let factors = self.joint_factors((deg_per_unit, mm_per_unit));
         let mut opts = ReadOptions::new(self.robot.n_joints())
@@ -126,45 +184,14 @@ impl LoadedRobot {
         if let Some(e) = euler {
             opts = opts.with_euler(e);
         }
-        let mut set = read_file(path, &opts).map_err(|source| {
-            // A joint beyond its limit, checked in the file's units, reported in degrees (a
-            // revolute joint) or millimetres (a prismatic one).
-            let source = match source {
-                MeasurementError::JointOutOfLimits {
-                    file,
-                    line,
-                    column,
-                    value,
-                    ..
-                } => {
-                    let j = column
-                        .strip_prefix('q')
-                        .and_then(|k| k.parse::<usize>().ok())
-                        .map_or(0, |k| k.saturating_sub(1));
-                    self.out_of_limits(
-                        file,
-                        line,
-                        column,
-                        j,
-                        value * factors[j.min(factors.len() - 1)],
-                    )
-                }
-                other => other,
-            };
-            let too_few = matches!(source, MeasurementError::TooFewRows { .. });
-            let err = CalibrateError::Read {
-                context: format!(
-                    "reading the {what} {} for {} ({} joints)",
-                    path.display(),
-                    self.robot.name(),
-                    self.robot.n_joints()
-                ),
+        let mut set = read_str(text, source, &opts).map_err(|e| {
+            self.read_error(
                 source,
-            };
-            match why {
-                Some(why) if too_few => err.context(why),
-                _ => err,
-            }
+                (min_rows, why),
+                what,
+                (deg_per_unit, mm_per_unit),
+                e,
+            )
         })?;
         to_degrees_and_mm(
             &mut set,
@@ -174,26 +201,54 @@ impl LoadedRobot {
         Ok(set)
     }
 
-    /// The error for joint `j`'s value `value` (degrees, or millimetres for a prismatic
-    /// joint) beyond its limits at `file:line`, in the joint's own unit.
-    pub(crate) fn out_of_limits(
+    /// A reading error of the `what` file `path` in units of `deg_per_unit` degrees and
+    /// `mm_per_unit` millimetres, with what was read for which robot: a joint beyond its
+    /// limit, checked in the file's units, reported in degrees; too few rows with `why`.
+    fn read_error(
         &self,
-        file: String,
-        line: usize,
-        column: String,
-        j: usize,
-        value: f64,
-    ) -> MeasurementError {
-        let joint = &self.spec.joints[j.min(self.spec.joints.len() - 1)];
-        let [min, max] = joint.limits_deg;
-        MeasurementError::JointOutOfLimits {
-            file,
-            line,
-            column,
-            value,
-            min,
-            max,
-            unit: if joint.is_prismatic() { "mm" } else { "deg" },
+        path: &str,
+        (_, why): (usize, Option<&str>),
+        what: &str,
+        (deg_per_unit, mm_per_unit): (f64, f64),
+        source: MeasurementError,
+    ) -> CalibrateError {
+        let factors = self.joint_factors((deg_per_unit, mm_per_unit));
+        // A joint beyond its limit, checked in the file's units, reported in degrees (a
+        // revolute joint) or millimetres (a prismatic one).
+        let source = match source {
+            MeasurementError::JointOutOfLimits {
+                file,
+                line,
+                column,
+                value,
+                ..
+            } => {
+                let j = column
+                    .strip_prefix('q')
+                    .and_then(|k| k.parse::<usize>().ok())
+                    .map_or(0, |k| k.saturating_sub(1));
+                self.out_of_limits(
+                    file,
+                    line,
+                    column,
+                    j,
+                    value * factors[j.min(factors.len() - 1)],
+                )
+            }
+            other => other,
+        };
+        let too_few = matches!(source, MeasurementError::TooFewRows { .. });
+        let err = CalibrateError::Read {
+            context: format!(
+                "reading the {what} {path} for {} ({} joints)",
+                self.robot.name(),
+                self.robot.n_joints()
+            ),
+            source,
+        };
+        match why {
+            Some(why) if too_few => err.context(why),
+            _ => err,
         }
     }
 

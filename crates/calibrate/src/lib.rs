@@ -42,7 +42,9 @@ pub use joints::{
 pub use memory::compensate_set;
 pub use pipeline::{MAX_REJECTION_PASSES, MeasurementKind};
 pub use prior::PriorSpec;
-pub use request::{Check, IdentifyRequest, JointUnits, LengthUnits, Split, Weighting};
+pub use request::{
+    Check, Front, IdentifyRequest, JointUnits, LengthUnits, Setting, Split, Weighting,
+};
 pub use tool_frame::ToolFrameCalibration;
 pub use tool_offset::TOOL_REGISTRATION_MM;
 pub use workflow::{

@@ -156,6 +156,8 @@ pub enum LengthUnits {
     M,
     /// Inches (25.4 mm).
     In,
+    /// Centimetres (10 mm).
+    Cm,
 }
 
 impl LengthUnits {
@@ -165,15 +167,58 @@ impl LengthUnits {
             LengthUnits::Mm => 1.0,
             LengthUnits::M => 1000.0,
             LengthUnits::In => 25.4,
+            LengthUnits::Cm => 10.0,
         }
     }
 
-    /// `mm`, `m` or `in`.
+    /// `mm`, `m`, `in` or `cm`.
     pub fn name(self) -> &'static str {
         match self {
             LengthUnits::Mm => "mm",
             LengthUnits::M => "m",
             LengthUnits::In => "in",
+            LengthUnits::Cm => "cm",
+        }
+    }
+}
+
+/// A setting of the request that a refusal suggests (`crate::checks`), spelled by the front
+/// end that shows it: [`Front::Keywords`] as the request's field, Python's keyword argument
+/// (`joint_units="rad"`), [`Front::Flags`] as the command line's option (`--joint-units rad`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Setting {
+    /// [`IdentifyRequest::joint_units`].
+    JointUnits(JointUnits),
+    /// [`IdentifyRequest::length_units`].
+    LengthUnits(LengthUnits),
+    /// A check in [`IdentifyRequest::allow`].
+    Allow(Check),
+    /// [`IdentifyRequest::prior`], as written (`auto`).
+    Prior(&'static str),
+}
+
+/// Whose words a message uses for the request's settings ([`Setting::spelled`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Front {
+    /// The library's and Python's: the keyword argument, `length_units="cm"`.
+    #[default]
+    Keywords,
+    /// The command line's: the option, `--length-units cm`.
+    Flags,
+}
+
+impl Setting {
+    /// The setting as `front` writes it: `joint_units="rad"` or `--joint-units rad`.
+    pub fn spelled(self, front: Front) -> String {
+        let (field, value) = match self {
+            Setting::JointUnits(u) => ("joint_units", u.name()),
+            Setting::LengthUnits(u) => ("length_units", u.name()),
+            Setting::Allow(c) => ("allow", c.name()),
+            Setting::Prior(p) => ("prior", p),
+        };
+        match front {
+            Front::Keywords => format!("{field}=\"{value}\""),
+            Front::Flags => format!("--{} {value}", field.replace('_', "-")),
         }
     }
 }
@@ -295,19 +340,25 @@ impl std::str::FromStr for JointUnits {
 }
 
 impl LengthUnits {
-    /// `mm`, `m` and `in`, the names [`LengthUnits::name`] gives and `FromStr` accepts.
-    pub const NAMES: &'static [&'static str] = &["mm", "m", "in"];
+    /// `mm`, `m`, `in` and `cm`, the names [`LengthUnits::name`] gives and `FromStr`
+    /// accepts.
+    pub const NAMES: &'static [&'static str] = &["mm", "m", "in", "cm"];
 }
 
 impl std::str::FromStr for LengthUnits {
     type Err = identify::UnknownName;
 
-    /// `mm`, `m` or `in`.
+    /// `mm`, `m`, `in` or `cm`.
     fn from_str(s: &str) -> Result<Self, Self::Err> {
         identify::parse_name(
             s,
             LengthUnits::NAMES,
-            &[LengthUnits::Mm, LengthUnits::M, LengthUnits::In],
+            &[
+                LengthUnits::Mm,
+                LengthUnits::M,
+                LengthUnits::In,
+                LengthUnits::Cm,
+            ],
         )
     }
 }
@@ -321,16 +372,34 @@ mod tests {
         for u in [JointUnits::Deg, JointUnits::Rad] {
             assert_eq!(u.name().parse::<JointUnits>(), Ok(u));
         }
-        for u in [LengthUnits::Mm, LengthUnits::M, LengthUnits::In] {
+        for u in [
+            LengthUnits::Mm,
+            LengthUnits::M,
+            LengthUnits::In,
+            LengthUnits::Cm,
+        ] {
             assert_eq!(u.name().parse::<LengthUnits>(), Ok(u));
         }
+        assert_eq!(LengthUnits::Cm.mm_per_unit(), 10.0);
         assert_eq!(
             "degrees".parse::<JointUnits>().unwrap_err().to_string(),
             "unknown value \"degrees\" (deg, rad)"
         );
         assert_eq!(
             "MM".parse::<LengthUnits>().unwrap_err().to_string(),
-            "unknown value \"MM\" (mm, m, in)"
+            "unknown value \"MM\" (mm, m, in, cm)"
         );
+    }
+
+    #[test]
+    fn settings_are_spelled_as_keywords_or_flags() {
+        let s = Setting::JointUnits(JointUnits::Rad);
+        assert_eq!(s.spelled(Front::Keywords), "joint_units=\"rad\"");
+        assert_eq!(s.spelled(Front::Flags), "--joint-units rad");
+        let s = Setting::LengthUnits(LengthUnits::Cm);
+        assert_eq!(s.spelled(Front::Flags), "--length-units cm");
+        let s = Setting::Allow(Check::LengthUnits);
+        assert_eq!(s.spelled(Front::Keywords), "allow=\"length-units\"");
+        assert_eq!(s.spelled(Front::Flags), "--allow length-units");
     }
 }

@@ -308,27 +308,43 @@ impl Inputs {
             request.joint_units.deg_per_unit(),
             request.length_units.mm_per_unit(),
         );
+        // Each file is read once, whole, and parsed from memory: a pipe (`--data <(…)`)
+        // cannot be read a second time.
+        let data_text = nominal.read_text(&request.data, "identification data")?;
         // Points need a row per three free parameters, checked on reading; 6-DoF and
         // multi-target data one row (the fit says when their equations are too few).
-        let points = request.euler.is_none() && !header_names_poses(&request.data);
+        let points = request.euler.is_none() && !header_names_poses(&data_text);
         let min_rows = if points { min_rows } else { 1 };
-        let read = |path: &Path, min: usize, what: &str, units: (f64, f64)| {
-            nominal.read_set_with(path, true, (min, None), what, units, request.euler)
+        let read = |text: &str, path: &Path, min: usize, what: &str, units: (f64, f64)| {
+            let source = path.display().to_string();
+            nominal.read_text_with(text, &source, true, (min, None), what, units, request.euler)
         };
-        let as_degrees = |path: &Path| read(path, 0, "data", (1.0, units.1)).ok();
-        let data = read(&request.data, min_rows, "identification data", units)
-            .map_err(|e| declared_radians(request, &nominal, e, || as_degrees(&request.data)))
-            .map_err(|e| {
-                if points {
-                    too_few_rows(request, n_free, min_rows, e)
-                } else {
-                    e
-                }
-            })?;
+        let as_degrees = |text: &str, path: &Path| read(text, path, 0, "data", (1.0, units.1)).ok();
+        let data = read(
+            &data_text,
+            &request.data,
+            min_rows,
+            "identification data",
+            units,
+        )
+        .map_err(|e| {
+            declared_radians(request, &nominal, e, || {
+                as_degrees(&data_text, &request.data)
+            })
+        })
+        .map_err(|e| {
+            if points {
+                too_few_rows(request, n_free, min_rows, e)
+            } else {
+                e
+            }
+        })?;
         let validate = match (&request.validate, &request.split) {
             (Some(path), Split::All) => {
-                let set = read(path, 0, "validation data", units)
-                    .map_err(|e| declared_radians(request, &nominal, e, || as_degrees(path)))?;
+                let val_text = nominal.read_text(path, "validation data")?;
+                let set = read(&val_text, path, 0, "validation data", units).map_err(|e| {
+                    declared_radians(request, &nominal, e, || as_degrees(&val_text, path))
+                })?;
                 Some(with_rows(set, "validation")?)
             }
             _ => None,
@@ -342,12 +358,8 @@ impl Inputs {
 }
 
 /// Whether the measurement file's header names orientation or target columns (`qw`, `rx`,
-/// `target`): the first line that is neither blank nor a `#` comment. False when the file
-/// cannot be read (the reader then reports why).
-pub(crate) fn header_names_poses(path: &Path) -> bool {
-    let Ok(text) = std::fs::read_to_string(path) else {
-        return false;
-    };
+/// `target`): the first line of `text` that is neither blank nor a `#` comment.
+pub(crate) fn header_names_poses(text: &str) -> bool {
     text.lines()
         .map(str::trim)
         .find(|l| !l.is_empty() && !l.starts_with('#'))
@@ -537,14 +549,14 @@ fn calibrate_as_measured(request: &IdentifyRequest, inputs: Inputs) -> Result<Ca
         (n_free, min_rows),
     )?;
     let id_rows = pipeline::rows_of(&data, &units, &split.id);
-    // Plausibility of the data, before any fit: units and handedness.
-    pipeline::check_data(
-        request,
-        &data.source,
-        nom,
-        &nominal.revolute_limits_deg(),
-        &id_rows,
-    )?;
+    // Plausibility of the data, before any fit: units and handedness; of a validation file
+    // as of the identification data (a validation file in metres or radians would show a
+    // Table 4 of metres).
+    let limits = nominal.revolute_limits_deg();
+    pipeline::check_data(request, &data.source, nom, &limits, &id_rows)?;
+    if let Some((_, Held::File(set))) = &split.val {
+        pipeline::check_data(request, &set.source, nom, &limits, &set.rows)?;
+    }
     let overlap = split.val.as_ref().map_or(0, |(_, held)| match held {
         Held::Rest(rest) => {
             pipeline::overlapping(&id_rows, &pipeline::rows_of(&data, &units, rest))

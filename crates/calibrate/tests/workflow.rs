@@ -294,12 +294,27 @@ fn unit_and_frame_corruptions_are_refused_and_units_convert() {
         (inches.clone(), Check::LengthUnits),
         (swapped, Check::Mirror),
     ] {
-        let e = calibrate::calibrate(&req, in_memory(&robot, data, None)).unwrap_err();
+        let e = calibrate::calibrate(&req, in_memory(&robot, data.clone(), None)).unwrap_err();
         assert_eq!(refused_by(&e), Some(check), "{e}");
         assert!(
-            e.to_string().contains(&format!("allow {}", check.name())),
+            e.to_string()
+                .contains(&format!("allow=\"{}\"", check.name())),
             "{e}"
         );
+        // Issue 38: the same corruption of the validation set is refused alike, naming it;
+        // the check's override lets it through.
+        let good = || rows.clone();
+        let e =
+            calibrate::calibrate(&req, in_memory(&robot, good(), Some(data.clone()))).unwrap_err();
+        assert_eq!(refused_by(&e), Some(check), "{e}");
+        assert!(e.to_string().starts_with("val.csv: "), "{e}");
+        let allowed = IdentifyRequest {
+            allow: vec![check],
+            ..req.clone()
+        };
+        if let Err(e) = calibrate::calibrate(&allowed, in_memory(&robot, good(), Some(data))) {
+            assert_ne!(refused_by(&e), Some(check), "{e}");
+        }
     }
     // Declared units convert (the library converts on loading; in memory the same factors).
     assert_eq!(

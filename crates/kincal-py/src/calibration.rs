@@ -246,7 +246,7 @@ impl PyCalibration {
 
 /// Identifies the robot's parameters from measured points `(n, 3)` (mm) at joints `(n, N)`
 /// (degrees), as `kincal identify` does on a file with the same rows. `joint_units` ("deg",
-/// "rad") and `length_units` ("mm", "m", "in") declare other units. The plausibility checks
+/// "rad") and `length_units` ("mm", "m", "cm", "in") declare other units. The plausibility checks
 /// (radians, metres, a mirrored frame, outliers, far parameters, worse validation) refuse
 /// with KincalError; `allow` (a check's name or a list of names) overrides them, as
 /// `--allow` does.

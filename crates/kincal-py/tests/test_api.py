@@ -246,7 +246,7 @@ def test_a_refusal_names_its_check_and_allow_retries_with_it():
             kincal.identify(robot, *args, every=15, **kw)
         assert isinstance(e.value, kincal.KincalError) and isinstance(e.value, ValueError)
         assert e.value.check == check, (kw, message(e))
-        assert f"allow {check}" in message(e)
+        assert f'allow="{check}"' in message(e)
     # The retry the attribute is for: each refusal's check allowed in turn.
     allowed = []
     while True:
@@ -392,7 +392,11 @@ def test_units_and_plausibility_checks_as_the_cli(readme_example, tmp_path):
                          refused.stderr).group(0)
     with pytest.raises(kincal.KincalError) as e:
         kincal.identify(robot, q_rad, p, every=15)
-    assert evidence in message(e) and "allow joint-units" in message(e)
+    # The CLI names its options, Python its keywords.
+    assert "declare it (--joint-units rad)" in refused.stderr
+    assert "(--allow joint-units)" in refused.stderr
+    assert evidence in message(e) and 'allow="joint-units"' in message(e)
+    assert 'declare it (joint_units="rad")' in message(e) and "--" not in message(e)
     # Degrees declared radians.
     with pytest.raises(kincal.KincalError) as e:
         kincal.identify(robot, q, p, every=15, joint_units="rad")
@@ -400,23 +404,31 @@ def test_units_and_plausibility_checks_as_the_cli(readme_example, tmp_path):
     # Metres: refused, or declared and equal to millimetres.
     with pytest.raises(kincal.KincalError) as e:
         kincal.identify(robot, q, p / 1000, every=15)
-    assert "look like metres" in message(e) and "allow length-units" in message(e)
+    assert "look like metres" in message(e) and 'allow="length-units"' in message(e)
+    assert 'length_units="m"' in message(e)
+    # Centimetres: refused naming them, or declared and equal to millimetres.
+    with pytest.raises(kincal.KincalError) as e:
+        kincal.identify(robot, q, p / 10, every=15)
+    assert "look like centimetres" in message(e) and 'length_units="cm"' in message(e)
+    centimetres = kincal.identify(robot, q, p / 10, every=15, length_units="cm")
+    assert centimetres.validation["after_mean_mm"] == pytest.approx(
+        cal.validation["after_mean_mm"], rel=1e-9)
     metres = kincal.identify(robot, q, p / 1000, every=15, length_units="m")
     assert metres.validation["after_mean_mm"] == pytest.approx(
         cal.validation["after_mean_mm"], rel=1e-9)
-    # A mirrored frame: refused naming `allow mirror`; allowed, the fit is refused anyway
+    # A mirrored frame: refused naming `allow="mirror"`; allowed, the fit is refused anyway
     # (no rotation maps a reflection: the parameters go far from the nominal).
     mirrored = p[:, [1, 0, 2]]
     with pytest.raises(kincal.KincalError) as e:
         kincal.identify(robot, q, mirrored, every=15)
-    assert "left-handed" in message(e) and "allow mirror" in message(e)
+    assert "left-handed" in message(e) and 'allow="mirror"' in message(e)
     with pytest.raises(kincal.KincalError) as e:
         kincal.identify(robot, q, mirrored, every=15, allow=["mirror"])
     assert "far beyond manufacturing errors" in message(e)
     for kw, text in [({"allow": "nope"}, "unknown check `nope`"),
                      ({"allow": 3}, "allow: expected"),
                      ({"joint_units": "grad"}, 'joint_units: unknown value "grad"'),
-                     ({"length_units": "cm"}, 'length_units: unknown value "cm"')]:
+                     ({"length_units": "ft"}, 'length_units: unknown value "ft"')]:
         with pytest.raises(kincal.KincalError) as e:
             kincal.identify(robot, q, p, every=15, **kw)
         assert text in message(e), kw
@@ -438,3 +450,14 @@ def test_identify_releases_the_gil_and_is_deterministic_across_threads():
     for t in threads:
         t.join()
     assert all(r == results[0] for r in results)
+
+
+def test_a_robot_file_of_implausible_numbers_is_refused_naming_the_field(tmp_path):
+    """Issue 38: θ1 = 2⁶⁴ parses as a number but is no robot's; the field is named."""
+    robot = json.loads((ROBOTS / "ur10.json").read_text())
+    robot["joints"][0]["theta_deg"] = 2.0**64
+    path = tmp_path / "robot.json"
+    path.write_text(json.dumps(robot))
+    with pytest.raises(kincal.KincalError) as e:
+        kincal.Robot.load(path)
+    assert "joints[0].theta_deg = 1.8446744073709552e19°" in message(e)

@@ -9,5 +9,6 @@ mod docs_examples;
 mod files_cli;
 mod frames_cli;
 mod full_device_cli;
+mod messages_cli;
 mod trust_cli;
 mod urdf_cli;

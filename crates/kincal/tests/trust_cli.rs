@@ -490,7 +490,10 @@ fn compensate_refuses_a_swapped_pair_or_two_runs() {
     assert_eq!(id_a["provenance"]["role"], "identified");
     assert_eq!(reg_a["provenance"]["role"], "registered-nominal");
     assert_eq!(id_a["provenance"]["run"], reg_a["provenance"]["run"]);
-    assert_eq!(id_a["provenance"]["data_sha256"].as_str().unwrap().len(), 64);
+    assert_eq!(
+        id_a["provenance"]["data_sha256"].as_str().unwrap().len(),
+        64
+    );
     let id_b = spec(&b.join("identified.json"));
     assert_ne!(id_a["provenance"]["run"], id_b["provenance"]["run"]);
     // A few commanded joints.

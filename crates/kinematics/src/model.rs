@@ -39,6 +39,25 @@ use crate::frame::Frame;
 /// Largest number of joints a chain may have (frames live in fixed-size arrays on the stack).
 pub const MAX_JOINTS: usize = 16;
 
+/// Largest |angle| a robot file may give, degrees (θ, α, base and tool rotations) [360: one
+/// turn; a larger offset is the same angle written wrongly, or a corrupted file].
+pub const MAX_ANGLE_DEG: f64 = 360.0;
+
+/// Largest |length| a robot file may give, mm (a, d, base translation, tool, targets, a
+/// prismatic joint's limits) [100 m: the largest robots and gantries reach a few metres, a
+/// tracker stands within tens of metres; beyond it the file is in other units or corrupted].
+pub const MAX_LENGTH_MM: f64 = 100_000.0;
+
+/// A number for a message: shortest form, exponent notation from 10⁶ up (`1.8446744073709552e19`,
+/// not twenty digits).
+fn short(v: f64) -> String {
+    if v.is_finite() && v.abs() >= 1e6 {
+        format!("{v:e}")
+    } else {
+        format!("{v}")
+    }
+}
+
 /// What a joint's variable moves (`docs/model.md` §2): a rotation about the previous z axis
 /// (the default) or a translation along it. The robot file's `type` field; absent means
 /// revolute, so files without it read and write as before.
@@ -529,7 +548,73 @@ impl RobotSpec {
             message: e.to_string(),
         })?;
         spec.validate(source_name)?;
+        spec.check_plausible(source_name)?;
         Ok(spec)
+    }
+
+    /// Checks that a robot file's numbers are a robot's (finite ones assumed,
+    /// [`RobotSpec::validate`]): every angle within ±[`MAX_ANGLE_DEG`] (θ, α, the base's and the
+    /// tool's rotations) and every length within ±[`MAX_LENGTH_MM`] (a, d, the base's
+    /// translation, the tool and the targets, a prismatic joint's limits). A file with
+    /// θ1 = 2⁶⁴ parses as a number but is no robot: the fit on it stalls after one iteration.
+    /// Checked where a file is read ([`RobotSpec::from_json_str`]), not on every model built
+    /// in memory (an identification may wander further before its checks refuse it).
+    ///
+    /// # Errors
+    /// [`ModelError::Invalid`] naming the field (`joints[0].theta_deg`) and its value, in
+    /// exponent form when it is huge.
+    pub fn check_plausible(&self, source_name: &str) -> Result<(), ModelError> {
+        let check = |field: String, v: f64, bound: f64, unit: &str, what: &str| {
+            if v.abs() <= bound {
+                return Ok(());
+            }
+            Err(ModelError::Invalid {
+                source_name: source_name.to_string(),
+                field: field.clone(),
+                message: format!(
+                    "{field} = {}{unit} is beyond ±{}{unit}, the bound of {what} \
+                     (docs/model.md §4): is the file in other units, or corrupted?",
+                    short(v),
+                    short(bound)
+                ),
+            })
+        };
+        let angle =
+            |field: String, v: f64| check(field, v, MAX_ANGLE_DEG, "°", "an angle (one turn)");
+        let length = |field: String, v: f64| {
+            check(field, v, MAX_LENGTH_MM, " mm", "a robot's lengths (100 m)")
+        };
+        for (i, j) in self.joints.iter().enumerate() {
+            let f = |name: &str| format!("joints[{i}].{name}");
+            angle(f("theta_deg"), j.theta_deg)?;
+            length(f("d_mm"), j.d_mm)?;
+            length(f("a_mm"), j.a_mm)?;
+            angle(f("alpha_deg"), j.alpha_deg)?;
+            if j.is_prismatic() {
+                length(f("limits_mm[0]"), j.limits_deg[0])?;
+                length(f("limits_mm[1]"), j.limits_deg[1])?;
+            }
+        }
+        for (name, v) in BaseSpec::FIELDS.iter().zip(self.base.values()) {
+            let field = format!("base.{name}");
+            if name.ends_with("_deg") {
+                angle(field, v)?;
+            } else {
+                length(field, v)?;
+            }
+        }
+        for (k, v) in self.tool_mm.iter().enumerate() {
+            length(format!("tool_mm[{k}]"), *v)?;
+        }
+        for (k, v) in self.tool_rotation_deg.iter().flatten().enumerate() {
+            angle(format!("tool_rotation_deg[{k}]"), *v)?;
+        }
+        for (k, t) in self.targets.iter().flatten().enumerate() {
+            for (c, v) in t.point_mm.iter().enumerate() {
+                length(format!("targets[{k}].point_mm[{c}]"), *v)?;
+            }
+        }
+        Ok(())
     }
 
     /// Reads and validates a model file.

@@ -8,4 +8,5 @@ mod kinematics;
 mod mass_model;
 #[path = "../../measurements/tests/mutate/mod.rs"]
 mod mutate;
+mod plausible;
 mod prismatic;

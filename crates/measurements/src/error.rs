@@ -45,6 +45,69 @@ pub enum MeasurementError {
         column: String,
     },
 
+    /// The header's fields are separated by something other than commas (`;`, a tab,
+    /// spaces), so none of its columns is found; the first data row may also write decimal
+    /// commas (the usual companion of `;`).
+    #[error(
+        "{file}:{line}:{position}: the header is separated by {}, not commas: measurement files \
+         are comma-separated (q1,q2,…,x,y,z){}",
+        describe_separator(*.separator),
+        decimal_comma_hint(.decimal_comma)
+    )]
+    Separator {
+        /// File path or label.
+        file: String,
+        /// Line of the header.
+        line: usize,
+        /// 1-based character column of the first separator on that line.
+        position: usize,
+        /// The separator seen.
+        separator: char,
+        /// The first data row's line and a number written with a decimal comma there.
+        decimal_comma: Option<(usize, String)>,
+    },
+
+    /// A required column is in the header in another letter case (`Q1`, `X`): names are
+    /// lower-case and case-sensitive.
+    #[error(
+        "{file}:{line}:{position}: column \"{found}\": column names are lower-case and \
+         case-sensitive; write \"{expected}\""
+    )]
+    HeaderCase {
+        /// File path or label.
+        file: String,
+        /// Line of the header.
+        line: usize,
+        /// 1-based character column where the name starts.
+        position: usize,
+        /// The name as written.
+        found: String,
+        /// The name the reader expects.
+        expected: String,
+    },
+
+    /// A row with more fields than the header whose numbers are written with a decimal comma
+    /// (`-179,999848`): each comma splits a number in two.
+    #[error(
+        "{file}:{line}:{position}: \"{text}\" is a number with a decimal comma (the row has \
+         {found} fields where the header has {expected}): numbers take a decimal point \
+         (-179.999848)"
+    )]
+    DecimalComma {
+        /// File path or label.
+        file: String,
+        /// Line of the row.
+        line: usize,
+        /// 1-based character column of the decimal comma.
+        position: usize,
+        /// The number as written, with its comma.
+        text: String,
+        /// Number of header fields.
+        expected: usize,
+        /// Number of fields in this row.
+        found: usize,
+    },
+
     /// A known column appears twice in the header.
     #[error(
         "{file}:{line}: duplicate column \"{column}\" (header fields {first_field} and {second_field})"
@@ -131,7 +194,8 @@ pub enum MeasurementError {
     /// A joint value lies outside its limits: degrees for a revolute joint, millimetres for a
     /// prismatic one (`unit`).
     #[error(
-        "{file}:{line}: column \"{column}\": joint value {value} {unit} is outside its limits [{min}, {max}] {unit}"
+        "{file}:{line}: column \"{column}\": joint value {} {unit} is outside its limits [{}, {}] {unit}",
+        short(*.value), short(*.min), short(*.max)
     )]
     JointOutOfLimits {
         /// File path or label.
@@ -316,6 +380,9 @@ impl MeasurementError {
             | Self::NotUtf8 { file, .. }
             | Self::NoHeader { file }
             | Self::MissingColumn { file, .. }
+            | Self::Separator { file, .. }
+            | Self::HeaderCase { file, .. }
+            | Self::DecimalComma { file, .. }
             | Self::DuplicateColumn { file, .. }
             | Self::JointCountMismatch { file, .. }
             | Self::NotANumber { file, .. }
@@ -340,6 +407,9 @@ impl MeasurementError {
         match self {
             Self::NotUtf8 { line, .. }
             | Self::MissingColumn { line, .. }
+            | Self::Separator { line, .. }
+            | Self::HeaderCase { line, .. }
+            | Self::DecimalComma { line, .. }
             | Self::DuplicateColumn { line, .. }
             | Self::JointCountMismatch { line, .. }
             | Self::NotANumber { line, .. }
@@ -371,6 +441,7 @@ impl MeasurementError {
             | Self::NotUnitQuaternion { column, .. }
             | Self::InvalidField { column, .. } => Some(column),
             Self::PoseJointsDisagree { column, .. } => Some(column),
+            Self::HeaderCase { found, .. } => Some(found),
             Self::DuplicateTarget { .. } | Self::InconsistentTarget { .. } => Some("target"),
             Self::RaggedRow {
                 first_missing_column,
@@ -409,14 +480,57 @@ fn describe_joint_columns(found: &[String]) -> String {
     }
 }
 
-/// A number for a message: Rust's shortest form, in exponent notation when that would be long
-/// (`1e308`, not 309 digits).
-pub(crate) fn short(v: f64) -> String {
+/// Magnitude from which [`short`] and [`number`] print exponent notation [10⁶: no length in
+/// mm, angle in degrees or count of a calibration is that large, so a value beyond it is
+/// wrong data, and its digits say nothing].
+pub const EXPONENT_FROM: f64 = 1e6;
+
+/// A number for a message: Rust's shortest form, in exponent notation from
+/// [`EXPONENT_FROM`] up and below 10⁻⁶ (`1e300`, not 301 digits; `1.8446744073709552e19`).
+pub fn short(v: f64) -> String {
     let a = v.abs();
-    if a != 0.0 && !(1e-6..1e15).contains(&a) {
+    if a != 0.0 && a.is_finite() && !(1e-6..EXPONENT_FROM).contains(&a) {
         format!("{v:e}")
     } else {
         format!("{v}")
+    }
+}
+
+/// A number for a message with `decimals` decimals, as `{:.decimals$}` does, but from
+/// [`EXPONENT_FROM`] up in exponent notation with 4 significant digits, trailing zeros
+/// dropped (`99469.0459`, `1.2e6`, `1e300`, `inf`).
+pub fn number(v: f64, decimals: usize) -> String {
+    if !(v.is_finite() && v.abs() >= EXPONENT_FROM) {
+        return format!("{v:.decimals$}");
+    }
+    let e = format!("{v:.3e}");
+    match e.split_once('e') {
+        Some((mantissa, exp)) if mantissa.contains('.') => {
+            let m = mantissa.trim_end_matches('0').trim_end_matches('.');
+            format!("{m}e{exp}")
+        }
+        _ => e,
+    }
+}
+
+/// `';' (semicolon)`, `a tab`, `spaces`.
+fn describe_separator(c: char) -> String {
+    match c {
+        ';' => "';' (semicolons)".to_owned(),
+        '\t' => "tabs".to_owned(),
+        ' ' => "spaces".to_owned(),
+        '|' => "'|' (vertical bars)".to_owned(),
+        c => format!("{c:?}"),
+    }
+}
+
+fn decimal_comma_hint(d: &Option<(usize, String)>) -> String {
+    match d {
+        Some((line, text)) => format!(
+            "; line {line} also writes numbers with a decimal comma (\"{text}\"): numbers take a \
+             decimal point"
+        ),
+        None => String::new(),
     }
 }
 

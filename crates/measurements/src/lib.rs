@@ -180,14 +180,14 @@ mod read;
 mod rotation;
 mod write;
 
-pub use error::{EulerConventionError, MeasurementError};
+pub use error::{EXPONENT_FROM, EulerConventionError, MeasurementError, number, short};
 pub use limits::{SizeError, available_memory, bytes_in_words, check_size};
 #[cfg(unix)]
 pub use output::{
     FAULT_ENV, NO_EXCHANGE_ENV, OutputDir, OutputError, OutputKind, SharedOutputDir, TargetProblem,
     check_output, same_file,
 };
-pub use read::{read_file, read_str};
+pub use read::{read_file, read_str, read_text};
 pub use rotation::{
     EulerConvention, QUATERNION_NORM_TOLERANCE, quaternion_product, quaternion_to_matrix,
 };

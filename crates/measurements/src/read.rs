@@ -14,19 +14,32 @@ const MAX_QUOTED_CHARS: usize = 60;
 /// Read a measurement file (`docs/model.md` §5). The file's path, as given, becomes
 /// [`MeasurementSet::source`] and the file name in error messages.
 pub fn read_file(path: &Path, opts: &ReadOptions) -> Result<MeasurementSet, MeasurementError> {
+    read_str(&read_text(path)?, &path.display().to_string(), opts)
+}
+
+/// The text of a measurement file, read once, whole: a pipe or a FIFO (`--data <(cat f)`)
+/// reads as a file does, and a caller that looks at the text before parsing it
+/// ([`read_str`]) does not read the file twice (a pipe would be empty the second time).
+///
+/// # Errors
+/// [`MeasurementError::Io`] and [`MeasurementError::NotUtf8`], naming the file by `path` as
+/// given.
+pub fn read_text(path: &Path) -> Result<String, MeasurementError> {
     let source = path.display().to_string();
     let bytes = std::fs::read(path).map_err(|e| MeasurementError::Io {
         file: source.clone(),
         source: e,
     })?;
-    let text = std::str::from_utf8(&bytes).map_err(|e| MeasurementError::NotUtf8 {
-        file: source.clone(),
-        line: 1 + bytes[..e.valid_up_to()]
-            .iter()
-            .filter(|&&b| b == b'\n')
-            .count(),
-    })?;
-    read_str(text, &source, opts)
+    String::from_utf8(bytes).map_err(|e| {
+        let valid = e.utf8_error().valid_up_to();
+        MeasurementError::NotUtf8 {
+            file: source,
+            line: 1 + e.as_bytes()[..valid]
+                .iter()
+                .filter(|&&b| b == b'\n')
+                .count(),
+        }
+    })
 }
 
 /// Read measurement-file text (`docs/model.md` §5). `source` names the text in errors and becomes
@@ -55,7 +68,9 @@ pub fn read_str(
         });
     };
     let mut notices = Vec::new();
-    let header = parse_header(source, header_line, header_text, opts, &mut notices)?;
+    let mut lines = lines.peekable();
+    let header = parse_header(source, header_line, header_text, opts, &mut notices)
+        .map_err(|e| with_decimal_comma(e, lines.peek().copied()))?;
 
     let mut rows = Vec::new();
     for (line, text) in lines {
@@ -247,11 +262,7 @@ fn parse_header(
             if first_missing > 0 && present[first_missing..].iter().all(|p| !p) {
                 mismatch(q)
             } else {
-                MeasurementError::MissingColumn {
-                    file: source.to_owned(),
-                    line,
-                    column: q,
-                }
+                missing_column(source, line, text, q)
             },
         );
     }
@@ -266,11 +277,7 @@ fn parse_header(
         if (required || present[g])
             && let Some(c) = have.iter().position(|p| !p)
         {
-            return Err(MeasurementError::MissingColumn {
-                file: source.to_owned(),
-                line,
-                column: group[c].to_owned(),
-            });
+            return Err(missing_column(source, line, text, group[c].to_owned()));
         }
     }
     let [has_points, has_quat, has_euler, has_sigma_mm, has_sigma_deg] = present;
@@ -328,6 +335,121 @@ fn parse_header(
     })
 }
 
+/// The error of a header without the required `column`: the separator seen when the header
+/// is not comma-separated ([`MeasurementError::Separator`]), the name in another letter case
+/// ([`MeasurementError::HeaderCase`]), else [`MeasurementError::MissingColumn`].
+fn missing_column(source: &str, line: usize, text: &str, column: String) -> MeasurementError {
+    let names = |sep: char| -> Vec<String> {
+        if sep == ' ' {
+            text.split_whitespace().map(str::to_lowercase).collect()
+        } else {
+            text.split(sep).map(|f| f.trim().to_lowercase()).collect()
+        }
+    };
+    let separator = [';', '\t', '|', ' ']
+        .into_iter()
+        .find(|&sep| text.trim().contains(sep) && names(sep).contains(&column));
+    if let Some(separator) = separator {
+        let start = text.len() - text.trim_start().len();
+        let at = text[start..].find(separator).map_or(0, |i| start + i);
+        return MeasurementError::Separator {
+            file: source.to_owned(),
+            line,
+            position: text[..at].chars().count() + 1,
+            separator,
+            decimal_comma: None,
+        };
+    }
+    let mut offset = 0;
+    for field in text.split(',') {
+        let name = field.trim();
+        if name.to_lowercase() == column {
+            let lead = field.len() - field.trim_start().len();
+            return MeasurementError::HeaderCase {
+                file: source.to_owned(),
+                line,
+                position: text[..offset + lead].chars().count() + 1,
+                found: name.to_owned(),
+                expected: column,
+            };
+        }
+        offset += field.len() + 1;
+    }
+    MeasurementError::MissingColumn {
+        file: source.to_owned(),
+        line,
+        column,
+    }
+}
+
+/// A header separated by `;` (or another non-comma), with the first data row (`row`: its
+/// line and text) writing a number with a decimal comma: the error says so as well.
+fn with_decimal_comma(e: MeasurementError, row: Option<(usize, &str)>) -> MeasurementError {
+    match (e, row) {
+        (
+            MeasurementError::Separator {
+                file,
+                line,
+                position,
+                separator,
+                decimal_comma: None,
+            },
+            Some((row_line, row_text)),
+        ) => {
+            let comma_number = |f: &str| {
+                let f = f.trim();
+                let digits = f.strip_prefix(['-', '+']).unwrap_or(f);
+                digits.split_once(',').is_some_and(|(a, b)| {
+                    !a.is_empty()
+                        && !b.is_empty()
+                        && a.bytes().all(|c| c.is_ascii_digit())
+                        && b.bytes().all(|c| c.is_ascii_digit())
+                })
+            };
+            let fields: Vec<&str> = if separator == ' ' {
+                row_text.split_whitespace().collect()
+            } else {
+                row_text.split(separator).collect()
+            };
+            MeasurementError::Separator {
+                file,
+                line,
+                position,
+                separator,
+                decimal_comma: fields
+                    .into_iter()
+                    .find(|f| comma_number(f))
+                    .map(|f| (row_line, shorten(f.trim()))),
+            }
+        }
+        (e, _) => e,
+    }
+}
+
+/// A row of `found` fields where the header has `expected` (fewer) that writes decimal
+/// commas: no `.` in the row, a comma between two digits, and two fields or more too many or
+/// a field with a leading zero (`000210`, a fraction's digits) — one field too many of plain
+/// integers is a ragged row. The comma's 1-based character column and the number it belongs
+/// to (the digits on either side).
+fn decimal_comma(text: &str, expected: usize, found: usize) -> Option<(usize, String)> {
+    let leading_zero = text.split(',').skip(1).any(|f| {
+        let f = f.trim().as_bytes();
+        f.len() > 1 && f[0] == b'0' && f[1].is_ascii_digit()
+    });
+    if text.contains('.') || !(found >= expected + 2 || leading_zero) {
+        return None;
+    }
+    let b = text.as_bytes();
+    let at = (1..b.len().saturating_sub(1))
+        .find(|&i| b[i] == b',' && b[i - 1].is_ascii_digit() && b[i + 1].is_ascii_digit())?;
+    let start = text[..at].rfind(',').map_or(0, |i| i + 1);
+    let end = text[at + 1..].find(',').map_or(text.len(), |i| at + 1 + i);
+    Some((
+        text[..at].chars().count() + 1,
+        shorten(text[start..end].trim()),
+    ))
+}
+
 fn unknown_column_notice(source: &str, line: usize, field: usize, name: &str) -> String {
     if name.is_empty() {
         return format!("{source}:{line}: ignored unnamed column (header field {field})");
@@ -350,6 +472,18 @@ fn parse_row(
     opts: &ReadOptions,
 ) -> Result<Measurement, MeasurementError> {
     let fields: Vec<&str> = text.split(',').map(str::trim).collect();
+    if fields.len() > header.names.len()
+        && let Some((position, number)) = decimal_comma(text, header.names.len(), fields.len())
+    {
+        return Err(MeasurementError::DecimalComma {
+            file: source.to_owned(),
+            line,
+            position,
+            text: number,
+            expected: header.names.len(),
+            found: fields.len(),
+        });
+    }
     if fields.len() != header.names.len() {
         return Err(MeasurementError::RaggedRow {
             file: source.to_owned(),

@@ -2,6 +2,7 @@
 //! on a 2-core machine linking dominates a cold `cargo test`). Each file is a module.
 
 mod fuzz;
+mod messages;
 mod mutate;
 mod read;
 mod write;

@@ -87,10 +87,16 @@ fn header_names_are_case_sensitive() {
     let text = "q1,q2,q3,q4,q5,q6,X,y,z\n";
     let err = read_str(text, "case.csv", &opts6()).unwrap_err();
     assert!(
-        matches!(err, MeasurementError::MissingColumn { .. }),
+        matches!(err, MeasurementError::HeaderCase { .. }),
         "{err:?}"
     );
-    assert_names(&err, "case.csv", 1, "x");
+    // The name as written, at its column, and the name expected.
+    assert!(
+        err.to_string()
+            .starts_with("case.csv:1:19: column \"X\": column names are lower-case"),
+        "{err}"
+    );
+    assert!(err.to_string().contains("write \"x\""), "{err}");
     // In the joints-only form the upper-case column is merely ignored, with a hint.
     let text = "Q1,q1,q2,q3,q4,q5,q6\n1,2,3,4,5,6,7\n";
     let set = read_str(text, "case.csv", &opts6().joints_only()).unwrap();

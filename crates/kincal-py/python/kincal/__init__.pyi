@@ -79,7 +79,9 @@ class Robot:
     def load(path: _Path) -> Robot:
         """Reads a robot file (JSON, docs/model.md §4).
 
-        Raises KincalError naming the file and the field when it cannot be read or is invalid.
+        Raises KincalError naming the file and the field when it cannot be read or is invalid,
+        including numbers that are no robot's: an angle beyond ±360° or a length beyond
+        ±100 m (``joints[0].theta_deg = 1.8446744073709552e19°``).
         """
 
     @staticmethod
@@ -288,7 +290,7 @@ def identify(
     outlier_k: float = 3.0,
     worst: int = 10,
     joint_units: Literal["deg", "rad"] = "deg",
-    length_units: Literal["mm", "m", "in"] = "mm",
+    length_units: Literal["mm", "m", "cm", "in"] = "mm",
     allow: str | Sequence[str] | None = None,
     prior: str = "auto",
 ) -> Calibration:
@@ -421,7 +423,7 @@ def identify_frames(
     outlier_k: float = 3.0,
     worst: int = 10,
     joint_units: Literal["deg", "rad"] = "deg",
-    length_units: Literal["mm", "m", "in"] = "mm",
+    length_units: Literal["mm", "m", "cm", "in"] = "mm",
     allow: str | Sequence[str] | None = None,
     prior: str = "auto",
 ) -> FrameCalibration:

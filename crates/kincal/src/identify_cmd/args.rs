@@ -97,8 +97,8 @@ pub struct IdentifyArgs {
         value_parser = library_names::<JointUnits>(JointUnits::NAMES)
     )]
     pub(crate) joint_units: JointUnits,
-    /// Units of the x, y, z columns: mm (the format's), m or in (converted to millimetres on
-    /// reading).
+    /// Units of the x, y, z columns: mm (the format's), m, cm or in (converted to
+    /// millimetres on reading).
     #[arg(
         long,
         default_value = "mm",
@@ -227,6 +227,11 @@ impl IdentifyArgs {
             _ => None,
         };
         let e = match e {
+            // The refusal's settings in the command line's words (`--length-units cm`,
+            // `--allow length-units`), not the library's keywords.
+            CalibrateError::Refused(refusal @ Refusal::Implausible { .. }) => {
+                anyhow::anyhow!(refusal.in_words(calibrate::Front::Flags))
+            }
             CalibrateError::Params { spec, source } => {
                 anyhow::Error::new(source).context(format!("--params {spec}"))
             }
