@@ -195,6 +195,8 @@ pub enum Setting {
     Allow(Check),
     /// [`IdentifyRequest::prior`], as written (`auto`).
     Prior(&'static str),
+    /// [`IdentifyRequest::fit_scale`] on.
+    FitScale,
 }
 
 /// Whose words a message uses for the request's settings ([`Setting::spelled`]).
@@ -210,11 +212,18 @@ pub enum Front {
 impl Setting {
     /// The setting as `front` writes it: `joint_units="rad"` or `--joint-units rad`.
     pub fn spelled(self, front: Front) -> String {
+        if self == Setting::FitScale {
+            return match front {
+                Front::Keywords => "fit_scale=True".into(),
+                Front::Flags => "--fit-scale".into(),
+            };
+        }
         let (field, value) = match self {
             Setting::JointUnits(u) => ("joint_units", u.name()),
             Setting::LengthUnits(u) => ("length_units", u.name()),
             Setting::Allow(c) => ("allow", c.name()),
             Setting::Prior(p) => ("prior", p),
+            Setting::FitScale => unreachable!("spelled above"),
         };
         match front {
             Front::Keywords => format!("{field}=\"{value}\""),

@@ -21,9 +21,9 @@
 
 use kinematics::{ParamKind, Robot};
 
-use crate::checks::refuse;
+use crate::checks::refuse_with;
 use crate::error::Refusal;
-use crate::request::Check;
+use crate::request::{Check, Setting};
 
 /// Shortest length of the robot file that carries scale evidence, mm [100: a link offset of
 /// a few tens of millimetres moves by manufacturing errors as much as by a percent of
@@ -147,7 +147,7 @@ pub fn check(
     identifiable: &[usize],
 ) -> Result<(), Refusal> {
     match common_scale(start, identified, identifiable) {
-        Some(e) if e.significant() => Err(refuse(
+        Some(e) if e.significant() => Err(refuse_with(
             Check::Scale,
             format!(
                 "{source}: every identified length moved in proportion to itself — {} — as \
@@ -161,7 +161,8 @@ pub fn check(
             ),
             "check the points' unit and the tracker's scale and temperature compensation \
              (air temperature, pressure, material expansion), or identify the factor as a \
-             parameter of the measurement (--fit-scale)",
+             parameter of the measurement",
+            Some(Setting::FitScale),
         )),
         _ => Ok(()),
     }

@@ -73,7 +73,7 @@ fn a_scaled_tracker_is_refused_and_fit_scale_identifies_the_factor() {
         assert_eq!(*check, Check::Scale, "×{s}: {err}");
         let text = err.to_string();
         assert!(
-            text.contains("scaled by") && text.contains("--fit-scale") && text.contains("a2"),
+            text.contains("scaled by") && text.contains("fit_scale=True") && text.contains("a2"),
             "{text}"
         );
         eprintln!("×{s}: {text}");
