@@ -38,9 +38,9 @@ pub use joints::{
     compensate_targets, predict,
 };
 pub use memory::compensate_set;
-pub use pipeline::{MAX_REJECTION_PASSES, MeasurementKind};
+pub use pipeline::{MAX_CONCENTRATION_STEPS, MAX_REJECTION_PASSES, MeasurementKind, RobustScreen};
 pub use prior::PriorSpec;
-pub use request::{Check, IdentifyRequest, JointUnits, LengthUnits, Split, Weighting};
+pub use request::{Check, IdentifyRequest, JointUnits, LengthUnits, OutlierMode, Split, Weighting};
 pub use tool_frame::ToolFrameCalibration;
 pub use tool_offset::TOOL_REGISTRATION_MM;
 pub use workflow::{

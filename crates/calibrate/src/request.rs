@@ -64,8 +64,14 @@ pub struct IdentifyRequest {
     /// above 10 mm of mean point error: geometric errors are millimetres, a tracker frame is
     /// metres away\].
     pub registration: RegistrationPolicy,
-    /// Drop the outliers found after the first fit and refit \[no: only reported\].
+    /// Drop every flagged unit (beyond k·σ̂₃), not only the gross errors, and refit \[no:
+    /// the default drops the gross errors alone, beyond [`identify::outliers::GROSS_K`]·σ̂₃
+    /// of a robust screen, and lists the others; `docs/calibrating-real-data.md`, "Robust
+    /// screening"\].
     pub reject_outliers: bool,
+    /// Keep every unit, gross errors included: the screen only lists them (the behaviour
+    /// before robust screening) \[no\]. Not with [`IdentifyRequest::reject_outliers`].
+    pub keep_outliers: bool,
     /// Outlier threshold k: ‖residual‖ > k·σ̂₃ \[3: fewer than one Gaussian point in 10⁵\].
     pub outlier_k: f64,
     /// Worst points listed in the report, per data set \[10\].
@@ -228,7 +234,43 @@ impl std::str::FromStr for Check {
     }
 }
 
+/// What the outlier screen drops ([`IdentifyRequest::outlier_mode`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum OutlierMode {
+    /// Nothing: flagged units are listed ([`IdentifyRequest::keep_outliers`]).
+    Keep,
+    /// The gross errors, beyond `max(G, k)`·σ̂ of the robust screen (the default).
+    Gross,
+    /// Every flagged unit, beyond k·σ̂ ([`IdentifyRequest::reject_outliers`]).
+    Flagged,
+}
+
+impl OutlierMode {
+    /// The factor of the rejection cut for outlier factor `k`: `None` (keep), `max(G, k)`
+    /// (gross) or `k` (flagged).
+    pub fn cut(self, k: f64) -> Option<f64> {
+        match self {
+            OutlierMode::Keep => None,
+            OutlierMode::Gross => Some(identify::outliers::GROSS_K.max(k)),
+            OutlierMode::Flagged => Some(k),
+        }
+    }
+}
+
 impl IdentifyRequest {
+    /// What the outlier screen drops: [`OutlierMode::Keep`] with `keep_outliers`,
+    /// [`OutlierMode::Flagged`] with `reject_outliers`, else [`OutlierMode::Gross`] (both set
+    /// is refused by the request check).
+    pub fn outlier_mode(&self) -> OutlierMode {
+        if self.keep_outliers {
+            OutlierMode::Keep
+        } else if self.reject_outliers {
+            OutlierMode::Flagged
+        } else {
+            OutlierMode::Gross
+        }
+    }
+
     /// A request with every option at its default.
     pub fn new(robot: impl Into<PathBuf>, data: impl Into<PathBuf>) -> Self {
         IdentifyRequest {
@@ -241,6 +283,7 @@ impl IdentifyRequest {
             redundant: Redundant::default(),
             registration: RegistrationPolicy::default(),
             reject_outliers: false,
+            keep_outliers: false,
             outlier_k: 3.0,
             worst: 10,
             joint_units: JointUnits::Deg,

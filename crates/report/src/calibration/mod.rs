@@ -53,6 +53,64 @@ pub fn render(cal: &Calibration) -> Result<Vec<(String, String)>, PlotError> {
     }
 }
 
+/// What became of the flagged units (indices ascending) given the units `excluded`: `kept
+/// (--reject-outliers to exclude)`, `all` (every one excluded: the kind's words, with the
+/// refit), or how many were excluded as gross errors and how many kept.
+fn outlier_status(flagged: &[usize], excluded: &[usize], unit: &str, all: String) -> String {
+    let gross = flagged
+        .iter()
+        .filter(|i| excluded.binary_search(i).is_ok())
+        .count();
+    if excluded.is_empty() {
+        "kept (--reject-outliers to exclude)".to_string()
+    } else if gross == flagged.len() {
+        all
+    } else {
+        format!(
+            "{gross} excluded as gross errors (robust screen), {}; the other {} {unit}{} kept \
+             (--reject-outliers to exclude)",
+            all.trim_start_matches("excluded, "),
+            flagged.len() - gross,
+            if flagged.len() - gross == 1 { "" } else { "s" }
+        )
+    }
+}
+
+/// The robust screen in one sentence (console and report): the trimmed fit, the robust and
+/// the classical scale (`scale_unit`), and the units excluded with their `labels` (up to
+/// 10).
+fn robust_sentence(
+    r: &calibrate::RobustScreen,
+    unit: &str,
+    scale_unit: &str,
+    labels: &[String],
+) -> String {
+    use crate::fmt::mm;
+    let excluded = if r.excluded.is_empty() {
+        format!("no {unit} beyond the cut")
+    } else {
+        format!(
+            "excluded {} of {} {unit}s: {}{}",
+            r.excluded.len(),
+            r.units,
+            labels[..labels.len().min(10)].join(", "),
+            if labels.len() > 10 { ", …" } else { "" }
+        )
+    };
+    format!(
+        "robust screen: least trimmed squares on {} of {} {unit}s (from the {}, {} \
+         concentration step{}), robust σ̃ {} {scale_unit} (first fit σ̂ {}); cut {}·√d·σ: {excluded}",
+        r.h,
+        r.units,
+        r.start,
+        r.steps,
+        if r.steps == 1 { "" } else { "s" },
+        mm(r.sigma_robust_row),
+        mm(r.sigma_first_row),
+        r.cut_k,
+    )
+}
+
 /// The console summary of `cal`, of any kind.
 pub fn summary(cal: &Calibration) -> String {
     match cal {

@@ -116,6 +116,7 @@ pub fn summary(c: &ToolFrameCalibration) -> String {
             c.held.join(", ")
         );
     }
+    let excluded = c.robust.as_ref().map_or_else(Vec::new, |r| r.excluded.clone());
     if let Some(sc) = &c.screen {
         let ol = c.outlier_poses();
         let rule = format!(
@@ -145,13 +146,28 @@ pub fn summary(c: &ToolFrameCalibration) -> String {
                 if ol.len() == 1 { "" } else { "s" },
                 list.join(", "),
                 if ol.len() > 10 { ", …" } else { "" },
-                if c.rejected {
-                    "dropped and refitted"
-                } else {
-                    "kept (--reject-outliers to exclude)"
-                }
+                super::outlier_status(
+                    &sc.indices(),
+                    &excluded,
+                    "pose",
+                    "dropped and refitted".to_string()
+                )
             );
         }
+    }
+    if let Some(r) = &c.robust
+        && c.rejected
+    {
+        let labels: Vec<String> = r
+            .excluded
+            .iter()
+            .map(|&i| format!("line {}", c.screened_lines[i]))
+            .collect();
+        let _ = writeln!(
+            out,
+            "{}",
+            super::robust_sentence(r, "pose", "(weighted rows)", &labels)
+        );
     }
     if let Some((source, before, after)) = &c.validation {
         let _ = writeln!(
