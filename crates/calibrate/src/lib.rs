@@ -16,6 +16,7 @@
 //! column or request field at fault. The formats are those of `docs/model.md`.
 
 pub mod checks;
+pub mod contamination;
 mod error;
 pub mod excitation;
 mod files;
