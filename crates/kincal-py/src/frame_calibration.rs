@@ -66,7 +66,7 @@ fn frame_set(
 #[pyo3(signature = (
     robot, q_deg, points_mm, *, orientations_wxyz = None, targets = None, pose_ids = None,
     orientation_weight = None, params = None, validate = None, reject_outliers = false,
-    every = None, offset = 0, select = None, criterion = "d", schedule = "levenberg",
+    keep_outliers = false, every = None, offset = 0, select = None, criterion = "d", schedule = "levenberg",
     redundant = "hold", registration = "auto", outlier_k = 3.0, worst = 10,
     joint_units = "deg", length_units = "mm", allow = None, prior = "auto"
 ))]
@@ -83,6 +83,7 @@ fn py_identify_frames<'py>(
     params: Option<Bound<'py, PyAny>>,
     validate: Option<Bound<'py, PyTuple>>,
     reject_outliers: bool,
+    keep_outliers: bool,
     every: Option<usize>,
     offset: usize,
     select: Option<usize>,
@@ -172,6 +173,7 @@ fn py_identify_frames<'py>(
         Shared {
             params,
             reject_outliers,
+            keep_outliers,
             every,
             offset,
             select,
@@ -320,8 +322,8 @@ impl PyFrameCalibration {
 
     /// The poses the outlier screen flagged (largest ratio first), as records `{"row",
     /// "ratio", "position_mm", "orientation_deg"}`: `row` the 0-based index of the pose's
-    /// first row in the arrays given; excluded from the final fit with
-    /// `reject_outliers=True`.
+    /// first row in the arrays given; the gross ones are excluded from the final fit by
+    /// default, all with `reject_outliers=True`, none with `keep_outliers=True`.
     #[getter]
     fn outliers<'py>(&self, py: Python<'py>) -> PyResult<Vec<Bound<'py, PyDict>>> {
         self.tool()
