@@ -27,8 +27,15 @@ fn outcome(
     match run(request, inputs) {
         Ok(Calibration::Points(c)) => {
             let v = c.validation.as_ref().expect("the other rows validate");
-            let excluded = c.robust.as_ref().map_or_else(Vec::new, |r| r.excluded.clone());
-            Ok((v.table.after.norm.mean_mm, v.table.after.norm.max_mm, excluded))
+            let excluded = c
+                .robust
+                .as_ref()
+                .map_or_else(Vec::new, |r| r.excluded.clone());
+            Ok((
+                v.table.after.norm.mean_mm,
+                v.table.after.norm.max_mm,
+                excluded,
+            ))
         }
         Ok(_) => Err(("kind".into(), "not a point calibration".into())),
         Err(CalibrateError::Refused(Refusal::Implausible {
@@ -91,7 +98,10 @@ fn main() {
                     format!("{} ({found}) | {mean:.3} / {max:.3}", excluded.len())
                 }
                 Err((_, evidence)) => {
-                    format!("refused: {} | —", evidence.split(" — ").next().unwrap_or(&evidence))
+                    format!(
+                        "refused: {} | —",
+                        evidence.split(" — ").next().unwrap_or(&evidence)
+                    )
                 }
             };
             let kept = match outcome(&keep, kept_inputs) {

@@ -325,8 +325,7 @@ pub(crate) trait Kind {
     fn pass(&self, data: &Self::Data) -> Result<Self::Pass>;
     /// The outlier screen at factor `k` of every unit of `data` after the fit of `pass`
     /// (`None` without residual degrees of freedom).
-    fn screen(&self, pass: &Self::Pass, data: &Self::Data, k: f64)
-    -> Result<Option<Self::Screen>>;
+    fn screen(&self, pass: &Self::Pass, data: &Self::Data, k: f64) -> Result<Option<Self::Screen>>;
     /// Every unit's block `(norm of its residual rows, rows)` at the fit of `pass` (the units
     /// of [`identify::outliers::screen_blocks`]).
     fn norms(&self, pass: &Self::Pass, data: &Self::Data) -> Vec<(f64, usize)>;
@@ -420,6 +419,9 @@ pub(crate) struct Outcome<K: Kind> {
     pub validation: Option<K::Validation>,
 }
 
+/// Every unit's block `(norm, rows)` at one fit.
+type Blocks = Vec<(f64, usize)>;
+
 /// The units of `0..n` not in `drop` (ascending).
 fn complement(n: usize, drop: &[usize]) -> Vec<usize> {
     (0..n).filter(|i| drop.binary_search(i).is_err()).collect()
@@ -435,15 +437,18 @@ fn trimmed_start<K: Kind>(
     kind: &K,
     id: &K::Data,
     first: &K::Pass,
-) -> Result<Option<(K::Pass, Vec<(f64, usize)>, RobustScreen)>> {
+) -> Result<Option<(Blocks, RobustScreen)>> {
     use identify::outliers::{smallest, trimmed_cost};
     let n = kind.units(id);
     let h = n / 2 + 1;
     let starts = [
-        ("registered nominal".to_string(), kind.start_norms(first, id)),
+        (
+            "registered nominal".to_string(),
+            kind.start_norms(first, id),
+        ),
         (format!("fit on every {}", K::UNIT), kind.norms(first, id)),
     ];
-    let mut best: Option<(f64, K::Pass, Vec<(f64, usize)>, String, usize)> = None;
+    let mut best: Option<(f64, Blocks, String, usize)> = None;
     let mut tried: Vec<Vec<usize>> = Vec::new();
     for (name, norms0) in starts {
         let mut sel = smallest(&norms0, h);
@@ -478,10 +483,10 @@ fn trimmed_start<K: Kind>(
         }
         let cost = trimmed_cost(&norms, &smallest(&norms, h));
         if best.as_ref().is_none_or(|b| cost < b.0) {
-            best = Some((cost, pass, norms, name, steps));
+            best = Some((cost, norms, name, steps));
         }
     }
-    Ok(best.map(|(_, pass, norms, start, steps)| {
+    Ok(best.map(|(_, norms, start, steps)| {
         let robust = RobustScreen {
             units: n,
             h,
@@ -492,7 +497,7 @@ fn trimmed_start<K: Kind>(
             cut_k: f64::NAN,
             excluded: Vec::new(),
         };
-        (pass, norms, robust)
+        (norms, robust)
     }))
 }
 
@@ -525,7 +530,7 @@ pub(crate) fn fit_and_check<K: Kind>(
     if let Some(cut) = cut
         && K::sigma_row(&first).is_some()
     {
-        if let Some((_, norms, mut r)) = trimmed_start(kind, id, &first)? {
+        if let Some((norms, mut r)) = trimmed_start(kind, id, &first)? {
             r.cut_k = cut;
             let start: Vec<usize> = norms
                 .iter()

@@ -251,12 +251,12 @@ fn gamma_p_half(two_a: usize, x: f64) -> f64 {
     }
     let a = two_a as f64 / 2.0;
     // ln Γ(a + 1) for a half-integer a, by Γ(z + 1) = z Γ(z) from Γ(1) = 1 or Γ(1/2) = √π.
-    let mut ln_gamma = if two_a % 2 == 0 {
+    let mut ln_gamma = if two_a.is_multiple_of(2) {
         0.0
     } else {
         std::f64::consts::PI.sqrt().ln()
     };
-    let mut z = if two_a % 2 == 0 { 1.0 } else { 0.5 };
+    let mut z = if two_a.is_multiple_of(2) { 1.0 } else { 0.5 };
     while z < a + 1.0 - 0.25 {
         ln_gamma += z.ln();
         z += 1.0;

@@ -326,7 +326,11 @@ fn three_targets_per_pose_and_a_flagged_pose() {
     }
     let file = tmp.path().join("targets.csv");
     std::fs::write(&file, &csv).unwrap();
-    let out = ok(&identify(s(&file), &tmp.path().join("t"), &["--keep-outliers"]));
+    let out = ok(&identify(
+        s(&file),
+        &tmp.path().join("t"),
+        &["--keep-outliers"],
+    ));
     assert!(out.contains("3 targets per pose: all 40 poses"), "{out}");
     assert!(
         out.contains("targets started from the closed-form estimate"),

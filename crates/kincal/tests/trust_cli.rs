@@ -135,7 +135,10 @@ fn a_q2_minus_zero_row_registers_on_evidence_and_compensates_its_own_outputs() {
     assert_refused(&identify(&bad, &["--keep-outliers"], &dir), &dir, "--allow");
     let dir = tmp.path().join("screened");
     let screened = ok(&identify(&bad, &[], &dir));
-    assert!(screened.contains("robust screen: ") && screened.contains("I027"), "{screened}");
+    assert!(
+        screened.contains("robust screen: ") && screened.contains("I027"),
+        "{screened}"
+    );
     let dir = tmp.path().join("forced");
     let out = identify(
         &bad,

@@ -2,7 +2,7 @@
 
 use std::fmt::Write as _;
 
-use calibrate::{PointCalibration, mean_max, norms, row_label};
+use calibrate::{PointCalibration, mean_max, norms};
 use evaluate::{AxisStats, ErrorStats, Table4, improvement_pct};
 use identify::RegistrationPolicy;
 use measurements::Measurement;
@@ -380,25 +380,19 @@ pub fn markdown(o: &PointCalibration) -> String {
                 mm(sc.threshold_mm),
                 mm(o.first.rms_mm)
             );
-            match &o.robust {
-                Some(r) => {
-                    let labels: Vec<String> = r
-                        .excluded
-                        .iter()
-                        .map(|&i| row_label(&o.screened_rows[i]))
-                        .collect();
-                    let _ = writeln!(
-                        s,
-                        "\n{}.",
-                        super::robust_sentence(r, "row", "mm/axis", &labels)
-                    );
+            match super::robust_points(o) {
+                Some(sentence) => {
+                    let _ = writeln!(s, "\n{sentence}.");
                 }
                 None => s.push_str("\nRobust screen off (`--keep-outliers`): every row kept.\n"),
             }
             if sc.outliers.is_empty() {
                 s.push_str("\nNone.\n");
             } else {
-                let excluded = o.robust.as_ref().map_or_else(Vec::new, |r| r.excluded.clone());
+                let excluded = o
+                    .robust
+                    .as_ref()
+                    .map_or_else(Vec::new, |r| r.excluded.clone());
                 let _ = writeln!(
                     s,
                     "\n{} point(s) — {}:\n",

@@ -111,6 +111,17 @@ fn robust_sentence(
     )
 }
 
+/// [`robust_sentence`] of a point calibration's robust screen, its rows labelled.
+fn robust_points(o: &PointCalibration) -> Option<String> {
+    let r = o.robust.as_ref()?;
+    let labels: Vec<String> = r
+        .excluded
+        .iter()
+        .map(|&i| calibrate::row_label(&o.screened_rows[i]))
+        .collect();
+    Some(robust_sentence(r, "row", "mm/axis", &labels))
+}
+
 /// The console summary of `cal`, of any kind.
 pub fn summary(cal: &Calibration) -> String {
     match cal {

@@ -74,7 +74,10 @@ pub fn summary(o: &PointCalibration) -> String {
         );
     }
     // k as given (`{}`: the shortest text that reads back as the value).
-    let excluded = o.robust.as_ref().map_or_else(Vec::new, |r| r.excluded.clone());
+    let excluded = o
+        .robust
+        .as_ref()
+        .map_or_else(Vec::new, |r| r.excluded.clone());
     if let Some(sc) = &o.screen {
         if sc.outliers.is_empty() {
             let _ = writeln!(
@@ -117,19 +120,10 @@ pub fn summary(o: &PointCalibration) -> String {
             );
         }
     }
-    if let Some(r) = &o.robust
-        && o.rejected
+    if o.rejected
+        && let Some(sentence) = super::robust_points(o)
     {
-        let labels: Vec<String> = r
-            .excluded
-            .iter()
-            .map(|&i| row_label(&o.screened_rows[i]))
-            .collect();
-        let _ = writeln!(
-            out,
-            "{}",
-            super::robust_sentence(r, "row", "mm/axis", &labels)
-        );
+        let _ = writeln!(out, "{sentence}");
     }
     if let Some(v) = &o.validation {
         let (b, af) = (&v.table.before.norm, &v.table.after.norm);

@@ -116,7 +116,10 @@ pub fn summary(c: &ToolFrameCalibration) -> String {
             c.held.join(", ")
         );
     }
-    let excluded = c.robust.as_ref().map_or_else(Vec::new, |r| r.excluded.clone());
+    let excluded = c
+        .robust
+        .as_ref()
+        .map_or_else(Vec::new, |r| r.excluded.clone());
     if let Some(sc) = &c.screen {
         let ol = c.outlier_poses();
         let rule = format!(
