@@ -101,6 +101,7 @@ fn six_dof_identify_writes_the_files_of_point_identify() {
         "error-cdf.svg",
         "residuals-per-axis.svg",
         "outliers.svg",
+        "outliers.csv",
     ] {
         assert!(pts.contains(f), "{f} not in {pts:?}");
     }

@@ -11,6 +11,7 @@
 //! | [`PARAMETERS_FILE`] | the parameter table | [`parameters_json`] |
 //! | [`REPORT_FILE`] | the report | [`markdown`] |
 //! | [`REPORT_HTML_FILE`] | the report with its plots inline | [`plots::identify_page`] |
+//! | [`OUTLIERS_FILE`] | the flagged units, excluded or kept | [`outliers_csv`] |
 //! | [`plots::IDENTIFY_PLOT_FILES`] | the plots, as SVG | [`plots::identify_plots`] |
 //!
 //! Numbers follow [`crate::fmt`]. Where today's files print a signed value with Rust's own
@@ -37,12 +38,46 @@ pub const PARAMETERS_FILE: &str = "parameters.json";
 pub const REPORT_FILE: &str = "report.md";
 /// The report as a self-contained HTML page with the plots inline.
 pub const REPORT_HTML_FILE: &str = "report.html";
+/// The outlier list: every unit the screen flagged, excluded or kept ([`outliers_csv`]).
+pub const OUTLIERS_FILE: &str = "outliers.csv";
+
+/// One flagged unit of [`OUTLIERS_FILE`].
+pub struct OutlierRow {
+    /// Its file line (a pose's first row).
+    pub line: usize,
+    /// Its id (empty without one).
+    pub id: String,
+    /// Its largest 3-D position error at the final model, mm.
+    pub residual_mm: f64,
+    /// Its residual over the screen's scale (`‖e‖/σ̂₃`, or `‖e‖/(√d·σ̂)` for a pose).
+    pub ratio: f64,
+    /// Whether it was excluded from the final fit.
+    pub excluded: bool,
+}
+
+/// [`OUTLIERS_FILE`]: a header `line,id,residual_mm,ratio,status` and one row per flagged unit
+/// (status `excluded` or `kept`), in the screen's order (largest first); the header alone
+/// when nothing was flagged.
+pub fn outliers_csv(rows: &[OutlierRow]) -> String {
+    let mut out = String::from("line,id,residual_mm,ratio,status\n");
+    for r in rows {
+        out.push_str(&format!(
+            "{},{},{},{},{}\n",
+            r.line,
+            r.id,
+            crate::fmt::mm(r.residual_mm),
+            crate::fmt::ratio(r.ratio),
+            if r.excluded { "excluded" } else { "kept" }
+        ));
+    }
+    out
+}
 
 /// Renders the output files of `cal`, of any kind, in memory, as `(file name, contents)` in
 /// writing order: [`ROBOT_FILE`], [`REGISTERED_FILE`], [`PARAMETERS_FILE`], [`REPORT_FILE`],
 /// [`REPORT_HTML_FILE`], then the plots ([`plots::IDENTIFY_PLOT_FILES`], and
-/// [`tool_frame::ORIENTATION_CDF_FILE`] where orientation was measured). The caller writes
-/// them (all or nothing).
+/// [`tool_frame::ORIENTATION_CDF_FILE`] where orientation was measured), then
+/// [`OUTLIERS_FILE`]. The caller writes them (all or nothing).
 ///
 /// # Errors
 /// [`PlotError`] when an error is not finite (nothing can be drawn).
@@ -151,7 +186,8 @@ pub mod points {
     use calibrate::{PointCalibration, file_name, row_label};
 
     use super::{
-        PARAMETERS_FILE, REGISTERED_FILE, REPORT_FILE, REPORT_HTML_FILE, ROBOT_FILE, plots,
+        OUTLIERS_FILE, OutlierRow, PARAMETERS_FILE, REGISTERED_FILE, REPORT_FILE, REPORT_HTML_FILE,
+        ROBOT_FILE, outliers_csv, plots,
     };
     use crate::plot::PlotError;
 
@@ -207,6 +243,26 @@ pub mod points {
             (REPORT_HTML_FILE.to_string(), html),
         ];
         files.extend(plots);
+        let excluded = cal
+            .robust
+            .as_ref()
+            .map_or(&[][..], |r| r.excluded.as_slice());
+        let rows: Vec<OutlierRow> = cal.screen.as_ref().map_or_else(Vec::new, |sc| {
+            sc.outliers
+                .iter()
+                .map(|o| {
+                    let r = &cal.screened_rows[o.index];
+                    OutlierRow {
+                        line: r.line,
+                        id: r.id.clone().unwrap_or_default(),
+                        residual_mm: o.norm_mm,
+                        ratio: o.ratio,
+                        excluded: excluded.binary_search(&o.index).is_ok(),
+                    }
+                })
+                .collect()
+        });
+        files.push((OUTLIERS_FILE.to_string(), outliers_csv(&rows)));
         Ok(files)
     }
 }

@@ -428,5 +428,18 @@ pub fn render(c: &ToolFrameCalibration) -> Result<Vec<(String, String)>, PlotErr
         (REPORT_HTML_FILE.to_string(), html),
     ];
     files.extend(pics);
+    let excluded = c.robust.as_ref().map_or(&[][..], |r| r.excluded.as_slice());
+    let rows: Vec<super::OutlierRow> = c
+        .outlier_poses()
+        .iter()
+        .map(|o| super::OutlierRow {
+            line: o.line,
+            id: String::new(),
+            residual_mm: o.position_mm,
+            ratio: o.ratio,
+            excluded: excluded.binary_search(&o.pose).is_ok(),
+        })
+        .collect();
+    files.push((super::OUTLIERS_FILE.to_string(), super::outliers_csv(&rows)));
     Ok(files)
 }
