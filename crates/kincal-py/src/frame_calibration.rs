@@ -321,13 +321,18 @@ impl PyFrameCalibration {
     }
 
     /// The poses the outlier screen flagged (largest ratio first), as records `{"row",
-    /// "ratio", "position_mm", "orientation_deg"}`: `row` the 0-based index of the pose's
-    /// first row in the arrays given; the gross ones are excluded from the final fit by
-    /// default, all with `reject_outliers=True`, none with `keep_outliers=True`.
+    /// "ratio", "position_mm", "orientation_deg", "excluded"}`: `row` the 0-based index of
+    /// the pose's first row in the arrays given; `excluded` whether it was dropped from the
+    /// final fit (the gross ones by default, all with `reject_outliers=True`, none with
+    /// `keep_outliers=True`).
     #[getter]
     fn outliers<'py>(&self, py: Python<'py>) -> PyResult<Vec<Bound<'py, PyDict>>> {
-        self.tool()
-            .outlier_poses()
+        let cal = self.tool();
+        let excluded = cal
+            .robust
+            .as_ref()
+            .map_or(&[][..], |r| r.excluded.as_slice());
+        cal.outlier_poses()
             .iter()
             .map(|o| {
                 let d = PyDict::new(py);
@@ -335,6 +340,7 @@ impl PyFrameCalibration {
                 d.set_item("ratio", o.ratio)?;
                 d.set_item("position_mm", o.position_mm)?;
                 d.set_item("orientation_deg", o.orientation_deg)?;
+                d.set_item("excluded", excluded.binary_search(&o.pose).is_ok())?;
                 Ok(d)
             })
             .collect()

@@ -557,9 +557,15 @@ fn outliers_are_reported_and_gross_ones_excluded_by_default() {
     let mut lines = csv.lines();
     assert_eq!(lines.next(), Some("line,id,residual_mm,ratio,status"));
     let row = lines.next().unwrap();
-    assert!(row.starts_with("20,I017,") && row.ends_with(",excluded"), "{csv}");
+    assert!(
+        row.starts_with("20,I017,") && row.ends_with(",excluded"),
+        "{csv}"
+    );
     let kept_csv = std::fs::read_to_string(tmp.path().join("kept/outliers.csv")).unwrap();
-    assert!(kept_csv.lines().nth(1).unwrap().ends_with(",kept"), "{kept_csv}");
+    assert!(
+        kept_csv.lines().nth(1).unwrap().ends_with(",kept"),
+        "{kept_csv}"
+    );
     let (all_out, _, all_rows) = run(&["--reject-outliers"], "all");
     assert_eq!(all_rows, 49);
     assert_eq!(

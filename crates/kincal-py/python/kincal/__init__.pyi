@@ -358,6 +358,8 @@ class FrameOutlier(TypedDict):
     ratio: float
     position_mm: float
     orientation_deg: float | None
+    excluded: bool
+    """Whether the pose was dropped from the final fit (a gross error by default)."""
 
 @final
 class FrameCalibration:

@@ -134,7 +134,8 @@ fn robust_sentence(
     };
     format!(
         "robust screen: least trimmed squares on {} of {} {unit}s (from the {}, {} \
-         concentration step{}), robust σ̃ {} {scale_unit} (first fit σ̂ {}); cut {}·√d·σ: {excluded}",
+         concentration step{}), robust σ̃ {} {scale_unit} (first fit σ̂ {}); cut {}·√d·σ (σ̃, \
+         then σ̂ of the {unit}s kept): {excluded}",
         r.h,
         r.units,
         r.start,
