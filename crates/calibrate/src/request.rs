@@ -191,7 +191,9 @@ pub enum Check {
     Parameters,
     /// Validation worse after calibration than before.
     Validation,
-    /// An outlier threshold that rejects too much, or a k below the minimum.
+    /// A k below the minimum, a rejection of more than 35 % of the units, or units kept whose
+    /// classical scale exceeds twice their robust one (`docs/calibrating-real-data.md`,
+    /// "Robust screening").
     Outliers,
 }
 
