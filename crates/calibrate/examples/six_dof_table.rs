@@ -15,20 +15,12 @@
 //! 5 mm per degree).
 
 use calibrate::Weighting;
+use calibrate::contamination::next;
 use calibrate::tool_frame::{frame_data, start_model};
 use identify::frames::{FrameData, FrameModel, FrameRow, fit_frames, select_free};
 use kinematics::Robot;
 use measurements::{ReadOptions, read_file};
 use nalgebra::Vector3;
-
-/// splitmix64: the draws, reproducible without a dependency.
-fn next(state: &mut u64) -> u64 {
-    *state = state.wrapping_add(0x9E37_79B9_7F4A_7C15);
-    let mut z = *state;
-    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-    z ^ (z >> 31)
-}
 
 /// `n` distinct poses of `m` (partial Fisher–Yates), ascending.
 fn draw(m: usize, n: usize, seed: u64) -> Vec<usize> {

@@ -18,10 +18,20 @@ use measurements::number;
 /// gross errors (k = 0.5 flags 80 % of it)].
 pub const MIN_OUTLIER_K: f64 = 2.0;
 
-/// Largest share of the identification rows outliers may remove [0.1: gross errors (beam
-/// breaks, wrong targets) are a few rows of a recording; more means the threshold is too
-/// tight or the model is wrong, and dropping them would hide it].
-pub const MAX_REJECTED_FRACTION: f64 = 0.1;
+/// Largest share of the identification units (rows, or poses) outlier rejection may remove
+/// [0.35: the robust screen separates gross errors up to its breakdown point (50 % for the
+/// least-trimmed-squares start on half the units and the median scale; `identify::outliers`),
+/// and finds every one of 30 % gross errors on the UR10 example; beyond a third of a
+/// recording being wrong, the recording (units, frame, robot, a loose target) is suspect
+/// rather than a few readings, and the rows left may be the wrong "majority"].
+pub const MAX_REJECTED_FRACTION: f64 = 0.35;
+
+/// Largest ratio of the classical per-row scale σ̂ of the final fit (on the units kept) to its
+/// robust scale σ̃ (median of the scaled norms of the same units) [2: on clean Gaussian
+/// residuals the two agree within a few per cent (σ̂ carries the degrees-of-freedom
+/// correction, σ̃ not: ≈ 1.05 on the UR10 example); a ratio of 2 means that the units kept
+/// still hold errors far outside their noise, which the screen could not separate].
+pub const MAX_SCALE_RATIO: f64 = 2.0;
 
 /// Measured spread over the nominal spread accepted, `[1/1.25, 1.25]` [geometric errors of a
 /// real robot are millimetres on a workspace of hundreds: a spread off by 25 % is a unit
@@ -422,22 +432,52 @@ pub fn outlier_k(request: &IdentifyRequest) -> Result<(), Refusal> {
     Ok(())
 }
 
-/// Outliers: rejection removing more than [`MAX_REJECTED_FRACTION`] of the rows.
+/// Outliers: rejection removing more than [`MAX_REJECTED_FRACTION`] of the units.
 pub fn rejected_fraction(
     source: &str,
     rejected: usize,
-    rows: usize,
-    k: f64,
+    (units, unit): (usize, &str),
+    cut: f64,
 ) -> Result<(), Refusal> {
-    if rejected as f64 > MAX_REJECTED_FRACTION * rows as f64 {
-        return Err(refuse(
+    if rejected as f64 > MAX_REJECTED_FRACTION * units as f64 {
+        return Err(refuse_with(
             Check::Outliers,
             format!(
-                "{source}: the outlier screen at k = {k} rejects {rejected} of {rows} rows, more \
-                 than {:.0} %",
+                "{source}: the robust outlier screen (cut {cut} σ̂) rejects {rejected} of {units} \
+                 {unit}s, more than {:.0} % — beyond what it can separate from good data (its \
+                 breakdown point is 50 %); this many wrong {unit}s mean wrong units, frame, \
+                 robot or target, not a few bad readings",
                 100.0 * MAX_REJECTED_FRACTION
             ),
-            "raise outlier_k or keep the outliers; many outliers mean a wrong model or data",
+            "check the data; keep every row to see the fit on all of them",
+            Some(Setting::On("keep_outliers")),
+        ));
+    }
+    Ok(())
+}
+
+/// Outliers: after screening, the classical scale `sigma_row` of the final fit more than
+/// [`MAX_SCALE_RATIO`] times the robust scale `robust_row` of the same units (not checked
+/// below 1 nm: an exact fit).
+pub fn scale_agreement(
+    source: &str,
+    sigma_row: f64,
+    robust_row: f64,
+    unit: &str,
+) -> Result<(), Refusal> {
+    if sigma_row > identify::outliers::MIN_THRESHOLD_MM && sigma_row > MAX_SCALE_RATIO * robust_row
+    {
+        return Err(refuse_with(
+            Check::Outliers,
+            format!(
+                "{source}: after the robust outlier screen the {unit}s kept still disagree: \
+                 their classical scale σ̂ = {sigma_row:.4} is {:.1} × their robust scale σ̃ = \
+                 {robust_row:.4} (more than {MAX_SCALE_RATIO}) — many errors the screen cannot \
+                 separate from good data",
+                sigma_row / robust_row.max(f64::MIN_POSITIVE)
+            ),
+            "check the data; keep every row to see the fit on all of them",
+            Some(Setting::On("keep_outliers")),
         ));
     }
     Ok(())

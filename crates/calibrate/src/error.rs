@@ -136,6 +136,13 @@ pub enum Refusal {
     /// [`crate::IdentifyRequest::outlier_k`] is not a finite number > 0.
     #[error("outlier_k = {0}: must be a finite number > 0")]
     OutlierK(f64),
+    /// Both [`crate::IdentifyRequest::keep_outliers`] and
+    /// [`crate::IdentifyRequest::reject_outliers`].
+    #[error(
+        "keep_outliers and reject_outliers: give one (keep every row, or drop every flagged \
+         one; without either the gross errors are dropped)"
+    )]
+    KeepAndRejectOutliers,
     /// The threshold of an automatic registration is not a finite number ≥ 0.
     #[error("registration threshold_mm = {0}: must be a finite number ≥ 0")]
     RegistrationThreshold(f64),
@@ -209,8 +216,8 @@ pub enum Refusal {
     /// rows for the free parameters.
     #[error(
         "{file}: {outliers} of {rows} rows are outliers; the {kept} left are too few for \
-         {free} free parameters (3 equations per row) — keep the outliers (reject_outliers = \
-         false)"
+         {free} free parameters (3 equations per row) — keep the outliers (keep_outliers = \
+         true)"
     )]
     TooManyOutliers {
         /// The data file.

@@ -16,6 +16,7 @@
 //! column or request field at fault. The formats are those of `docs/model.md`.
 
 pub mod checks;
+pub mod contamination;
 mod error;
 pub mod excitation;
 mod files;
@@ -40,10 +41,10 @@ pub use joints::{
     compensate_targets, predict,
 };
 pub use memory::compensate_set;
-pub use pipeline::{MAX_REJECTION_PASSES, MeasurementKind};
+pub use pipeline::{MAX_CONCENTRATION_STEPS, MAX_REJECTION_PASSES, MeasurementKind, RobustScreen};
 pub use prior::PriorSpec;
 pub use request::{
-    Check, Front, IdentifyRequest, JointUnits, LengthUnits, Setting, Split, Weighting,
+    Check, Front, IdentifyRequest, JointUnits, LengthUnits, OutlierMode, Setting, Split, Weighting,
 };
 pub use tool_frame::ToolFrameCalibration;
 pub use tool_offset::TOOL_REGISTRATION_MM;

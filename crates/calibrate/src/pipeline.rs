@@ -323,8 +323,16 @@ pub(crate) trait Kind {
     fn units(&self, data: &Self::Data) -> usize;
     /// One pass on `data`: register, choose the free set at the registered start, fit.
     fn pass(&self, data: &Self::Data) -> Result<Self::Pass>;
-    /// The outlier screen of every unit of `data` after the fit of `pass`.
-    fn screen(&self, pass: &Self::Pass, data: &Self::Data) -> Result<Option<Self::Screen>>;
+    /// The outlier screen at factor `k` of every unit of `data` after the fit of `pass`
+    /// (`None` without residual degrees of freedom).
+    fn screen(&self, pass: &Self::Pass, data: &Self::Data, k: f64) -> Result<Option<Self::Screen>>;
+    /// Every unit's block `(norm of its residual rows, rows)` at the fit of `pass` (the units
+    /// of [`identify::outliers::screen_blocks`]).
+    fn norms(&self, pass: &Self::Pass, data: &Self::Data) -> Vec<(f64, usize)>;
+    /// The same at the start model of `pass` (the registered nominal, before the fit).
+    fn start_norms(&self, pass: &Self::Pass, data: &Self::Data) -> Vec<(f64, usize)>;
+    /// The fit's classical per-row scale σ̂ (`None` without degrees of freedom).
+    fn sigma_row(pass: &Self::Pass) -> Option<f64>;
     /// The units the screen flags, ascending.
     fn flagged(screen: &Self::Screen) -> Vec<usize>;
     /// The free unknowns of a pass.
@@ -364,27 +372,147 @@ pub(crate) trait Kind {
 /// flags; a clean recording needs one or two].
 pub const MAX_REJECTION_PASSES: usize = 10;
 
+/// Concentration steps of the robust start at most, per start [10: each step refits on the
+/// units the last fit fits best and cannot raise the trimmed objective; a few suffice].
+pub const MAX_CONCENTRATION_STEPS: usize = 10;
+
+/// The robust start of the outlier screen (`docs/calibrating-real-data.md`, "Robust
+/// screening"): least trimmed squares on `h` of the units, then the robust scale.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RobustScreen {
+    /// Units screened.
+    pub units: usize,
+    /// Units of the trimmed fit, `⌊m/2⌋ + 1` (`m` when half does not determine the fit).
+    pub h: usize,
+    /// The start the trimmed fit came from: `registered nominal` or `fit on every <unit>`.
+    pub start: String,
+    /// Concentration steps taken from it.
+    pub steps: usize,
+    /// The robust per-row scale σ̃ at the trimmed fit over every unit (mm per axis for
+    /// points; weighted units for 6-DoF and multi-target data).
+    pub sigma_robust_row: f64,
+    /// The classical σ̂ of the first fit (on every unit), same units.
+    pub sigma_first_row: f64,
+    /// The factor of the rejection cut (`max(G, k)` by default, k with `reject_outliers`).
+    pub cut_k: f64,
+    /// The units excluded from the final fit (indices into the screened units, ascending).
+    pub excluded: Vec<usize>,
+}
+
 /// What the pipeline gives a kind to assemble its calibration from.
 pub(crate) struct Outcome<K: Kind> {
-    /// The first pass (before outlier rejection).
+    /// The first pass (on every unit, before outlier rejection).
     pub first: K::Pass,
     /// The final pass.
     pub last: K::Pass,
-    /// The outlier screen of every identification unit after the final fit.
+    /// The outlier screen (at k) of every identification unit after the final fit.
     pub screen: Option<K::Screen>,
     /// The identification data of the final fit.
     pub used: K::Data,
-    /// Whether outliers were dropped and the model refitted.
+    /// Whether units were dropped and the model refitted.
     pub rejected: bool,
+    /// The robust screen (`None` with `keep_outliers`).
+    pub robust: Option<RobustScreen>,
     /// The analysis of the final fit.
     pub analysis: K::Analysis,
     /// The validation, if any.
     pub validation: Option<K::Validation>,
 }
 
-/// Fits `id` (the identification data of `source`), screens outliers and rejects them to a
-/// fixed point on request, checks the result and validates on `val`: the stages after the
-/// split, for every kind.
+/// Every unit's block `(norm, rows)` at one fit.
+type Blocks = Vec<(f64, usize)>;
+
+/// The units of `0..n` not in `drop` (ascending).
+fn complement(n: usize, drop: &[usize]) -> Vec<usize> {
+    (0..n).filter(|i| drop.binary_search(i).is_err()).collect()
+}
+
+/// The robust start: least trimmed squares by concentration steps from two deterministic
+/// starts — the `h` units the registered nominal fits best (the registration itself is a
+/// least-trimmed-squares fit, so this start does not see the outliers), and the `h` units the
+/// least-squares fit on every unit fits best — each refitted on its `h` units until they no
+/// longer change; the one with the smaller trimmed objective `Σ_h (‖e_b‖/m_d)²` is kept
+/// (ties: the first). Returns `None` when `h` units do not determine the fit.
+fn trimmed_start<K: Kind>(
+    kind: &K,
+    id: &K::Data,
+    first: &K::Pass,
+) -> Result<Option<(Blocks, RobustScreen)>> {
+    use identify::outliers::{smallest, trimmed_cost};
+    let n = kind.units(id);
+    let h = n / 2 + 1;
+    let starts = [
+        (
+            "registered nominal".to_string(),
+            kind.start_norms(first, id),
+        ),
+        (format!("fit on every {}", K::UNIT), kind.norms(first, id)),
+    ];
+    let mut best: Option<(f64, Blocks, String, usize)> = None;
+    let mut tried: Vec<Vec<usize>> = Vec::new();
+    for (name, norms0) in starts {
+        let mut sel = smallest(&norms0, h);
+        if tried.contains(&sel) {
+            continue;
+        }
+        tried.push(sel.clone());
+        let rows = kind.subset(id, &sel);
+        if !kind.determines(&rows, K::n_free(first)) {
+            return Ok(None);
+        }
+        let context = || {
+            format!(
+                "the robust outlier screen's trimmed fit on {h} of {n} {}s",
+                K::UNIT
+            )
+        };
+        let mut pass = kind.pass(&rows).map_err(|e| e.context(context()))?;
+        let mut norms = kind.norms(&pass, id);
+        let mut steps = 1;
+        while steps < MAX_CONCENTRATION_STEPS {
+            let next = smallest(&norms, h);
+            if next == sel {
+                break;
+            }
+            sel = next;
+            pass = kind
+                .pass(&kind.subset(id, &sel))
+                .map_err(|e| e.context(context()))?;
+            norms = kind.norms(&pass, id);
+            steps += 1;
+        }
+        let cost = trimmed_cost(&norms, &smallest(&norms, h));
+        if best.as_ref().is_none_or(|b| cost < b.0) {
+            best = Some((cost, norms, name, steps));
+        }
+    }
+    Ok(best.map(|(_, norms, start, steps)| {
+        let robust = RobustScreen {
+            units: n,
+            h,
+            start,
+            steps,
+            sigma_robust_row: identify::outliers::robust_sigma_row(&norms),
+            sigma_first_row: K::sigma_row(first).unwrap_or(f64::NAN),
+            cut_k: f64::NAN,
+            excluded: Vec::new(),
+        };
+        (norms, robust)
+    }))
+}
+
+/// Fits `id` (the identification data of `source`), screens outliers robustly and rejects
+/// them to a fixed point (the gross ones by default, every flagged one with
+/// `reject_outliers`, none with `keep_outliers`), checks the result and validates on `val`:
+/// the stages after the split, for every kind.
+///
+/// The screen (`docs/calibrating-real-data.md`, "Robust screening"): a least-trimmed-squares
+/// fit on `h = ⌊m/2⌋ + 1` of the `m` units ([`trimmed_start`]); the robust scale σ̃ of its
+/// residuals over every unit ([`identify::outliers::robust_sigma_row`]); the units within
+/// `c·√d·σ̃` (c the cut: `max(G, k)` or k) kept and refitted; then, with the classical σ̂ of
+/// the fit on the units kept, every unit screened again at `c·√d·σ̂` and the fit redone on
+/// those it passes, to a fixed point. When nothing is beyond the cut the final fit is the
+/// first one, bit for bit.
 pub(crate) fn fit_and_check<K: Kind>(
     kind: &K,
     request: &IdentifyRequest,
@@ -393,46 +521,91 @@ pub(crate) fn fit_and_check<K: Kind>(
     val: Option<(String, K::Held)>,
 ) -> Result<Outcome<K>> {
     let n = kind.units(id);
-    let mut current = kind.pass(id)?;
-    let first = current.clone();
-    let mut screen = kind.screen(&current, id)?;
-    let mut kept: Vec<usize> = (0..n).collect();
-    let mut rejected = false;
-    let mut passes = 0;
-    // Rejection to a fixed point: every identification unit is screened against the fit on
-    // the units kept, until the kept units are those the screen passes (so that the result
-    // with a rejected unit is the result without it); registration is redone each time.
-    while request.reject_outliers && passes <= MAX_REJECTION_PASSES {
-        let flagged = screen.as_ref().map_or_else(Vec::new, K::flagged);
-        let next: Vec<usize> = (0..n)
-            .filter(|i| flagged.binary_search(i).is_err())
-            .collect();
-        if next == kept || passes == MAX_REJECTION_PASSES {
-            break;
-        }
-        if !request.allows(Check::Outliers) {
-            checks::rejected_fraction(source, flagged.len(), n, request.outlier_k)?;
-        }
-        let rows = kind.subset(id, &next);
-        let free = K::n_free(&current);
-        if !kind.determines(&rows, free) {
-            return Err(Refusal::TooManyOutliers {
-                file: source.to_string(),
-                outliers: flagged.len(),
-                rows: n,
-                kept: next.len(),
-                free,
+    let all: Vec<usize> = (0..n).collect();
+    let first = kind.pass(id)?;
+    let cut = request.outlier_mode().cut(request.outlier_k);
+    let mut current = first.clone();
+    let mut kept = all.clone();
+    let mut robust = None;
+    if let Some(cut) = cut
+        && K::sigma_row(&first).is_some()
+    {
+        if let Some((norms, mut r)) = trimmed_start(kind, id, &first)? {
+            r.cut_k = cut;
+            let start: Vec<usize> = norms
+                .iter()
+                .enumerate()
+                .filter(|&(_, &(norm, rows))| {
+                    norm <= identify::outliers::block_threshold(cut, r.sigma_robust_row, rows).1
+                })
+                .map(|(i, _)| i)
+                .collect();
+            if start != all {
+                let rows = kind.subset(id, &start);
+                if kind.determines(&rows, K::n_free(&first)) {
+                    kept = start;
+                    current = kind
+                        .pass(&rows)
+                        .map_err(|e| e.context("refitting without the outliers"))?;
+                }
             }
-            .into());
+            robust = Some(r);
         }
-        kept = next;
-        rejected = true;
-        passes += 1;
-        current = kind
-            .pass(&rows)
-            .map_err(|e| e.context("refitting without the outliers"))?;
-        screen = kind.screen(&current, id)?;
+        // Rejection to a fixed point, with the classical σ̂ of the fit on the units kept:
+        // every unit is screened against that fit until the units kept are those the
+        // screen passes (so that the result with a rejected unit is the result without it);
+        // registration is redone each time.
+        let mut passes = 0;
+        loop {
+            let screen = kind.screen(&current, id, cut)?;
+            let flagged = screen.as_ref().map_or_else(Vec::new, K::flagged);
+            let next = complement(n, &flagged);
+            if next == kept || passes == MAX_REJECTION_PASSES {
+                break;
+            }
+            let rows = kind.subset(id, &next);
+            let free = K::n_free(&current);
+            if !kind.determines(&rows, free) {
+                return Err(Refusal::TooManyOutliers {
+                    file: source.to_string(),
+                    outliers: flagged.len(),
+                    rows: n,
+                    kept: next.len(),
+                    free,
+                }
+                .into());
+            }
+            passes += 1;
+            current = if next == all {
+                first.clone()
+            } else {
+                kind.pass(&rows)
+                    .map_err(|e| e.context("refitting without the outliers"))?
+            };
+            kept = next;
+        }
     }
+    let excluded: Vec<usize> = (0..n).filter(|i| kept.binary_search(i).is_err()).collect();
+    let rejected = !excluded.is_empty();
+    if let (Some(cut), Some(r)) = (cut, robust.as_mut()) {
+        r.excluded = excluded.clone();
+        if !request.allows(Check::Outliers) {
+            checks::rejected_fraction(source, excluded.len(), (n, K::UNIT), cut)?;
+            let kept_norms: Vec<(f64, usize)> = {
+                let norms = kind.norms(&current, id);
+                kept.iter().map(|&i| norms[i]).collect()
+            };
+            if let Some(sigma) = K::sigma_row(&current) {
+                checks::scale_agreement(
+                    source,
+                    sigma,
+                    identify::outliers::robust_sigma_row(&kept_norms),
+                    K::UNIT,
+                )?;
+            }
+        }
+    }
+    let screen = kind.screen(&current, id, request.outlier_k)?;
     let used = kind.subset(id, &kept);
     if rejected {
         let first_decision = K::decision(&mut first.clone()).clone();
@@ -470,6 +643,7 @@ pub(crate) fn fit_and_check<K: Kind>(
         screen,
         used,
         rejected,
+        robust,
         analysis,
         validation,
     })

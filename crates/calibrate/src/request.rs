@@ -64,8 +64,14 @@ pub struct IdentifyRequest {
     /// above 10 mm of mean point error: geometric errors are millimetres, a tracker frame is
     /// metres away\].
     pub registration: RegistrationPolicy,
-    /// Drop the outliers found after the first fit and refit \[no: only reported\].
+    /// Drop every flagged unit (beyond k·σ̂₃), not only the gross errors, and refit \[no:
+    /// the default drops the gross errors alone, beyond [`identify::outliers::GROSS_K`]·σ̂₃
+    /// of a robust screen, and lists the others; `docs/calibrating-real-data.md`, "Robust
+    /// screening"\].
     pub reject_outliers: bool,
+    /// Keep every unit, gross errors included: the screen only lists them (the behaviour
+    /// before robust screening) \[no\]. Not with [`IdentifyRequest::reject_outliers`].
+    pub keep_outliers: bool,
     /// Outlier threshold k: ‖residual‖ > k·σ̂₃ \[3: fewer than one Gaussian point in 10⁵\].
     pub outlier_k: f64,
     /// Worst points listed in the report, per data set \[10\].
@@ -195,8 +201,9 @@ pub enum Setting {
     Allow(Check),
     /// [`IdentifyRequest::prior`], as written (`auto`).
     Prior(&'static str),
-    /// [`IdentifyRequest::fit_scale`] on.
-    FitScale,
+    /// A switch of the request turned on, by its field name: `fit_scale`
+    /// ([`IdentifyRequest::fit_scale`]), `keep_outliers`.
+    On(&'static str),
 }
 
 /// Whose words a message uses for the request's settings ([`Setting::spelled`]).
@@ -212,10 +219,10 @@ pub enum Front {
 impl Setting {
     /// The setting as `front` writes it: `joint_units="rad"` or `--joint-units rad`.
     pub fn spelled(self, front: Front) -> String {
-        if self == Setting::FitScale {
+        if let Setting::On(field) = self {
             return match front {
-                Front::Keywords => "fit_scale=True".into(),
-                Front::Flags => "--fit-scale".into(),
+                Front::Keywords => format!("{field}=True"),
+                Front::Flags => format!("--{}", field.replace('_', "-")),
             };
         }
         let (field, value) = match self {
@@ -223,7 +230,7 @@ impl Setting {
             Setting::LengthUnits(u) => ("length_units", u.name()),
             Setting::Allow(c) => ("allow", c.name()),
             Setting::Prior(p) => ("prior", p),
-            Setting::FitScale => unreachable!("spelled above"),
+            Setting::On(_) => unreachable!("spelled above"),
         };
         match front {
             Front::Keywords => format!("{field}=\"{value}\""),
@@ -245,7 +252,9 @@ pub enum Check {
     Parameters,
     /// Validation worse after calibration than before.
     Validation,
-    /// An outlier threshold that rejects too much, or a k below the minimum.
+    /// A k below the minimum, a rejection of more than 35 % of the units, or units kept whose
+    /// classical scale exceeds twice their robust one (`docs/calibrating-real-data.md`,
+    /// "Robust screening").
     Outliers,
     /// Every identified length moved in proportion to itself: measurements scaled
     /// (`crate::scale`).
@@ -293,7 +302,43 @@ impl std::str::FromStr for Check {
     }
 }
 
+/// What the outlier screen drops ([`IdentifyRequest::outlier_mode`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum OutlierMode {
+    /// Nothing: flagged units are listed ([`IdentifyRequest::keep_outliers`]).
+    Keep,
+    /// The gross errors, beyond `max(G, k)`·σ̂ of the robust screen (the default).
+    Gross,
+    /// Every flagged unit, beyond k·σ̂ ([`IdentifyRequest::reject_outliers`]).
+    Flagged,
+}
+
+impl OutlierMode {
+    /// The factor of the rejection cut for outlier factor `k`: `None` (keep), `max(G, k)`
+    /// (gross) or `k` (flagged).
+    pub fn cut(self, k: f64) -> Option<f64> {
+        match self {
+            OutlierMode::Keep => None,
+            OutlierMode::Gross => Some(identify::outliers::GROSS_K.max(k)),
+            OutlierMode::Flagged => Some(k),
+        }
+    }
+}
+
 impl IdentifyRequest {
+    /// What the outlier screen drops: [`OutlierMode::Keep`] with `keep_outliers`,
+    /// [`OutlierMode::Flagged`] with `reject_outliers`, else [`OutlierMode::Gross`] (both set
+    /// is refused by the request check).
+    pub fn outlier_mode(&self) -> OutlierMode {
+        if self.keep_outliers {
+            OutlierMode::Keep
+        } else if self.reject_outliers {
+            OutlierMode::Flagged
+        } else {
+            OutlierMode::Gross
+        }
+    }
+
     /// A request with every option at its default.
     pub fn new(robot: impl Into<PathBuf>, data: impl Into<PathBuf>) -> Self {
         IdentifyRequest {
@@ -306,6 +351,7 @@ impl IdentifyRequest {
             redundant: Redundant::default(),
             registration: RegistrationPolicy::default(),
             reject_outliers: false,
+            keep_outliers: false,
             outlier_k: 3.0,
             worst: 10,
             joint_units: JointUnits::Deg,

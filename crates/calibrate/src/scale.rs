@@ -162,7 +162,7 @@ pub fn check(
             "check the points' unit and the tracker's scale and temperature compensation \
              (air temperature, pressure, material expansion), or identify the factor as a \
              parameter of the measurement",
-            Some(Setting::FitScale),
+            Some(Setting::On("fit_scale")),
         )),
         _ => Ok(()),
     }

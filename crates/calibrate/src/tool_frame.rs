@@ -107,6 +107,10 @@ pub struct ToolFrameCalibration {
     /// Whether outlier poses were dropped and the model refitted (to a fixed point, as for
     /// points: the poses kept are those the fit on them passes).
     pub rejected: bool,
+    /// The robust screen: its scale and the poses excluded (indices into
+    /// [`ToolFrameCalibration::screened`]); `None` with `keep_outliers` or without degrees of
+    /// freedom.
+    pub robust: Option<crate::pipeline::RobustScreen>,
     /// Errors of the start and the identified model on the identification poses.
     pub fit_errors: (PoseErrors, PoseErrors),
     /// Errors on the validation poses (start, identified) and their source, if any.
@@ -391,9 +395,20 @@ impl Kind for ToolFrameKind<'_> {
         })
     }
 
-    fn screen(&self, pass: &Pass, data: &FrameData) -> Result<Option<BlockScreen>> {
-        identify::frames::screen_poses(&pass.fit, data, self.request.outlier_k)
-            .map_err(id_err("screening outliers"))
+    fn screen(&self, pass: &Pass, data: &FrameData, k: f64) -> Result<Option<BlockScreen>> {
+        identify::frames::screen_poses(&pass.fit, data, k).map_err(id_err("screening outliers"))
+    }
+
+    fn norms(&self, pass: &Pass, data: &FrameData) -> Vec<(f64, usize)> {
+        identify::frames::pose_blocks(&pass.fit.model, data)
+    }
+
+    fn start_norms(&self, pass: &Pass, data: &FrameData) -> Vec<(f64, usize)> {
+        identify::frames::pose_blocks(&pass.start, data)
+    }
+
+    fn sigma_row(pass: &Pass) -> Option<f64> {
+        (pass.fit.dof > 0 && pass.fit.sigma_hat.is_finite()).then_some(pass.fit.sigma_hat)
     }
 
     fn flagged(screen: &BlockScreen) -> Vec<usize> {
@@ -541,6 +556,7 @@ pub(crate) fn calibrate(common: Common<'_>) -> Result<ToolFrameCalibration> {
         screened: id_data,
         screened_lines: id_lines,
         rejected: out.rejected,
+        robust: out.robust,
         fit_errors,
         validation,
         validation_data,

@@ -26,7 +26,7 @@ use crate::checks;
 use crate::error::{CalibrateError, Refusal, Result, id_err};
 use crate::files::{LoadedRobot, file_name, points_mm, poses_rad};
 pub use crate::pipeline::mean_max;
-use crate::pipeline::{self, Common, Held, Kind, MeasurementKind, register};
+use crate::pipeline::{self, Common, Held, Kind, MeasurementKind, RobustScreen, register};
 use crate::request::{Check, IdentifyRequest, Split};
 use crate::tool_frame::ToolFrameCalibration;
 
@@ -82,12 +82,16 @@ pub struct PointCalibration {
     pub free: Vec<usize>,
     /// The first fit (before outlier rejection).
     pub first: Fit,
-    /// The outlier screen after the first fit.
+    /// The outlier screen (at k) of every identification row against the final fit.
     pub screen: Option<OutlierScreen>,
     /// Rows screened (the rows of the first fit), for labels.
     pub screened_rows: Vec<Measurement>,
     /// Whether outliers were excluded and the model refitted.
     pub rejected: bool,
+    /// The robust screen: its scale and the rows excluded (indices into
+    /// [`PointCalibration::screened_rows`]); `None` with `keep_outliers` or without degrees of
+    /// freedom.
+    pub robust: Option<RobustScreen>,
     /// The final fit.
     pub fit: Fit,
     /// Identifiability at the solution.
@@ -222,6 +226,15 @@ pub fn residuals(robot: &Robot, rows: &[Measurement]) -> Vec<[f64; 3]> {
         .collect()
 }
 
+/// Each row's block `(‖p^meas − p(q)‖, 3)` against `robot`, mm (the units of the robust
+/// outlier screen).
+fn point_blocks(robot: &Robot, rows: &[Measurement]) -> Vec<(f64, usize)> {
+    residuals(robot, rows)
+        .iter()
+        .map(|e| (Vector3::from(*e).norm(), 3))
+        .collect()
+}
+
 /// Refuses a request that cannot run, before anything is read.
 pub(crate) fn check(request: &IdentifyRequest) -> Result<()> {
     let k = request.outlier_k;
@@ -229,6 +242,9 @@ pub(crate) fn check(request: &IdentifyRequest) -> Result<()> {
         return Err(Refusal::OutlierK(k).into());
     }
     checks::outlier_k(request)?;
+    if request.keep_outliers && request.reject_outliers {
+        return Err(Refusal::KeepAndRejectOutliers.into());
+    }
     if let RegistrationPolicy::Auto { threshold_mm } = request.registration
         && !(threshold_mm.is_finite() && threshold_mm >= 0.0)
     {
@@ -679,20 +695,31 @@ impl Kind for PointKind<'_> {
         })
     }
 
-    fn screen(&self, pass: &Pass, rows: &Vec<Measurement>) -> Result<Option<OutlierScreen>> {
+    fn screen(
+        &self,
+        pass: &Pass,
+        rows: &Vec<Measurement>,
+        k: f64,
+    ) -> Result<Option<OutlierScreen>> {
         let fit = &pass.fit;
         fit.sigma_hat
             .map(|s| {
-                outliers::screen(
-                    &fit.robot,
-                    &poses_rad(rows),
-                    &points_mm(rows),
-                    s,
-                    self.request.outlier_k,
-                )
-                .map_err(id_err("screening outliers"))
+                outliers::screen(&fit.robot, &poses_rad(rows), &points_mm(rows), s, k)
+                    .map_err(id_err("screening outliers"))
             })
             .transpose()
+    }
+
+    fn norms(&self, pass: &Pass, rows: &Vec<Measurement>) -> Vec<(f64, usize)> {
+        point_blocks(&pass.fit.robot, rows)
+    }
+
+    fn start_norms(&self, pass: &Pass, rows: &Vec<Measurement>) -> Vec<(f64, usize)> {
+        point_blocks(&pass.start, rows)
+    }
+
+    fn sigma_row(pass: &Pass) -> Option<f64> {
+        pass.fit.sigma_hat
     }
 
     fn flagged(screen: &OutlierScreen) -> Vec<usize> {
@@ -823,6 +850,7 @@ fn calibrate_points(common: Common<'_>, id_rows: Vec<Measurement>) -> Result<Poi
         screen,
         used,
         rejected,
+        robust,
         analysis: (analysis, mut warnings, _),
         validation,
     } = out;
@@ -848,6 +876,7 @@ fn calibrate_points(common: Common<'_>, id_rows: Vec<Measurement>) -> Result<Poi
         screen,
         screened_rows: id_rows,
         rejected,
+        robust,
         fit,
         analysis,
         validation,

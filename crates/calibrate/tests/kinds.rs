@@ -276,8 +276,9 @@ fn the_mirror_check_runs_for_every_kind() {
     });
 }
 
-/// An outlier factor below the minimum, and a rejection that drops more than 10 % of the
-/// units (rows, or poses): 6 of 40 poses moved by 800 mm, k = 2.
+/// An outlier factor below the minimum, and a rejection that drops more than 35 % of the
+/// units (rows, or poses): 16 of 40 poses moved by 800 mm, beyond what the robust screen
+/// separates (the default screen and `reject_outliers` alike).
 #[test]
 fn the_outliers_check_runs_for_every_kind() {
     let low_k = IdentifyRequest {
@@ -285,19 +286,44 @@ fn the_outliers_check_runs_for_every_kind() {
         ..request(&[])
     };
     refused_on_every_kind(Check::Outliers, "below 2", &low_k, |_| {});
-    let rejecting = IdentifyRequest {
-        outlier_k: 2.0,
-        reject_outliers: true,
-        ..request(&[Check::LengthUnits, Check::Mirror, Check::Parameters])
-    };
-    refused_on_every_kind(Check::Outliers, "more than 10 %", &rejecting, |rows| {
+    let allow = [Check::LengthUnits, Check::Mirror, Check::Parameters];
+    let corrupt = |rows: &mut Vec<Measurement>| {
         for r in rows {
+            let pose = (r.line - 2) / if r.target.is_some() { 3 } else { 1 };
+            if pose % 5 < 2 {
+                r.point_mm.as_mut().unwrap()[0] += 800.0;
+            }
+        }
+    };
+    refused_on_every_kind(Check::Outliers, "more than 35 %", &request(&allow), corrupt);
+    let rejecting = IdentifyRequest {
+        reject_outliers: true,
+        ..request(&allow)
+    };
+    refused_on_every_kind(Check::Outliers, "more than 35 %", &rejecting, corrupt);
+}
+
+/// 15 % of the units (6 of 40 poses) 800 mm off: the default robust screen drops exactly
+/// them, for every kind (one rule for points and for blocks of rows).
+#[test]
+fn the_default_screen_drops_gross_errors_for_every_kind() {
+    let nominal = kr1000();
+    for kind in KINDS {
+        let mut rows = measured(kind, 40);
+        for r in &mut rows {
             let pose = (r.line - 2) / if r.target.is_some() { 3 } else { 1 };
             if pose % 7 == 3 {
                 r.point_mm.as_mut().unwrap()[0] += 800.0;
             }
         }
-    });
+        let cal = calibrate(kind, &nominal, &request(&[]), rows, None)
+            .unwrap_or_else(|e| panic!("{kind:?}: {e}"));
+        let excluded = match &cal {
+            Calibration::Points(c) => c.robust.as_ref().unwrap().excluded.clone(),
+            Calibration::ToolFrame(c) => c.robust.as_ref().unwrap().excluded.clone(),
+        };
+        assert_eq!(excluded, vec![3, 10, 17, 24, 31, 38], "{kind:?}");
+    }
 }
 
 /// Every point 2 % too large (a tracker's scale): the lengths all move in proportion.

@@ -171,8 +171,19 @@ impl PyCalibration {
         self.points().fit.sigma_hat
     }
 
+    /// Indices (into `identification_rows`) of the rows the robust screen excluded from the
+    /// final fit: the gross errors by default, every flagged row with `reject_outliers=True`,
+    /// none with `keep_outliers=True`.
+    #[getter]
+    fn excluded(&self) -> Vec<usize> {
+        self.points()
+            .robust
+            .as_ref()
+            .map_or_else(Vec::new, |r| r.excluded.clone())
+    }
+
     /// Indices (into `identification_rows`) of the outliers the screen flagged
-    /// (‖residual‖ > k·σ̂₃); excluded from the final fit with `reject_outliers=True`.
+    /// (‖residual‖ > k·σ̂₃ of the final fit); those excluded are [`excluded`](Self::excluded).
     #[getter]
     fn outliers(&self) -> Vec<usize> {
         self.points()
@@ -253,7 +264,7 @@ impl PyCalibration {
 #[pyfunction(name = "identify")]
 #[pyo3(signature = (
     robot, q_deg, points_mm, *, params = None, validate = None, reject_outliers = false,
-    every = None, offset = 0, select = None, criterion = "d", schedule = "levenberg",
+    keep_outliers = false, every = None, offset = 0, select = None, criterion = "d", schedule = "levenberg",
     redundant = "hold", registration = "auto", outlier_k = 3.0, worst = 10,
     joint_units = "deg", length_units = "mm", allow = None, prior = "auto"
 ))]
@@ -266,6 +277,7 @@ fn py_identify<'py>(
     params: Option<Bound<'py, PyAny>>,
     validate: Option<(ArrayArg<'py>, ArrayArg<'py>)>,
     reject_outliers: bool,
+    keep_outliers: bool,
     every: Option<usize>,
     offset: usize,
     select: Option<usize>,
@@ -299,6 +311,7 @@ fn py_identify<'py>(
         Shared {
             params,
             reject_outliers,
+            keep_outliers,
             every,
             offset,
             select,

@@ -66,7 +66,7 @@ fn frame_set(
 #[pyo3(signature = (
     robot, q_deg, points_mm, *, orientations_wxyz = None, targets = None, pose_ids = None,
     orientation_weight = None, params = None, validate = None, reject_outliers = false,
-    every = None, offset = 0, select = None, criterion = "d", schedule = "levenberg",
+    keep_outliers = false, every = None, offset = 0, select = None, criterion = "d", schedule = "levenberg",
     redundant = "hold", registration = "auto", outlier_k = 3.0, worst = 10,
     joint_units = "deg", length_units = "mm", allow = None, prior = "auto"
 ))]
@@ -83,6 +83,7 @@ fn py_identify_frames<'py>(
     params: Option<Bound<'py, PyAny>>,
     validate: Option<Bound<'py, PyTuple>>,
     reject_outliers: bool,
+    keep_outliers: bool,
     every: Option<usize>,
     offset: usize,
     select: Option<usize>,
@@ -172,6 +173,7 @@ fn py_identify_frames<'py>(
         Shared {
             params,
             reject_outliers,
+            keep_outliers,
             every,
             offset,
             select,
@@ -319,13 +321,18 @@ impl PyFrameCalibration {
     }
 
     /// The poses the outlier screen flagged (largest ratio first), as records `{"row",
-    /// "ratio", "position_mm", "orientation_deg"}`: `row` the 0-based index of the pose's
-    /// first row in the arrays given; excluded from the final fit with
-    /// `reject_outliers=True`.
+    /// "ratio", "position_mm", "orientation_deg", "excluded"}`: `row` the 0-based index of
+    /// the pose's first row in the arrays given; `excluded` whether it was dropped from the
+    /// final fit (the gross ones by default, all with `reject_outliers=True`, none with
+    /// `keep_outliers=True`).
     #[getter]
     fn outliers<'py>(&self, py: Python<'py>) -> PyResult<Vec<Bound<'py, PyDict>>> {
-        self.tool()
-            .outlier_poses()
+        let cal = self.tool();
+        let excluded = cal
+            .robust
+            .as_ref()
+            .map_or(&[][..], |r| r.excluded.as_slice());
+        cal.outlier_poses()
             .iter()
             .map(|o| {
                 let d = PyDict::new(py);
@@ -333,6 +340,7 @@ impl PyFrameCalibration {
                 d.set_item("ratio", o.ratio)?;
                 d.set_item("position_mm", o.position_mm)?;
                 d.set_item("orientation_deg", o.orientation_deg)?;
+                d.set_item("excluded", excluded.binary_search(&o.pose).is_ok())?;
                 Ok(d)
             })
             .collect()

@@ -53,6 +53,7 @@ pub(crate) fn params_arg(params: &Bound<'_, PyAny>) -> PyResult<identify::ParamS
 pub(crate) struct Shared<'a, 'py> {
     pub params: Option<Bound<'py, PyAny>>,
     pub reject_outliers: bool,
+    pub keep_outliers: bool,
     pub every: Option<usize>,
     pub offset: usize,
     pub select: Option<usize>,
@@ -80,6 +81,7 @@ pub(crate) fn identify_request(
     let Shared {
         params,
         reject_outliers,
+        keep_outliers,
         every,
         offset,
         select,
@@ -126,6 +128,7 @@ pub(crate) fn identify_request(
         redundant,
         registration,
         reject_outliers,
+        keep_outliers,
         outlier_k,
         worst,
         joint_units: parse_arg("joint_units", joint_units)?,

@@ -492,7 +492,7 @@ fn crlf_bom_extra_columns_and_comments_are_read() {
 }
 
 #[test]
-fn outliers_are_reported_and_excluded_only_on_request() {
+fn outliers_are_reported_and_gross_ones_excluded_by_default() {
     let sim = sim();
     let tmp = tempfile::tempdir().unwrap();
     // Move the measured x of I017 by 1 mm (≈ 30 σ̂₃).
@@ -534,7 +534,7 @@ fn outliers_are_reported_and_excluded_only_on_request() {
                 .unwrap();
         (stdout, report, table["rows"].as_u64().unwrap())
     };
-    let (kept_out, kept_report, kept_rows) = run(&[], "kept");
+    let (kept_out, kept_report, kept_rows) = run(&["--keep-outliers"], "kept");
     assert!(
         kept_out.contains("outliers (‖e‖ > 3 σ̂₃") && kept_out.contains(": 1 — I017 (line 20)"),
         "{kept_out}"
@@ -543,10 +543,35 @@ fn outliers_are_reported_and_excluded_only_on_request() {
     assert!(kept_report.contains("| I017 | 20 |"), "{kept_report}");
     assert_eq!(kept_rows, 50);
 
-    let (rej_out, rej_report, rej_rows) = run(&["--reject-outliers"], "rejected");
+    // 1 mm on 0.02 mm noise is a gross error: the default robust screen drops it, as
+    // `--reject-outliers` (every flagged row) does.
+    let (rej_out, rej_report, rej_rows) = run(&[], "rejected");
     assert!(rej_out.contains("excluded, refitted"), "{rej_out}");
+    assert!(
+        rej_out.contains("robust screen: least trimmed squares on 26 of 50 rows"),
+        "{rej_out}"
+    );
     assert!(rej_report.contains("1 outliers excluded, 49 rows used"));
     assert_eq!(rej_rows, 49);
+    let csv = std::fs::read_to_string(tmp.path().join("rejected/outliers.csv")).unwrap();
+    let mut lines = csv.lines();
+    assert_eq!(lines.next(), Some("line,id,residual_mm,ratio,status"));
+    let row = lines.next().unwrap();
+    assert!(
+        row.starts_with("20,I017,") && row.ends_with(",excluded"),
+        "{csv}"
+    );
+    let kept_csv = std::fs::read_to_string(tmp.path().join("kept/outliers.csv")).unwrap();
+    assert!(
+        kept_csv.lines().nth(1).unwrap().ends_with(",kept"),
+        "{kept_csv}"
+    );
+    let (all_out, _, all_rows) = run(&["--reject-outliers"], "all");
+    assert_eq!(all_rows, 49);
+    assert_eq!(
+        number_after(&all_out, "calibrated mean "),
+        number_after(&rej_out, "calibrated mean ")
+    );
     let kept_mean = number_after(&kept_out, "calibrated mean ");
     let rej_mean = number_after(&rej_out, "calibrated mean ");
     assert!(
@@ -1197,8 +1222,9 @@ fn implausible_units_and_frames_are_refused_and_unit_flags_convert() {
 
 /// Issue 29: one simulated row with q2 written as −0 (a gross error of metres) no longer drags
 /// a registration that makes the nominal error worse, and the run is refused instead of giving
-/// a robot that validates worse than the nominal; with `--reject-outliers` the row is dropped
-/// and the result is that of the clean data.
+/// a robot that validates worse than the nominal when every row is kept (`--keep-outliers`);
+/// by default (and with `--reject-outliers`) the row is dropped and the result is that of the
+/// clean data.
 #[test]
 fn a_row_with_a_wrong_joint_neither_drags_the_registration_nor_passes() {
     let sim = sim();
@@ -1235,7 +1261,7 @@ fn a_row_with_a_wrong_joint_neither_drags_the_registration_nor_passes() {
         args.extend_from_slice(extra);
         (kincal(&args), dir)
     };
-    let (out, dir) = run(&[], "plain");
+    let (out, dir) = run(&["--keep-outliers"], "plain");
     assert!(
         !out.status.success(),
         "{}",
@@ -1243,6 +1269,8 @@ fn a_row_with_a_wrong_joint_neither_drags_the_registration_nor_passes() {
     );
     assert!(!dir.exists());
     assert!(stderr(&out).contains("--allow"), "{}", stderr(&out));
+    let (out, _) = run(&[], "screened");
+    assert!(number_after(&ok(&out), "calibrated mean ") < 0.05);
     let (out, _) = run(&["--reject-outliers"], "rejected");
     let stdout = ok(&out);
     let decision = line_with(&stdout, "registration decision:");

@@ -101,6 +101,7 @@ fn six_dof_identify_writes_the_files_of_point_identify() {
         "error-cdf.svg",
         "residuals-per-axis.svg",
         "outliers.svg",
+        "outliers.csv",
     ] {
         assert!(pts.contains(f), "{f} not in {pts:?}");
     }
@@ -289,8 +290,8 @@ fn select_works_with_six_dof_data() {
 
 /// Three reflectors per pose (synthetic, from the measured frame: `p + R·o_k`, the `o_k` at
 /// 120° on a 100 mm circle), one of them mistyped by 3 mm at one pose: the targets start from
-/// their closed form, the pose is flagged as one block (its 9 rows), and `--reject-outliers`
-/// drops it and refits.
+/// their closed form, the pose is flagged as one block (its 9 rows) and, 6 σ̂ off, dropped as a
+/// gross error by the default robust screen; `--keep-outliers` keeps it.
 #[test]
 fn three_targets_per_pose_and_a_flagged_pose() {
     let tmp = tempfile::tempdir().unwrap();
@@ -326,7 +327,11 @@ fn three_targets_per_pose_and_a_flagged_pose() {
     }
     let file = tmp.path().join("targets.csv");
     std::fs::write(&file, &csv).unwrap();
-    let out = ok(&identify(s(&file), &tmp.path().join("t"), &[]));
+    let out = ok(&identify(
+        s(&file),
+        &tmp.path().join("t"),
+        &["--keep-outliers"],
+    ));
     assert!(out.contains("3 targets per pose: all 40 poses"), "{out}");
     assert!(
         out.contains("targets started from the closed-form estimate"),
@@ -347,13 +352,20 @@ fn three_targets_per_pose_and_a_flagged_pose() {
         flagged.contains(&format!("line {first_row_of_pose} ")),
         "{flagged} (bad line {bad_line})"
     );
-    let rejected = ok(&identify(
-        s(&file),
-        &tmp.path().join("r"),
-        &["--reject-outliers"],
-    ));
+    let rejected = ok(&identify(s(&file), &tmp.path().join("r"), &[]));
     assert!(rejected.contains("on 39 poses"), "{rejected}");
     assert!(rejected.contains("dropped and refitted"), "{rejected}");
+    assert!(
+        rejected.contains(&format!("excluded 1 of 40 poses: line {first_row_of_pose}")),
+        "{rejected}"
+    );
+    // `--reject-outliers` (every flagged pose) drops the same one here.
+    let all = ok(&identify(
+        s(&file),
+        &tmp.path().join("a"),
+        &["--reject-outliers"],
+    ));
+    assert!(all.contains("on 39 poses"), "{all}");
     let robot = std::fs::read_to_string(tmp.path().join("r/identified.json")).unwrap();
     assert!(robot.contains("\"targets\""), "{robot}");
 }

@@ -117,8 +117,9 @@ fn degrees_declared_radians_are_refused_with_the_evidence() {
 
 /// Table row "simulated data where one row has q2 = −0": the registration on all rows does
 /// not make the nominal error worse (it was 10.2 → 19.6 mm) and says on what evidence it was
-/// decided; the run is refused (it validated at 28.55 mm against 1.117); overridden, it is
-/// written, and `compensate` accepts `identify`'s own `registered-nominal.json` (it refused
+/// decided; with every row kept (`--keep-outliers`) the run is refused (it validated at
+/// 28.55 mm against 1.117) — by default the robust screen drops the row (issue 38);
+/// overridden, it is written, and `compensate` accepts `identify`'s own `registered-nominal.json` (it refused
 /// it: the fit moved α2 past 1°, so `identified.json` has no β2 parameter).
 #[test]
 fn a_q2_minus_zero_row_registers_on_evidence_and_compensates_its_own_outputs() {
@@ -131,11 +132,23 @@ fn a_q2_minus_zero_row_registers_on_evidence_and_compensates_its_own_outputs() {
         }
     });
     let dir = tmp.path().join("plain");
-    assert_refused(&identify(&bad, &[], &dir), &dir, "--allow");
+    assert_refused(&identify(&bad, &["--keep-outliers"], &dir), &dir, "--allow");
+    let dir = tmp.path().join("screened");
+    let screened = ok(&identify(&bad, &[], &dir));
+    assert!(
+        screened.contains("robust screen: ") && screened.contains("I027"),
+        "{screened}"
+    );
     let dir = tmp.path().join("forced");
     let out = identify(
         &bad,
-        &["--allow", "parameters", "--allow", "validation"],
+        &[
+            "--keep-outliers",
+            "--allow",
+            "parameters",
+            "--allow",
+            "validation",
+        ],
         &dir,
     );
     let stdout = ok(&out);

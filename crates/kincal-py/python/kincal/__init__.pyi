@@ -249,6 +249,12 @@ class Calibration:
         """Indices into :attr:`identification_rows` of the rows the outlier screen flagged."""
 
     @property
+    def excluded(self) -> list[int]:
+        """Indices into :attr:`identification_rows` of the rows the robust screen excluded
+        from the final fit (the gross errors by default; every flagged row with
+        ``reject_outliers=True``; none with ``keep_outliers=True``)."""
+
+    @property
     def registered(self) -> bool:
         """Whether the measurement frame was registered onto the robot base first."""
 
@@ -280,6 +286,7 @@ def identify(
     params: str | Sequence[str] | None = None,
     validate: tuple[ArrayLike, ArrayLike] | None = None,
     reject_outliers: bool = False,
+    keep_outliers: bool = False,
     every: int | None = None,
     offset: int = 0,
     select: int | None = None,
@@ -300,7 +307,8 @@ def identify(
     ``"paper+compliance"``; or a list of names), ``validate=(q_deg, points_mm)``,
     ``every``/``offset`` or ``select``/``criterion`` (hold-out splits), ``schedule``
     (levenberg, marquardt, nielsen), ``redundant`` (hold, damp), ``registration`` (auto,
-    always, never), ``reject_outliers``, ``outlier_k``, ``worst``, ``prior`` (``--prior``:
+    always, never), ``reject_outliers`` (drop every flagged row; by default the robust
+    screen drops the gross errors alone), ``keep_outliers`` (keep every row), ``outlier_k``, ``worst``, ``prior`` (``--prior``:
     ``"auto"``, ``"none"``, ``"tolerance"`` or ``"tolerance,NAME=SD,..."``).
 
     ``joint_units`` and ``length_units`` declare the arrays' units (``--joint-units``,
@@ -352,6 +360,8 @@ class FrameOutlier(TypedDict):
     ratio: float
     position_mm: float
     orientation_deg: float | None
+    excluded: bool
+    """Whether the pose was dropped from the final fit (a gross error by default)."""
 
 @final
 class FrameCalibration:
@@ -413,6 +423,7 @@ def identify_frames(
     params: str | Sequence[str] | None = None,
     validate: tuple[Any, ...] | None = None,
     reject_outliers: bool = False,
+    keep_outliers: bool = False,
     every: int | None = None,
     offset: int = 0,
     select: int | None = None,

@@ -78,10 +78,15 @@ pub struct IdentifyArgs {
         value_parser = library_names::<RegistrationPolicy>(RegistrationPolicy::NAMES)
     )]
     pub(crate) registration: RegistrationPolicy,
-    /// Drop the outliers found after the first fit and refit (without it they are only
-    /// reported).
-    #[arg(long)]
+    /// Drop every flagged row (beyond k·σ̂₃), not only the gross errors, and refit. Without
+    /// it the robust screen drops the gross errors alone (beyond max(5, k)·σ̂₃; a least-
+    /// trimmed-squares start, so that many outliers cannot hide themselves) and lists the
+    /// others; the flag is accepted as before.
+    #[arg(long, conflicts_with = "keep_outliers")]
     pub(crate) reject_outliers: bool,
+    /// Keep every row, gross errors included (the outlier screen only lists them).
+    #[arg(long)]
+    pub(crate) keep_outliers: bool,
     /// Outlier threshold: ‖residual‖ > k·σ̂₃, σ̂₃ = √3·σ̂ the fit's 3-D residual scale.
     #[arg(long, default_value_t = 3.0, value_name = "K")]
     pub(crate) outlier_k: f64,
@@ -167,6 +172,7 @@ impl IdentifyArgs {
             redundant: self.redundant,
             registration: self.registration,
             reject_outliers: self.reject_outliers,
+            keep_outliers: self.keep_outliers,
             outlier_k: self.outlier_k,
             worst: self.worst,
             joint_units: self.joint_units,
@@ -195,7 +201,14 @@ impl IdentifyArgs {
                 Refusal::SelectTooFew { poses, .. } | Refusal::SelectTooMany { poses, .. } => {
                     Some(format!("--select {poses}"))
                 }
-                Refusal::TooManyOutliers { .. } => Some("--reject-outliers".to_string()),
+                Refusal::TooManyOutliers { .. } => Some(if self.reject_outliers {
+                    "--reject-outliers".to_string()
+                } else {
+                    "the outlier screen (--keep-outliers keeps every row)".to_string()
+                }),
+                Refusal::KeepAndRejectOutliers => {
+                    Some("--keep-outliers with --reject-outliers".to_string())
+                }
                 Refusal::Implausible { check, .. } => Some(format!(
                     "refused by the {} check (override: --allow {})",
                     check.name(),

@@ -376,29 +376,40 @@ pub fn markdown(o: &PointCalibration) -> String {
         Some(sc) => {
             let _ = writeln!(
                 s,
-                "Screened after the first fit: ‖e‖ > k·σ̂₃ = {} × {} = {} mm (σ̂₃ = √3·σ̂, \
+                "Screened against the final fit: ‖e‖ > k·σ̂₃ = {} × {} = {} mm (σ̂₃ = √3·σ̂, \
                  first-fit RMS {} mm).",
                 setting(sc.k),
                 mm(sc.sigma_3d_mm),
                 mm(sc.threshold_mm),
                 mm(o.first.rms_mm)
             );
+            match super::robust_points(o) {
+                Some(sentence) => {
+                    let _ = writeln!(s, "\n{sentence}.");
+                }
+                None => s.push_str("\nRobust screen off (`--keep-outliers`): every row kept.\n"),
+            }
             if sc.outliers.is_empty() {
                 s.push_str("\nNone.\n");
             } else {
+                let excluded = o
+                    .robust
+                    .as_ref()
+                    .map_or_else(Vec::new, |r| r.excluded.clone());
                 let _ = writeln!(
                     s,
                     "\n{} point(s) — {}:\n",
                     sc.outliers.len(),
-                    if o.rejected {
+                    super::outlier_status(
+                        &sc.indices(),
+                        &excluded,
+                        "row",
                         format!(
-                            "excluded and refitted (RMS {} → {} mm)",
+                            "excluded, refitted (RMS {} → {} mm)",
                             mm(o.first.rms_mm),
                             mm(o.fit.rms_mm)
                         )
-                    } else {
-                        "kept (use `--reject-outliers` to exclude them and refit)".to_string()
-                    }
+                    )
                 );
                 s.push_str("| point | line | ‖e‖ (mm) | ‖e‖/σ̂₃ |\n|---|---:|---:|---:|\n");
                 for ol in &sc.outliers {

@@ -11,6 +11,7 @@
 //! | [`PARAMETERS_FILE`] | the parameter table | [`parameters_json`] |
 //! | [`REPORT_FILE`] | the report | [`markdown`] |
 //! | [`REPORT_HTML_FILE`] | the report with its plots inline | [`plots::identify_page`] |
+//! | [`OUTLIERS_FILE`] | the flagged units, excluded or kept | [`outliers_csv`] |
 //! | [`plots::IDENTIFY_PLOT_FILES`] | the plots, as SVG | [`plots::identify_plots`] |
 //!
 //! Numbers follow [`crate::fmt`]. Where today's files print a signed value with Rust's own
@@ -37,12 +38,46 @@ pub const PARAMETERS_FILE: &str = "parameters.json";
 pub const REPORT_FILE: &str = "report.md";
 /// The report as a self-contained HTML page with the plots inline.
 pub const REPORT_HTML_FILE: &str = "report.html";
+/// The outlier list: every unit the screen flagged, excluded or kept ([`outliers_csv`]).
+pub const OUTLIERS_FILE: &str = "outliers.csv";
+
+/// One flagged unit of [`OUTLIERS_FILE`].
+pub struct OutlierRow {
+    /// Its file line (a pose's first row).
+    pub line: usize,
+    /// Its id (empty without one).
+    pub id: String,
+    /// Its largest 3-D position error at the final model, mm.
+    pub residual_mm: f64,
+    /// Its residual over the screen's scale (`‖e‖/σ̂₃`, or `‖e‖/(√d·σ̂)` for a pose).
+    pub ratio: f64,
+    /// Whether it was excluded from the final fit.
+    pub excluded: bool,
+}
+
+/// [`OUTLIERS_FILE`]: a header `line,id,residual_mm,ratio,status` and one row per flagged unit
+/// (status `excluded` or `kept`), in the screen's order (largest first); the header alone
+/// when nothing was flagged.
+pub fn outliers_csv(rows: &[OutlierRow]) -> String {
+    let mut out = String::from("line,id,residual_mm,ratio,status\n");
+    for r in rows {
+        out.push_str(&format!(
+            "{},{},{},{},{}\n",
+            r.line,
+            r.id,
+            crate::fmt::mm(r.residual_mm),
+            crate::fmt::ratio(r.ratio),
+            if r.excluded { "excluded" } else { "kept" }
+        ));
+    }
+    out
+}
 
 /// Renders the output files of `cal`, of any kind, in memory, as `(file name, contents)` in
 /// writing order: [`ROBOT_FILE`], [`REGISTERED_FILE`], [`PARAMETERS_FILE`], [`REPORT_FILE`],
 /// [`REPORT_HTML_FILE`], then the plots ([`plots::IDENTIFY_PLOT_FILES`], and
-/// [`tool_frame::ORIENTATION_CDF_FILE`] where orientation was measured). The caller writes
-/// them (all or nothing).
+/// [`tool_frame::ORIENTATION_CDF_FILE`] where orientation was measured), then
+/// [`OUTLIERS_FILE`]. The caller writes them (all or nothing).
 ///
 /// # Errors
 /// [`PlotError`] when an error is not finite (nothing can be drawn).
@@ -58,6 +93,76 @@ pub fn render(cal: &Calibration) -> Result<Vec<(String, String)>, PlotError> {
         Calibration::ToolFrame(c) => tool_frame::render(c),
     }?);
     Ok(files)
+}
+
+/// What became of the flagged units (indices ascending) given the units `excluded`: `kept
+/// (--reject-outliers to exclude)`, `all` (every one excluded: the kind's words, with the
+/// refit), or how many were excluded as gross errors and how many kept.
+fn outlier_status(flagged: &[usize], excluded: &[usize], unit: &str, all: String) -> String {
+    let gross = flagged
+        .iter()
+        .filter(|i| excluded.binary_search(i).is_ok())
+        .count();
+    if excluded.is_empty() {
+        "kept (--reject-outliers to exclude)".to_string()
+    } else if gross == flagged.len() {
+        all
+    } else {
+        format!(
+            "{gross} excluded as gross errors (robust screen), {}; the other {} {unit}{} kept \
+             (--reject-outliers to exclude)",
+            all.trim_start_matches("excluded, "),
+            flagged.len() - gross,
+            if flagged.len() - gross == 1 { "" } else { "s" }
+        )
+    }
+}
+
+/// The robust screen in one sentence (console and report): the trimmed fit, the robust and
+/// the classical scale (`scale_unit`), and the units excluded with their `labels` (up to
+/// 10).
+fn robust_sentence(
+    r: &calibrate::RobustScreen,
+    unit: &str,
+    scale_unit: &str,
+    labels: &[String],
+) -> String {
+    use crate::fmt::mm;
+    let excluded = if r.excluded.is_empty() {
+        format!("no {unit} beyond the cut")
+    } else {
+        format!(
+            "excluded {} of {} {unit}s: {}{}",
+            r.excluded.len(),
+            r.units,
+            labels[..labels.len().min(10)].join(", "),
+            if labels.len() > 10 { ", …" } else { "" }
+        )
+    };
+    format!(
+        "robust screen: least trimmed squares on {} of {} {unit}s (from the {}, {} \
+         concentration step{}), robust σ̃ {} {scale_unit} (first fit σ̂ {}); cut {}·√d·σ (σ̃, \
+         then σ̂ of the {unit}s kept): {excluded}",
+        r.h,
+        r.units,
+        r.start,
+        r.steps,
+        if r.steps == 1 { "" } else { "s" },
+        mm(r.sigma_robust_row),
+        mm(r.sigma_first_row),
+        r.cut_k,
+    )
+}
+
+/// [`robust_sentence`] of a point calibration's robust screen, its rows labelled.
+fn robust_points(o: &PointCalibration) -> Option<String> {
+    let r = o.robust.as_ref()?;
+    let labels: Vec<String> = r
+        .excluded
+        .iter()
+        .map(|&i| calibrate::row_label(&o.screened_rows[i]))
+        .collect();
+    Some(robust_sentence(r, "row", "mm/axis", &labels))
 }
 
 /// The console summary of `cal`, of any kind.
@@ -88,7 +193,10 @@ pub fn parameters_json(cal: &Calibration) -> String {
 pub mod points {
     use calibrate::{PointCalibration, file_name, row_label};
 
-    use super::{PARAMETERS_FILE, REPORT_FILE, REPORT_HTML_FILE, plots};
+    use super::{
+        OUTLIERS_FILE, OutlierRow, PARAMETERS_FILE, REPORT_FILE, REPORT_HTML_FILE, outliers_csv,
+        plots,
+    };
     use crate::plot::PlotError;
 
     pub use super::markdown::markdown;
@@ -135,6 +243,26 @@ pub mod points {
             (REPORT_HTML_FILE.to_string(), html),
         ];
         files.extend(plots);
+        let excluded = cal
+            .robust
+            .as_ref()
+            .map_or(&[][..], |r| r.excluded.as_slice());
+        let rows: Vec<OutlierRow> = cal.screen.as_ref().map_or_else(Vec::new, |sc| {
+            sc.outliers
+                .iter()
+                .map(|o| {
+                    let r = &cal.screened_rows[o.index];
+                    OutlierRow {
+                        line: r.line,
+                        id: r.id.clone().unwrap_or_default(),
+                        residual_mm: o.norm_mm,
+                        ratio: o.ratio,
+                        excluded: excluded.binary_search(&o.index).is_ok(),
+                    }
+                })
+                .collect()
+        });
+        files.push((OUTLIERS_FILE.to_string(), outliers_csv(&rows)));
         Ok(files)
     }
 }

@@ -74,6 +74,10 @@ pub fn summary(o: &PointCalibration) -> String {
         );
     }
     // k as given (`{}`: the shortest text that reads back as the value).
+    let excluded = o
+        .robust
+        .as_ref()
+        .map_or_else(Vec::new, |r| r.excluded.clone());
     if let Some(sc) = &o.screen {
         if sc.outliers.is_empty() {
             let _ = writeln!(
@@ -103,17 +107,23 @@ pub fn summary(o: &PointCalibration) -> String {
                 sc.outliers.len(),
                 list.join(", "),
                 if sc.outliers.len() > 10 { ", …" } else { "" },
-                if o.rejected {
+                super::outlier_status(
+                    &sc.indices(),
+                    &excluded,
+                    "row",
                     format!(
                         "excluded, refitted: RMS {} → {} mm",
                         mm(o.first.rms_mm),
                         mm(o.fit.rms_mm)
                     )
-                } else {
-                    "kept (--reject-outliers to exclude)".to_string()
-                }
+                )
             );
         }
+    }
+    if o.rejected
+        && let Some(sentence) = super::robust_points(o)
+    {
+        let _ = writeln!(out, "{sentence}");
     }
     if let Some(v) = &o.validation {
         let (b, af) = (&v.table.before.norm, &v.table.after.norm);

@@ -119,6 +119,10 @@ pub fn summary(c: &ToolFrameCalibration) -> String {
             c.held.join(", ")
         );
     }
+    let excluded = c
+        .robust
+        .as_ref()
+        .map_or_else(Vec::new, |r| r.excluded.clone());
     if let Some(sc) = &c.screen {
         let ol = c.outlier_poses();
         let rule = format!(
@@ -148,13 +152,28 @@ pub fn summary(c: &ToolFrameCalibration) -> String {
                 if ol.len() == 1 { "" } else { "s" },
                 list.join(", "),
                 if ol.len() > 10 { ", …" } else { "" },
-                if c.rejected {
-                    "dropped and refitted"
-                } else {
-                    "kept (--reject-outliers to exclude)"
-                }
+                super::outlier_status(
+                    &sc.indices(),
+                    &excluded,
+                    "pose",
+                    "dropped and refitted".to_string()
+                )
             );
         }
+    }
+    if let Some(r) = &c.robust
+        && c.rejected
+    {
+        let labels: Vec<String> = r
+            .excluded
+            .iter()
+            .map(|&i| format!("line {}", c.screened_lines[i]))
+            .collect();
+        let _ = writeln!(
+            out,
+            "{}",
+            super::robust_sentence(r, "pose", "(weighted rows)", &labels)
+        );
     }
     if let Some((source, before, after)) = &c.validation {
         let _ = writeln!(
@@ -404,5 +423,18 @@ pub fn render(c: &ToolFrameCalibration) -> Result<Vec<(String, String)>, PlotErr
         (REPORT_HTML_FILE.to_string(), html),
     ];
     files.extend(pics);
+    let excluded = c.robust.as_ref().map_or(&[][..], |r| r.excluded.as_slice());
+    let rows: Vec<super::OutlierRow> = c
+        .outlier_poses()
+        .iter()
+        .map(|o| super::OutlierRow {
+            line: o.line,
+            id: String::new(),
+            residual_mm: o.position_mm,
+            ratio: o.ratio,
+            excluded: excluded.binary_search(&o.pose).is_ok(),
+        })
+        .collect();
+    files.push((super::OUTLIERS_FILE.to_string(), super::outliers_csv(&rows)));
     Ok(files)
 }
