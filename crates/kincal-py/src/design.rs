@@ -1,7 +1,7 @@
 //! `kincal.design`: which poses to measure, chosen by the design crate's `design_selection`
 //! (the selection of `design_plan`, which `kincal design` writes as a plan file).
 
-use numpy::PyArray1;
+use numpy::{PyArray1, PyUntypedArrayMethods};
 use pyo3::prelude::*;
 
 use crate::arrays::{ArrayArg, index_array, joint_rows, memory_set};
@@ -43,6 +43,9 @@ fn py_design<'py>(
         Some(p) => params_arg(p)?,
         None => "minimal".parse().expect("a parameter spec always parses"),
     };
+    // The candidates' count as the CLI checks it (each is designed on: a pose's memory).
+    campaign::check_poses(candidates_q_deg.shape().first().copied().unwrap_or(0))
+        .map_err(|e| crate::errors::size_error("candidates_q_deg", &e))?;
     let cand = memory_set(
         "candidates",
         nj,

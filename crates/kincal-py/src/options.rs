@@ -94,6 +94,15 @@ pub(crate) fn identify_request(
         allow,
         prior,
     } = o;
+    // Parsed whether or not `select` is given (by the library's `FromStr`, as `kincal
+    // identify --criterion` is), so a misspelt criterion is never accepted silently.
+    let criterion: design::Criterion = parse_arg("criterion", criterion)?;
+    if select.is_none() && criterion != design::Criterion::D {
+        return Err(refuse(format!(
+            "criterion={:?}: only with select (it chooses the rows select identifies on)",
+            criterion.as_str()
+        )));
+    }
     let split = match (every, select) {
         (Some(_), Some(_)) => {
             return Err(refuse(
@@ -101,10 +110,7 @@ pub(crate) fn identify_request(
             ));
         }
         (Some(every), None) => calibrate::Split::Every { every, offset },
-        (None, Some(poses)) => calibrate::Split::Select {
-            poses,
-            criterion: criterion.parse().map_err(refuse)?,
-        },
+        (None, Some(poses)) => calibrate::Split::Select { poses, criterion },
         (None, None) => calibrate::Split::All,
     };
     if offset != 0 && every.is_none() {

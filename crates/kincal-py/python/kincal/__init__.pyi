@@ -148,7 +148,9 @@ class Robot:
 
         Any array-like of numbers is accepted (converted to float64). The same numbers as
         ``kincal predict``, to the bit. Raises KincalError on another shape or a non-finite
-        angle. The GIL is released during the computation.
+        angle, and MemoryError, before copying anything, on more rows than this machine's
+        available memory holds (a broadcast array costs numpy nothing but its full size
+        here; docs/scale.md). The GIL is released during the computation.
         """
 
     def __repr__(self) -> str: ...
@@ -296,7 +298,9 @@ def identify(
     ``(n, N)`` (degrees), as ``kincal identify`` does on a file with the same rows; the
     options are the CLI's flags: ``params`` (``None`` = ``"paper"``; ``"minimal"``, names,
     ``"paper+compliance"``; or a list of names), ``validate=(q_deg, points_mm)``,
-    ``every``/``offset`` or ``select``/``criterion`` (hold-out splits), ``schedule``
+    ``every``/``offset`` or ``select``/``criterion`` (hold-out splits; ``criterion`` is
+    checked whether or not ``select`` is given, and one other than ``"d"`` needs it, as
+    ``--criterion`` needs ``--select``), ``schedule``
     (levenberg, marquardt, nielsen), ``redundant`` (hold, damp), ``registration`` (auto,
     always, never), ``reject_outliers``, ``outlier_k``, ``worst``, ``prior`` (``--prior``:
     ``"auto"``, ``"none"``, ``"tolerance"`` or ``"tolerance,NAME=SD,..."``).
@@ -458,7 +462,9 @@ def design(
     = ``"minimal"``), each pose measuring ``measure``: ``"point"`` (one reflector),
     ``"frame"`` (a 6-DoF probe: the tool frame's unknowns join the robot's) or
     ``"targets"`` (every target of the robot file's ``targets``), as ``kincal design
-    --candidates --measure`` does (docs/design.md)."""
+    --candidates --measure`` does (docs/design.md). More than 10⁶ candidates raise
+    KincalError, fewer that do not fit in memory MemoryError, before anything is copied
+    (the limits of ``kincal design``, docs/scale.md)."""
 
 def campaign(
     scenario: _Path | Mapping[str, Any],
@@ -474,8 +480,12 @@ def campaign(
     relative ``robot`` path is taken from the current directory) and returns its summary:
     the contents of ``summary.json`` of ``kincal campaign`` with the same options
     (``iso=False`` is ``--no-iso``, ``budget=False`` ``--no-budget``). Nothing is written.
-    ``progress(done, total)`` is called on the calling thread about every 0.1 s. The same
-    seed gives the same summary on any thread count. The GIL is released during the work."""
+    ``progress(done, total)`` is called on the calling thread about every 0.05 s. The same
+    seed gives the same summary on any thread count; ``threads`` above 4 per core is capped
+    with a UserWarning, as ``--threads`` is. The GIL is released during the work, and the
+    calling thread checks for signals every 0.05 s: Ctrl-C raises KeyboardInterrupt once
+    the trials in progress finish (well within a second), and an exception raised by
+    ``progress`` stops the run the same way and is raised as it was."""
 
 def simulate(
     scenario: _Path | Mapping[str, Any],
