@@ -8,6 +8,7 @@ use pyo3::types::PyDict;
 
 use crate::arrays::{rows_array, vec_rows_array};
 use crate::errors::{kincal_error, kincal_error_in, refuse};
+use crate::interrupt::run_interruptible;
 
 /// Registers `campaign` and `simulate`.
 pub(crate) fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
@@ -65,10 +66,6 @@ impl campaign::Observer for Progress {
     }
 }
 
-/// How often the calling thread wakes while a campaign runs, to check for signals (Ctrl-C:
-/// `KeyboardInterrupt`) and call the progress callback.
-const POLL: std::time::Duration = std::time::Duration::from_millis(50);
-
 /// `threads=`, capped by [`campaign::cap_threads`] as the CLI caps `--threads`, with a
 /// `UserWarning` when it was.
 fn capped_threads(py: Python<'_>, threads: Option<usize>) -> PyResult<Option<usize>> {
@@ -121,52 +118,27 @@ fn py_campaign<'py>(
     }
     let threads = capped_threads(py, threads)?;
     let counter = Progress::default();
-    // The first exception raised while the campaign runs (a signal's, e.g. KeyboardInterrupt,
-    // or the progress callback's): it stops the workers before their next trial and is
-    // raised as it was once they have returned.
-    let mut raised: Option<PyErr> = None;
-    let outcome = std::thread::scope(|scope| {
-        let worker = scope.spawn(|| campaign::summarize(loaded, threads, &counter));
-        let mut reported = (u64::MAX, u64::MAX);
-        loop {
-            let finished = py.detach(|| {
-                let until = std::time::Instant::now() + POLL;
-                while !worker.is_finished() && std::time::Instant::now() < until {
-                    std::thread::sleep(std::time::Duration::from_millis(2));
-                }
-                worker.is_finished()
-            });
-            if raised.is_none() {
-                let mut step = || -> PyResult<()> {
-                    py.check_signals()?;
-                    if let Some(cb) = &progress {
-                        let now = (
-                            counter.done.load(std::sync::atomic::Ordering::Relaxed),
-                            counter.total.load(std::sync::atomic::Ordering::Relaxed),
-                        );
-                        if now != reported {
-                            reported = now;
-                            cb.call1(now)?;
-                        }
-                    }
-                    Ok(())
-                };
-                if let Err(e) = step() {
-                    raised = Some(e);
-                    counter
-                        .stop
-                        .store(true, std::sync::atomic::Ordering::Relaxed);
+    let mut reported = (u64::MAX, u64::MAX);
+    // Ctrl-C or an exception in `progress` stops the workers before their next trial
+    // (`Observer::stop_requested`) and is raised as it was.
+    let outcome = run_interruptible(
+        py,
+        &counter.stop,
+        || campaign::summarize(loaded, threads, &counter),
+        || {
+            if let Some(cb) = &progress {
+                let now = (
+                    counter.done.load(std::sync::atomic::Ordering::Relaxed),
+                    counter.total.load(std::sync::atomic::Ordering::Relaxed),
+                );
+                if now != reported {
+                    reported = now;
+                    cb.call1(now)?;
                 }
             }
-            if finished {
-                break;
-            }
-        }
-        worker.join().expect("the campaign thread does not panic")
-    });
-    if let Some(e) = raised {
-        return Err(e);
-    }
+            Ok(())
+        },
+    )?;
     let outcome = outcome.map_err(|e| kincal_error(&e))?;
     py.import("json")?
         .call_method1("loads", (outcome.summary.to_json(),))

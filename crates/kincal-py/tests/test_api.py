@@ -539,3 +539,20 @@ def test_sizes_that_cannot_fit_are_refused_before_allocation():
     assert "candidates_q_deg: poses: 100000000 is more than the limit of 1000000" in message(e)
     # Within the memory: still computed.
     assert robot.fk(np.broadcast_to(np.zeros(6), (1000, 6))).shape == (1000, 3)
+
+
+def test_ctrl_c_interrupts_a_design_within_a_second():
+    import time
+
+    robot = kincal.Robot.load(ROBOTS / "ur10.json")
+    # 300,000 candidates: about 20 s of selection on the 2-core CI machine (10^5 take 7 s).
+    q = np.random.default_rng(1).uniform(-170.0, 170.0, (300_000, 6))
+    sent = _interrupt_after(2.0)
+    started = time.monotonic()
+    with pytest.raises(KeyboardInterrupt):
+        kincal.design(robot, q, 30)
+    raised = time.monotonic()
+    assert sent, f"the design ended before the signal ({raised - started:.1f} s)"
+    latency = raised - sent[0]
+    print(f"Ctrl-C latency (design): {latency * 1e3:.0f} ms")
+    assert latency <= 1.0, f"KeyboardInterrupt {latency:.2f} s after the signal"

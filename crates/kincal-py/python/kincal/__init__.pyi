@@ -464,7 +464,9 @@ def design(
     ``"targets"`` (every target of the robot file's ``targets``), as ``kincal design
     --candidates --measure`` does (docs/design.md). More than 10⁶ candidates raise
     KincalError, fewer that do not fit in memory MemoryError, before anything is copied
-    (the limits of ``kincal design``, docs/scale.md)."""
+    (the limits of ``kincal design``, docs/scale.md). The GIL is released during the work;
+    Ctrl-C raises KeyboardInterrupt within a second (the selection stops at its next
+    step)."""
 
 def campaign(
     scenario: _Path | Mapping[str, Any],
