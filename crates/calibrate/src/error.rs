@@ -353,6 +353,12 @@ pub enum Refusal {
         /// What does not match.
         reason: String,
     },
+    /// The targets file has no rows: nothing to compensate.
+    #[error("{file}: the targets file has no rows (no target to compensate); nothing written")]
+    NoTargets {
+        /// The targets file.
+        file: String,
+    },
     /// No target is reachable.
     #[error("{}\nno target in {file} is reachable; nothing written", unreachable.join("\n"))]
     NoneReachable {

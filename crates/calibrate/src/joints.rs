@@ -178,7 +178,8 @@ pub fn compensate_targets(
     out_label: &str,
 ) -> Result<Compensation> {
     check_same_layout(calibrated, nominal)?;
-    let set = nominal.read_set(targets, false, (1, None), "target joint file")?;
+    // No minimum here: a file of no rows is refused by `compensate_rows`, saying so.
+    let set = nominal.read_set(targets, false, (0, None), "target joint file")?;
     compensate_rows(
         calibrated,
         nominal,
@@ -233,6 +234,12 @@ pub fn compensate_rows(
     out_label: &str,
 ) -> Result<Compensation> {
     check_same_layout(calibrated, nominal)?;
+    if set.rows.is_empty() {
+        return Err(Refusal::NoTargets {
+            file: set.source.clone(),
+        }
+        .into());
+    }
     let (id_r, nom_r): (&Robot, &Robot) = (&calibrated.robot, &nominal.robot);
     let n = nom_r.n_joints();
     check_same_frame(calibrated, nominal, &poses_rad(&set.rows))?;

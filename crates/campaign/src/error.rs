@@ -189,6 +189,14 @@ pub enum CampaignError {
     /// A thread count of 0 (leaving the count out means all cores).
     #[error("the thread count must be at least 1 (leave it out to use all cores)")]
     ZeroThreads,
+    /// The caller asked the run to stop ([`crate::Observer::stop_requested`]): the trials in
+    /// progress finished, the others did not start, and nothing was written (a checkpoint
+    /// written before stays, and `--resume` continues from it).
+    #[error("stopped on request after {done} trials")]
+    Stopped {
+        /// Trials finished before the run stopped (a checkpoint's included).
+        done: u64,
+    },
     /// A trial count beyond what the run can count or hold.
     #[error("{what} {count}: more than the limit of {limit} ({why})")]
     TooLarge {

@@ -36,7 +36,8 @@ pub use outputs::summary::{
 };
 pub use outputs::trial_report::TrialReport;
 pub use requests::campaign::{
-    CampaignOutcome, CampaignRun, Checkpointing, MergeOutcome, MergeRun, SimulateRun, default_out,
+    CampaignOutcome, CampaignRun, Checkpointing, MAX_THREADS_PER_CORE, MergeOutcome, MergeRun,
+    SimulateRun, cap_threads, default_out,
 };
 pub use requests::check::{
     Baseline, CheckFile, CheckSpec, Comparison, Figures, RecoveryFigures, Tolerances, compare,
@@ -53,12 +54,12 @@ pub use run::checkpoint::{
     Checkpoint, CheckpointConfig, CheckpointManifest, code_version, run_chunks,
     run_range_checkpointed,
 };
-pub use run::range::{Aggregate, METRICS, RecoveryStat, run_range};
+pub use run::range::{Aggregate, METRICS, RecoveryStat, run_range, run_range_until};
 pub use run::shard::{Shard, ShardFile, ShardManifest, merge_shards, shard_budget, shard_range};
 pub use scenario::{
     BYTES_PER_POSE, BudgetConfig, CompensationConfig, DEFAULT_BUDGET_TRIALS, IdentificationConfig,
     IsoConfig, LoadedScenario, MAX_POSES, MAX_REACH_MM, MIN_REACH_MM, MeasurementConfig,
-    PoseSelection, RecoveryConfig, Scenario, ScenarioError, SelectionMethod,
+    PoseSelection, RecoveryConfig, Scenario, ScenarioError, SelectionMethod, check_poses,
 };
 pub use sweep::spec::{
     Axis, Curve, PlotSpec, SweepPoint, SweepResult, SweepSpec, run_sweep, run_sweep_checkpointed,

@@ -40,6 +40,15 @@ pub trait Observer: Sync {
     /// Something the user should know about the run that is not an error, e.g. where the
     /// outputs go when that is not the default place.
     fn note(&self, _message: &str) {}
+
+    /// Whether the run should stop (an interrupted caller, e.g. Ctrl-C in Python). Asked
+    /// before every trial, from the worker threads: keep it cheap. Once it is true the trials
+    /// in progress finish, no other starts, and the run returns
+    /// [`CampaignError::Stopped`](crate::CampaignError::Stopped) without writing its outputs
+    /// (a checkpoint written before stays: the run resumes from it).
+    fn stop_requested(&self) -> bool {
+        false
+    }
 }
 
 /// An observer that shows nothing.

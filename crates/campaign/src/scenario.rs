@@ -542,13 +542,11 @@ impl Scenario {
             ("poses.validation", self.poses.validation.len()),
             ("pose_selection.candidates", self.pose_selection.candidates),
         ] {
-            measurements::check_size("poses", n as u64, MAX_POSES, BYTES_PER_POSE).map_err(
-                |e| ScenarioError::Invalid {
-                    file: source.to_string(),
-                    field: field.to_string(),
-                    message: e.to_string(),
-                },
-            )?;
+            check_poses(n).map_err(|e| ScenarioError::Invalid {
+                file: source.to_string(),
+                field: field.to_string(),
+                message: e.to_string(),
+            })?;
         }
         if self.trials == 0 {
             return Err(invalid("trials", "must be at least 1".into()));
@@ -758,6 +756,15 @@ impl Scenario {
 /// and memory per pose, and a trial of 10⁶ poses extrapolated from them, are measured by
 /// `cargo xtask timings` (`docs/timings.md`, "Poses per trial").
 pub const MAX_POSES: u64 = 1_000_000;
+
+/// Checks a count of poses (a scenario's sets, design candidates from a file, an option or
+/// a Python array, random poses) before anything is allocated for them: at most
+/// [`MAX_POSES`], and [`BYTES_PER_POSE`] each within the machine's available memory
+/// (`measurements::check_size`; docs/scale.md, "Sizes and memory"). Every front end checks
+/// poses through this.
+pub fn check_poses(count: usize) -> Result<(), measurements::SizeError> {
+    measurements::check_size("poses", count as u64, MAX_POSES, BYTES_PER_POSE)
+}
 
 /// Memory per pose of a trial, per worker thread, rounded up from the measurement of
 /// `cargo xtask timings` (`docs/timings.md`, "Poses per trial": the slope of the peak

@@ -29,7 +29,9 @@ fn paper_budget_explains_the_residual() {
     );
     // Compliance, gears, repeatability, tracker noise (drift is off): 2 + 2·4 runs.
     assert_eq!(budget_runs(&loaded.scenario), 10);
-    let b = residual_budget(&loaded, &|_| {}).unwrap().expect("enabled");
+    let b = residual_budget(&loaded, &|_| {}, &|| false)
+        .unwrap()
+        .expect("enabled");
     let sources: Vec<Source> = b.sources.iter().map(|r| r.source).collect();
     assert_eq!(
         sources,
@@ -122,7 +124,7 @@ fn budget_is_deterministic_across_thread_counts() {
             .num_threads(threads)
             .build()
             .unwrap()
-            .install(|| residual_budget(&loaded, &|_| {}).unwrap())
+            .install(|| residual_budget(&loaded, &|_| {}, &|| false).unwrap())
     };
     let one = serde_json::to_string(&on(1)).unwrap();
     assert_eq!(one, serde_json::to_string(&on(3)).unwrap());
@@ -134,14 +136,14 @@ fn budget_off_or_without_sources() {
         v["residual_budget"]["enabled"] = false.into();
     });
     assert_eq!(budget_runs(&off.scenario), 0);
-    assert!(residual_budget(&off, &|_| {}).unwrap().is_none());
+    assert!(residual_budget(&off, &|_| {}, &|| false).unwrap().is_none());
     // noise-floor has no source outside the model but the tracker noise: one line.
     let nf = load_edited("noise-floor", |v| {
         v["trials"] = 2.into();
         v["residual_budget"] = serde_json::json!({ "enabled": true, "trials": 50 });
     });
     assert_eq!(budget_trials(&nf.scenario), 2);
-    let b = residual_budget(&nf, &|_| {}).unwrap().unwrap();
+    let b = residual_budget(&nf, &|_| {}, &|| false).unwrap().unwrap();
     let sources: Vec<Source> = b.sources.iter().map(|r| r.source).collect();
     assert_eq!(sources, [Source::TrackerNoise]);
 }
@@ -173,7 +175,7 @@ fn bad_budget_sections_name_the_field() {
 fn shards_carry_the_budget_in_shard_zero_only() {
     let loaded = paper(4);
     let ctx = Context::new(loaded.clone()).unwrap();
-    let budget = residual_budget(&loaded, &|_| {}).unwrap();
+    let budget = residual_budget(&loaded, &|_| {}, &|| false).unwrap();
     assert!(budget.is_some());
     let shard = |k: u64, with_budget: bool| {
         let range = shard_range(4, k, 2);

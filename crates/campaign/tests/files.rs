@@ -189,6 +189,70 @@ fn timing_after_a_resume_counts_every_segment() {
     assert!(!out.join("checkpoint.json").exists());
 }
 
+/// An observer that asks the run to stop once `after` trials are done.
+struct StopAfter {
+    after: u64,
+    done: std::sync::atomic::AtomicU64,
+}
+
+impl campaign::Observer for StopAfter {
+    fn trials_done(&self, k: u64) {
+        self.done.fetch_add(k, std::sync::atomic::Ordering::Relaxed);
+    }
+    fn stop_requested(&self) -> bool {
+        self.done.load(std::sync::atomic::Ordering::Relaxed) >= self.after
+    }
+}
+
+/// A run stopped by its observer (Ctrl-C in Python) ends with `Stopped` before its
+/// remaining trials, writes no outputs and keeps the checkpoint it wrote last; resumed, it
+/// gives the bytes of an uninterrupted run. The in-memory run (Python's) stops the same way.
+#[test]
+fn a_stopped_run_keeps_its_checkpoint_and_resumes_to_the_same_bytes() {
+    use campaign::{CampaignError, CampaignRun, Checkpointing, Silent};
+    let file = scenarios().join("paper-kr1000.json");
+    let tmp = tempfile::tempdir().unwrap();
+    let run = |out: &Path, resume: bool, observer: &dyn campaign::Observer| {
+        let mut run = CampaignRun::new(&file);
+        run.trials = Some(12);
+        run.iso_off = true;
+        run.budget_off = true;
+        run.threads = Some(1);
+        run.out = Some(out.to_path_buf());
+        run.checkpoint = Some(Checkpointing {
+            resume,
+            every_trials: Some(2),
+        });
+        run.run(observer)
+    };
+    let whole = tmp.path().join("whole");
+    run(&whole, false, &Silent).unwrap();
+    let out = tmp.path().join("stopped");
+    let stop = StopAfter {
+        after: 5,
+        done: Default::default(),
+    };
+    let e = run(&out, false, &stop).unwrap_err();
+    assert!(matches!(e, CampaignError::Stopped { done: 4 }), "{e}");
+    assert!(stop.done.load(std::sync::atomic::Ordering::Relaxed) < 12);
+    assert!(out.join("checkpoint.json").exists());
+    assert!(!out.join("summary.json").exists());
+    run(&out, true, &Silent).unwrap();
+    assert_eq!(
+        std::fs::read_to_string(out.join("summary.json")).unwrap(),
+        std::fs::read_to_string(whole.join("summary.json")).unwrap()
+    );
+    let mut loaded = Scenario::from_file(&file).unwrap();
+    loaded.scenario.trials = 12;
+    let stop = StopAfter {
+        after: 1,
+        done: Default::default(),
+    };
+    let e = campaign::summarize(loaded, Some(1), &stop).unwrap_err();
+    assert!(matches!(e, CampaignError::Stopped { .. }), "{e}");
+    assert!(stop.done.load(std::sync::atomic::Ordering::Relaxed) < 12);
+}
+
 /// A scenario copied elsewhere without its `robots/` names the robot path as relative to the
 /// scenario file's directory.
 #[test]
@@ -227,11 +291,11 @@ fn checkpoints_follow_their_cadence_and_leave_the_aggregate_alone() {
         let agg = pool.install(|| {
             run_chunks(
                 &ctx,
-                0,
-                40,
+                0..40,
                 campaign::Aggregate::default(),
                 cfg,
                 &|_| {},
+                &|| false,
                 &mut |n, _| {
                     at.push(n);
                     Ok(())

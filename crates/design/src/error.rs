@@ -75,6 +75,9 @@ pub enum DesignError {
         /// Number of candidates.
         candidates: usize,
     },
+    /// The caller asked the design to stop ([`crate::DesignOptions::stop`]).
+    #[error("stopped on request")]
+    Stopped,
     /// An option is out of range.
     #[error("option `{name}`: {message}")]
     InvalidOption {

@@ -58,7 +58,7 @@ pub use criterion::{Criterion, condition_number, dense_value, observability};
 pub use error::DesignError;
 pub use measure::Measure;
 pub use model::{InfoModel, Scale};
-pub use select::{Design, DesignOptions, select};
+pub use select::{Design, DesignOptions, StopFlag, select};
 
 use kinematics::Robot;
 

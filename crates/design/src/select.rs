@@ -85,6 +85,45 @@ pub struct DesignOptions {
     pub seed: u64,
     /// Cap on exchange passes per run \[100\].
     pub max_passes: usize,
+    /// Set from another thread to stop the design (Ctrl-C in Python): asked before every
+    /// greedy step and every exchange slot; a stopped design is [`DesignError::Stopped`].
+    /// Not part of the options' value (not serialised, equal whatever it holds).
+    #[serde(skip)]
+    pub stop: StopFlag,
+}
+
+/// A request to stop a long computation, shared with the thread that may make it (see
+/// [`DesignOptions::stop`]): none by default.
+#[derive(Clone, Debug, Default)]
+pub struct StopFlag(Option<std::sync::Arc<std::sync::atomic::AtomicBool>>);
+
+impl StopFlag {
+    /// A flag that stops the computation once `flag` is true.
+    pub fn new(flag: std::sync::Arc<std::sync::atomic::AtomicBool>) -> Self {
+        StopFlag(Some(flag))
+    }
+
+    /// Whether a stop was asked for.
+    pub fn is_set(&self) -> bool {
+        self.0
+            .as_ref()
+            .is_some_and(|f| f.load(std::sync::atomic::Ordering::Relaxed))
+    }
+
+    fn check(&self) -> Result<(), DesignError> {
+        if self.is_set() {
+            Err(DesignError::Stopped)
+        } else {
+            Ok(())
+        }
+    }
+}
+
+/// Any two flags are equal: a stop request is not part of the options' value.
+impl PartialEq for StopFlag {
+    fn eq(&self, _: &Self) -> bool {
+        true
+    }
 }
 
 impl DesignOptions {
@@ -96,6 +135,7 @@ impl DesignOptions {
             restarts: 0,
             seed: 0,
             max_passes: 100,
+            stop: StopFlag::default(),
         }
     }
 }
@@ -268,7 +308,14 @@ struct State<'a> {
     in_set: Vec<bool>,
     /// Rank-building phase: D on M_ε whatever the criterion.
     building: bool,
+    /// The caller's stop request ([`DesignOptions::stop`]): the scans over the candidates
+    /// end early once it is set (every [`STOP_EVERY`] candidates), and [`run`] returns
+    /// [`DesignError::Stopped`].
+    stop: StopFlag,
 }
+
+/// How many candidates a scan goes through between two looks at the stop request.
+const STOP_EVERY: usize = 4096;
 
 impl<'a> State<'a> {
     fn new(model: &'a InfoModel, crit: Criterion, ridge: f64, colsq: Vec<f64>) -> Self {
@@ -295,6 +342,7 @@ impl<'a> State<'a> {
             set: Vec::new(),
             in_set: vec![false; model.n_candidates],
             building: true,
+            stop: StopFlag::default(),
         };
         s.factor().expect("εI is positive definite");
         s
@@ -365,6 +413,9 @@ impl<'a> State<'a> {
         let minv_t = self.minv.transpose();
         let mut u = vec![0.0; 3 * p];
         for i in 0..k {
+            if i % STOP_EVERY == 0 && self.stop.is_set() {
+                return;
+            }
             let b = self.model.block(i);
             mul_mbt_into(&minv_t, b, p, &mut u);
             self.g[i] = mul_bu(b, &u, p);
@@ -487,6 +538,9 @@ impl<'a> State<'a> {
         let base = if fast { None } else { Some(self.ridged()) };
         let bound = base.as_ref().and_then(|b| EBound::new(self.active(), b));
         for i in 0..self.model.n_candidates {
+            if i % STOP_EVERY == 0 && self.stop.is_set() {
+                break;
+            }
             if self.in_set[i] {
                 continue;
             }
@@ -525,6 +579,9 @@ impl<'a> State<'a> {
             let bound = EBound::new(self.active(), &base);
             let mut m = base.clone();
             for i in 0..self.model.n_candidates {
+                if i % STOP_EVERY == 0 && self.stop.is_set() {
+                    break;
+                }
                 if self.in_set[i] {
                     continue;
                 }
@@ -562,6 +619,9 @@ impl<'a> State<'a> {
             .collect();
         let (gj, hj) = (self.g[j], if lin { self.h[j] } else { M3::zeros() });
         for i in 0..self.model.n_candidates {
+            if i % STOP_EVERY == 0 && self.stop.is_set() {
+                break;
+            }
             if self.in_set[i] {
                 continue;
             }
@@ -731,13 +791,16 @@ fn run(
     start: Option<Vec<usize>>,
 ) -> Result<RunOutcome, DesignError> {
     let mut st = State::new(model, opts.criterion, ridge, colsq.to_vec());
+    st.stop = opts.stop.clone();
     match start {
         None => {
             st.refresh();
             while st.set.len() < opts.poses {
-                let (i, _) = st
-                    .best_addition()
-                    .ok_or_else(|| DesignError::Numerical("no candidate can be added".into()))?;
+                opts.stop.check()?;
+                let best = st.best_addition();
+                opts.stop.check()?;
+                let (i, _) =
+                    best.ok_or_else(|| DesignError::Numerical("no candidate can be added".into()))?;
                 let was_building = st.building;
                 st.apply(i, 1.0)?;
                 if st.building && st.full_rank() {
@@ -775,10 +838,13 @@ fn run(
         st.refresh();
         let mut swapped = false;
         for slot in 0..st.set.len() {
+            opts.stop.check()?;
             let j = st.set[slot];
             let cur = st.utility();
             let floor = cur + IMPROVE_RTOL * cur.abs();
-            if let Some((i, _)) = st.best_swap(j, floor) {
+            let swap = st.best_swap(j, floor);
+            opts.stop.check()?;
+            if let Some((i, _)) = swap {
                 // Add first, then remove (the intermediate matrix is the better conditioned).
                 st.apply(i, 1.0)?;
                 st.apply(j, -1.0)?;
@@ -879,6 +945,7 @@ pub fn select(model: &InfoModel, opts: &DesignOptions) -> Result<Design, DesignE
         let (set, greedy_value, passes, swaps, converged, trace) = match (outcome, restart) {
             (Ok(o), _) => o,
             (Err(e), 0) => return Err(e),
+            (Err(DesignError::Stopped), _) => return Err(DesignError::Stopped),
             // A random start that does not reach full rank is skipped.
             (Err(_), _) => continue,
         };
@@ -1014,6 +1081,18 @@ mod tests {
     /// Every fast criterion's rank-3 scores of additions and of swaps (after a chain of
     /// rank-3 updates of G and H, without a refresh) equal the dense reference: nalgebra's
     /// Cholesky, inverse and eigenvalues of the full modified matrix.
+    /// A stop request ends the selection with `Stopped`; without one the same options design.
+    #[test]
+    fn a_stop_request_ends_the_selection() {
+        let model = model(80, 5);
+        let flag = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
+        let mut opts = DesignOptions::new(Criterion::D, 12);
+        opts.stop = StopFlag::new(flag.clone());
+        assert!(select(&model, &opts).is_ok());
+        flag.store(true, std::sync::atomic::Ordering::Relaxed);
+        assert!(matches!(select(&model, &opts), Err(DesignError::Stopped)));
+    }
+
     #[test]
     fn rank3_scores_match_the_dense_reference() {
         let model = model(80, 5);

@@ -8,7 +8,7 @@ use numpy::{
 };
 use pyo3::prelude::*;
 
-use crate::errors::refuse;
+use crate::errors::{refuse, size_error};
 
 /// A numpy-convertible float64 array of any shape (lists are converted).
 pub(crate) type ArrayArg<'py> = PyArrayLikeDyn<'py, f64, AllowTypeChange>;
@@ -28,7 +28,10 @@ fn shape_text(shape: &[usize]) -> String {
 }
 
 /// The joint angles of `q_deg` (degrees), checked to be `(n, N)` or `(N,)` for an N-joint
-/// robot: the flat values and whether it was one pose.
+/// robot: the flat values and whether it was one pose. Rows that cannot fit in memory
+/// (forward kinematics' cost: the joints in degrees and radians and the points, twice) are
+/// refused before anything is copied (`MemoryError`): a broadcast array costs numpy nothing
+/// but would cost its full size here.
 pub(crate) fn joints_arg(q_deg: &ArrayArg<'_>, n: usize, name: &str) -> PyResult<(Vec<f64>, bool)> {
     let shape = q_deg.shape().to_vec();
     let single = match shape[..] {
@@ -42,11 +45,23 @@ pub(crate) fn joints_arg(q_deg: &ArrayArg<'_>, n: usize, name: &str) -> PyResult
             )));
         }
     };
+    let rows = if single { 1 } else { shape[0] };
+    let fk_bytes = 8 * (2 * n as u64 + 2 * 3);
+    measurements::check_rows("rows", rows, fk_bytes).map_err(|e| size_error(name, &e))?;
     Ok((q_deg.as_array().iter().copied().collect(), single))
 }
 
-/// `(n, N)` joints (`(N,)` is one row) as rows of N values.
+/// `(n, N)` joints (`(N,)` is one row) as rows of N values, for a measurement set: refused
+/// before anything is copied where the rows, at `measurements::BYTES_PER_ROW` each (a
+/// row's cost from reading to identifying, docs/scale.md), cannot fit in memory.
 pub(crate) fn joint_rows(q_deg: &ArrayArg<'_>, n: usize, name: &str) -> PyResult<Vec<Vec<f64>>> {
+    let rows = match q_deg.shape() {
+        [_] => 1,
+        [k, ..] => *k,
+        [] => 0,
+    };
+    measurements::check_rows("rows", rows, measurements::BYTES_PER_ROW)
+        .map_err(|e| size_error(name, &e))?;
     let (flat, _) = joints_arg(q_deg, n, name)?;
     Ok(flat.chunks_exact(n).map(<[f64]>::to_vec).collect())
 }

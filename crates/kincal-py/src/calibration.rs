@@ -174,6 +174,13 @@ impl PyCalibration {
     /// Indices (into `identification_rows`) of the rows the robust screen excluded from the
     /// final fit: the gross errors by default, every flagged row with `reject_outliers=True`,
     /// none with `keep_outliers=True`.
+    /// The measurements' scale factor `fit_scale=True` identified (the points were divided by
+    /// it before identifying), or None (not asked, or not significant).
+    #[getter]
+    fn measurement_scale(&self) -> Option<f64> {
+        self.points().measurement_scale.as_ref().map(|e| e.factor)
+    }
+
     #[getter]
     fn excluded(&self) -> Vec<usize> {
         self.points()
@@ -266,7 +273,8 @@ impl PyCalibration {
     robot, q_deg, points_mm, *, params = None, validate = None, reject_outliers = false,
     keep_outliers = false, every = None, offset = 0, select = None, criterion = "d", schedule = "levenberg",
     redundant = "hold", registration = "auto", outlier_k = 3.0, worst = 10,
-    joint_units = "deg", length_units = "mm", allow = None, prior = "auto"
+    joint_units = "deg", length_units = "mm", allow = None, prior = "auto",
+    fit_scale = false
 ))]
 #[allow(clippy::too_many_arguments)]
 fn py_identify<'py>(
@@ -291,6 +299,7 @@ fn py_identify<'py>(
     length_units: &str,
     allow: Option<Bound<'py, PyAny>>,
     prior: &str,
+    fit_scale: bool,
 ) -> PyResult<PyCalibration> {
     let nominal = robot.loaded.clone();
     let n = nominal.robot.n_joints();
@@ -325,6 +334,7 @@ fn py_identify<'py>(
             length_units,
             allow,
             prior,
+            fit_scale,
         },
     )?;
     py.detach(|| {

@@ -8,6 +8,7 @@ use pyo3::types::PyDict;
 
 use crate::arrays::{rows_array, vec_rows_array};
 use crate::errors::{kincal_error, kincal_error_in, refuse};
+use crate::interrupt::run_interruptible;
 
 /// Registers `campaign` and `simulate`.
 pub(crate) fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
@@ -43,11 +44,13 @@ fn scenario_arg(py: Python<'_>, scenario: &Bound<'_, PyAny>) -> PyResult<campaig
 }
 
 /// Counts the progress of a campaign from the worker threads (atomics only; the Python
-/// callback is called on the calling thread).
+/// callback is called on the calling thread), and carries the calling thread's request to
+/// stop (a signal such as Ctrl-C, or an exception in the callback) to them.
 #[derive(Default)]
 pub(crate) struct Progress {
     done: std::sync::atomic::AtomicU64,
     total: std::sync::atomic::AtomicU64,
+    stop: std::sync::atomic::AtomicBool,
 }
 
 impl campaign::Observer for Progress {
@@ -58,6 +61,24 @@ impl campaign::Observer for Progress {
     fn trials_done(&self, k: u64) {
         self.done.fetch_add(k, std::sync::atomic::Ordering::Relaxed);
     }
+    fn stop_requested(&self) -> bool {
+        self.stop.load(std::sync::atomic::Ordering::Relaxed)
+    }
+}
+
+/// `threads=`, capped by [`campaign::cap_threads`] as the CLI caps `--threads`, with a
+/// `UserWarning` when it was.
+fn capped_threads(py: Python<'_>, threads: Option<usize>) -> PyResult<Option<usize>> {
+    let Some(asked) = threads else {
+        return Ok(None);
+    };
+    let (t, note) = campaign::cap_threads(asked);
+    if let Some(note) = note {
+        let category = py.get_type::<pyo3::exceptions::PyUserWarning>();
+        py.import("warnings")?
+            .call_method1("warn", (format!("threads={note}"), category, 2))?;
+    }
+    Ok(Some(t))
 }
 
 /// Runs a Monte Carlo campaign of a scenario (a file or a dict) and returns its summary, the
@@ -95,40 +116,29 @@ fn py_campaign<'py>(
     if let Some(seed) = seed {
         s.seed = seed;
     }
+    let threads = capped_threads(py, threads)?;
     let counter = Progress::default();
-    let mut callback_error = None;
-    let outcome = std::thread::scope(|scope| {
-        let worker = scope.spawn(|| campaign::summarize(loaded, threads, &counter));
-        let mut reported = (u64::MAX, u64::MAX);
-        loop {
-            let finished = py.detach(|| {
-                let until = std::time::Instant::now() + std::time::Duration::from_millis(100);
-                while !worker.is_finished() && std::time::Instant::now() < until {
-                    std::thread::sleep(std::time::Duration::from_millis(2));
-                }
-                worker.is_finished()
-            });
-            if let (Some(cb), None) = (&progress, &callback_error) {
+    let mut reported = (u64::MAX, u64::MAX);
+    // Ctrl-C or an exception in `progress` stops the workers before their next trial
+    // (`Observer::stop_requested`) and is raised as it was.
+    let outcome = run_interruptible(
+        py,
+        &counter.stop,
+        || campaign::summarize(loaded, threads, &counter),
+        || {
+            if let Some(cb) = &progress {
                 let now = (
                     counter.done.load(std::sync::atomic::Ordering::Relaxed),
                     counter.total.load(std::sync::atomic::Ordering::Relaxed),
                 );
                 if now != reported {
                     reported = now;
-                    if let Err(e) = cb.call1(now) {
-                        callback_error = Some(e);
-                    }
+                    cb.call1(now)?;
                 }
             }
-            if finished {
-                break;
-            }
-        }
-        worker.join().expect("the campaign thread does not panic")
-    });
-    if let Some(e) = callback_error {
-        return Err(e);
-    }
+            Ok(())
+        },
+    )?;
     let outcome = outcome.map_err(|e| kincal_error(&e))?;
     py.import("json")?
         .call_method1("loads", (outcome.summary.to_json(),))

@@ -1,11 +1,12 @@
 //! `kincal.design`: which poses to measure, chosen by the design crate's `design_selection`
 //! (the selection of `design_plan`, which `kincal design` writes as a plan file).
 
-use numpy::PyArray1;
+use numpy::{PyArray1, PyUntypedArrayMethods};
 use pyo3::prelude::*;
 
 use crate::arrays::{ArrayArg, index_array, joint_rows, memory_set};
 use crate::errors::{kincal_error, kincal_error_in};
+use crate::interrupt::run_interruptible;
 use crate::options::{params_arg, parse_arg};
 use crate::robot::PyRobot;
 
@@ -43,6 +44,9 @@ fn py_design<'py>(
         Some(p) => params_arg(p)?,
         None => "minimal".parse().expect("a parameter spec always parses"),
     };
+    // The candidates' count as the CLI checks it (each is designed on: a pose's memory).
+    campaign::check_poses(candidates_q_deg.shape().first().copied().unwrap_or(0))
+        .map_err(|e| crate::errors::size_error("candidates_q_deg", &e))?;
     let cand = memory_set(
         "candidates",
         nj,
@@ -59,7 +63,10 @@ fn py_design<'py>(
             ))
         })
         .transpose()?;
-    let chosen = py.detach(|| -> PyResult<Vec<usize>> {
+    // Ctrl-C stops the selection at its next step (`DesignOptions::stop`).
+    let stop = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
+    let stop_flag = design::StopFlag::new(stop.clone());
+    let work = || -> PyResult<Vec<usize>> {
         let candidates = loaded
             .check_set(cand, false, "candidates")
             .map_err(|e| kincal_error(&e))?;
@@ -82,6 +89,7 @@ fn py_design<'py>(
         let mut opts = design::DesignOptions::new(criterion, n);
         opts.seed = seed;
         opts.restarts = restarts;
+        opts.stop = stop_flag;
         // No random sets: the indices are the answer, the comparison is not returned.
         let (selected, _) = design::design_selection(
             &model_robot,
@@ -97,6 +105,7 @@ fn py_design<'py>(
             _ => kincal_error_in(&format!("measure {measure}"), &e),
         })?;
         Ok(selected)
-    })?;
+    };
+    let chosen = run_interruptible(py, &stop, work, || Ok(()))??;
     Ok(index_array(py, chosen))
 }

@@ -100,6 +100,19 @@ pub(crate) fn refuse(msg: impl Into<String>) -> PyErr {
     KincalError::new_err(msg.into())
 }
 
+/// A size of argument `name` refused before allocation (`measurements::SizeError`):
+/// `MemoryError` when it does not fit in this machine's available memory, `KincalError`
+/// above a stated limit; the message is `{name}: {the library's text}`.
+pub(crate) fn size_error(name: &str, e: &measurements::SizeError) -> PyErr {
+    let msg = format!("{name}: {e}");
+    match e {
+        measurements::SizeError::OutOfMemory { .. } => {
+            pyo3::exceptions::PyMemoryError::new_err(msg)
+        }
+        _ => KincalError::new_err(msg),
+    }
+}
+
 /// Writes a calibration's rendered files into `directory` as `kincal identify --out` does
 /// (`measurements::OutputDir`): under the directory's advisory lock (another run writing
 /// there is refused, named), the set replacing the previous one as a whole, the user's own

@@ -68,7 +68,8 @@ fn frame_set(
     orientation_weight = None, params = None, validate = None, reject_outliers = false,
     keep_outliers = false, every = None, offset = 0, select = None, criterion = "d", schedule = "levenberg",
     redundant = "hold", registration = "auto", outlier_k = 3.0, worst = 10,
-    joint_units = "deg", length_units = "mm", allow = None, prior = "auto"
+    joint_units = "deg", length_units = "mm", allow = None, prior = "auto",
+    fit_scale = false
 ))]
 #[allow(clippy::too_many_arguments)]
 fn py_identify_frames<'py>(
@@ -97,6 +98,7 @@ fn py_identify_frames<'py>(
     length_units: &str,
     allow: Option<Bound<'py, PyAny>>,
     prior: &str,
+    fit_scale: bool,
 ) -> PyResult<PyFrameCalibration> {
     if orientations_wxyz.is_none() && targets.is_none() {
         return Err(refuse(
@@ -187,6 +189,7 @@ fn py_identify_frames<'py>(
             length_units,
             allow,
             prior,
+            fit_scale,
         },
     )?;
     let request = calibrate::IdentifyRequest {
@@ -290,6 +293,12 @@ impl PyFrameCalibration {
 
     /// Candidates held at their start values as confounded with the tool frame or with kept
     /// parameters (names).
+    /// The measurements' scale factor `fit_scale=True` identified, or None.
+    #[getter]
+    fn measurement_scale(&self) -> Option<f64> {
+        self.tool().measurement_scale.as_ref().map(|e| e.factor)
+    }
+
     #[getter]
     fn held(&self) -> Vec<String> {
         self.tool().held.clone()

@@ -10,7 +10,8 @@
 //!
 //! By topic (the layout of pydantic-core and polars): [`errors`] (the exceptions and the one
 //! conversion of library errors), [`arrays`] (numpy ⇄ rows), [`options`] (option strings
-//! and lists, parsed by the library's `FromStr`), then one module per part of the API:
+//! and lists, parsed by the library's `FromStr`), [`interrupt`] (long calls that answer
+//! Ctrl-C), then one module per part of the API:
 //! [`robot`], [`calibration`], [`frame_calibration`], [`design`], [`campaign`]. This file
 //! only registers them.
 
@@ -20,6 +21,7 @@ mod campaign;
 mod design;
 mod errors;
 mod frame_calibration;
+mod interrupt;
 mod options;
 mod robot;
 

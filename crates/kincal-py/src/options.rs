@@ -68,6 +68,8 @@ pub(crate) struct Shared<'a, 'py> {
     pub allow: Option<Bound<'py, PyAny>>,
     /// `--prior`: `auto`, `none`, `tolerance` or `tolerance,NAME=SD,…`.
     pub prior: &'a str,
+    /// `--fit-scale`.
+    pub fit_scale: bool,
 }
 
 /// The request `kincal identify` builds from its flags, for the robot `robot`, the data
@@ -95,7 +97,17 @@ pub(crate) fn identify_request(
         length_units,
         allow,
         prior,
+        fit_scale,
     } = o;
+    // Parsed whether or not `select` is given (by the library's `FromStr`, as `kincal
+    // identify --criterion` is), so a misspelt criterion is never accepted silently.
+    let criterion: design::Criterion = parse_arg("criterion", criterion)?;
+    if select.is_none() && criterion != design::Criterion::D {
+        return Err(refuse(format!(
+            "criterion={:?}: only with select (it chooses the rows select identifies on)",
+            criterion.as_str()
+        )));
+    }
     let split = match (every, select) {
         (Some(_), Some(_)) => {
             return Err(refuse(
@@ -103,10 +115,7 @@ pub(crate) fn identify_request(
             ));
         }
         (Some(every), None) => calibrate::Split::Every { every, offset },
-        (None, Some(poses)) => calibrate::Split::Select {
-            poses,
-            criterion: criterion.parse().map_err(refuse)?,
-        },
+        (None, Some(poses)) => calibrate::Split::Select { poses, criterion },
         (None, None) => calibrate::Split::All,
     };
     if offset != 0 && every.is_none() {
@@ -135,6 +144,7 @@ pub(crate) fn identify_request(
         length_units: parse_arg("length_units", length_units)?,
         allow: allow_arg(allow.as_ref())?,
         prior: parse_arg("prior", prior)?,
+        fit_scale,
         ..calibrate::IdentifyRequest::new(robot, data)
     })
 }

@@ -173,6 +173,9 @@ def test_compensate_equals_the_cli(readme_example, tmp_path):
     assert np.array_equal(kincal.compensate(cal, q[3]), q_cli[3])
     # The compensated joints bring the calibrated robot onto the nominal's points.
     assert np.abs(cal.predict(q_api) - cal.registered_nominal.fk(q)).max() < 1e-6
+    # No rows: said so (it said that no target is reachable).
+    with pytest.raises(kincal.KincalError, match="q_deg: the targets file has no rows"):
+        kincal.compensate(cal, np.zeros((0, 6)))
 
 
 def test_design_equals_the_cli(tmp_path):
@@ -461,3 +464,134 @@ def test_a_robot_file_of_implausible_numbers_is_refused_naming_the_field(tmp_pat
     with pytest.raises(kincal.KincalError) as e:
         kincal.Robot.load(path)
     assert "joints[0].theta_deg = 1.8446744073709552e19°" in message(e)
+
+
+def _interrupt_after(seconds):
+    """Sends SIGINT to this process after `seconds` (from another thread, as Ctrl-C would
+    arrive); returns a list that gets the monotonic time of the signal."""
+    import os
+    import signal
+    import threading
+    import time
+
+    sent = []
+
+    def fire():
+        time.sleep(seconds)
+        sent.append(time.monotonic())
+        os.kill(os.getpid(), signal.SIGINT)
+
+    threading.Thread(target=fire, daemon=True).start()
+    return sent
+
+
+def test_ctrl_c_interrupts_a_campaign_within_a_second():
+    import time
+
+    # 10,000 trials with the ISO test and the budget: about a minute on 2 threads (300 take
+    # 2.5 s on the 2-core CI machine), so the signal at 1 s lands in the trials.
+    sent = _interrupt_after(1.0)
+    started = time.monotonic()
+    with pytest.raises(KeyboardInterrupt):
+        kincal.campaign(SCENARIO, trials=10000, threads=2)
+    raised = time.monotonic()
+    assert sent, f"the campaign ended before the signal ({raised - started:.1f} s)"
+    latency = raised - sent[0]
+    print(f"Ctrl-C latency: {latency * 1e3:.0f} ms")
+    assert latency <= 1.0, f"KeyboardInterrupt {latency:.2f} s after the signal"
+    # The interpreter is usable and the next campaign runs normally.
+    assert kincal.campaign(SCENARIO, trials=2, iso=False, budget=False)["trials"] == 2
+
+
+def test_a_raising_progress_callback_stops_the_campaign_at_once():
+    import time
+
+    class Stop(Exception):
+        pass
+
+    calls = []
+
+    def progress(done, total):
+        calls.append((done, total))
+        raise Stop("from the callback")
+
+    started = time.monotonic()
+    with pytest.raises(Stop, match="from the callback"):
+        kincal.campaign(SCENARIO, trials=10000, threads=2, progress=progress)
+    assert len(calls) == 1
+    assert time.monotonic() - started < 5.0
+
+
+def test_threads_are_capped_like_the_clis_with_a_warning():
+    import os
+
+    with pytest.warns(UserWarning, match=r"threads=100000 capped at \d+ \(4 per core"):
+        s = kincal.campaign(SCENARIO, trials=2, iso=False, budget=False, threads=100000)
+    assert s["trials"] == 2
+    cores = len(os.sched_getaffinity(0))
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        kincal.campaign(SCENARIO, trials=2, iso=False, budget=False, threads=4 * cores)
+
+
+def test_criterion_is_checked_as_the_cli_checks_it():
+    robot = kincal.Robot.load(ROBOTS / "ur10.json")
+    q, p = ur10_data()
+    # As `--criterion z` (not a criterion) and `--criterion a` without `--select` are.
+    for criterion, expect in [("z", "criterion: unknown criterion"), ("a", "only with select")]:
+        with pytest.raises(kincal.KincalError, match=expect):
+            kincal.identify(robot, q, p, criterion=criterion)
+
+
+def test_sizes_that_cannot_fit_are_refused_before_allocation():
+    # Broadcast arrays: numpy allocates 6 values, the rows are 10^12 (the issue's 10^9 rows
+    # aborted the interpreter with "memory allocation of 48000000000 bytes failed").
+    robot = kincal.Robot.load(ROBOTS / "ur10.json")
+    huge = np.broadcast_to(np.zeros(6), (10**12, 6))
+    with pytest.raises(MemoryError) as e:
+        robot.fk(huge)
+    assert re.search(r"q_deg: rows: 1000000000000 would need about .* of memory", message(e))
+    with pytest.raises(MemoryError):
+        kincal.identify(robot, huge, np.broadcast_to(np.zeros(3), (10**12, 3)))
+    # design: more candidates than the CLI's limit (10^6) is a KincalError at once (10^8
+    # candidates were OOM-killed at 23.7 GB).
+    with pytest.raises(kincal.KincalError) as e:
+        kincal.design(robot, np.broadcast_to(np.zeros(6), (10**8, 6)), 20)
+    assert "candidates_q_deg: poses: 100000000 is more than the limit of 1000000" in message(e)
+    # Within the memory: still computed.
+    assert robot.fk(np.broadcast_to(np.zeros(6), (1000, 6))).shape == (1000, 3)
+
+
+def test_ctrl_c_interrupts_a_design_within_a_second():
+    import time
+
+    robot = kincal.Robot.load(ROBOTS / "ur10.json")
+    # 300,000 candidates: about 20 s of selection on the 2-core CI machine (10^5 take 7 s).
+    q = np.random.default_rng(1).uniform(-170.0, 170.0, (300_000, 6))
+    sent = _interrupt_after(2.0)
+    started = time.monotonic()
+    with pytest.raises(KeyboardInterrupt):
+        kincal.design(robot, q, 30)
+    raised = time.monotonic()
+    assert sent, f"the design ended before the signal ({raised - started:.1f} s)"
+    latency = raised - sent[0]
+    print(f"Ctrl-C latency (design): {latency * 1e3:.0f} ms")
+    assert latency <= 1.0, f"KeyboardInterrupt {latency:.2f} s after the signal"
+
+
+def test_a_scaled_tracker_is_refused_and_fit_scale_identifies_it():
+    """Issue 38: points 2 % too large are refused by the scale check (naming
+    ``fit_scale=True``); ``fit_scale=True`` identifies the factor and divides the points by
+    it, as ``--fit-scale`` does."""
+    robot = kincal.Robot.load(ROBOTS / "ur10.json")
+    q, p = ur10_data()
+    with pytest.raises(kincal.Refused) as e:
+        kincal.identify(robot, q, p * 1.02, every=15)
+    assert e.value.check == "scale"
+    assert "fit_scale=True" in message(e) and "scaled by 1.02" in message(e)
+    cal = kincal.identify(robot, q, p * 1.02, every=15, fit_scale=True)
+    assert abs(cal.measurement_scale / 1.02 - 1) < 0.002
+    assert abs(cal.validation["after_mean_mm"] - 0.452) < 0.01
+    assert kincal.identify(robot, q, p, every=15).measurement_scale is None

@@ -63,26 +63,14 @@ fn checkpointing(args: &CheckpointArgs) -> Checkpointing {
     }
 }
 
-/// At most this many worker threads per core: results do not depend on the count, and more
-/// threads than a few per core only add switching and memory (each thread keeps its own
-/// workspace). A larger `--threads` is capped with a note, not refused.
-pub const MAX_THREADS_PER_CORE: usize = 4;
-
-/// `--threads`, capped at [`MAX_THREADS_PER_CORE`] × the cores this process may use, with a
-/// note when it was.
+/// `--threads`, capped by [`campaign::cap_threads`], with a note when it was.
 fn capped_threads(threads: Option<usize>) -> Option<usize> {
-    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
-    let max = MAX_THREADS_PER_CORE * cores;
     threads.map(|t| {
-        if t > max {
-            crate::errln!(
-                "note: --threads {t} capped at {max} ({MAX_THREADS_PER_CORE} per core, {cores} \
-                 core(s) here); the results do not depend on the thread count"
-            );
-            max
-        } else {
-            t
+        let (t, note) = campaign::cap_threads(t);
+        if let Some(note) = note {
+            crate::errln!("note: --threads {note}");
         }
+        t
     })
 }
 

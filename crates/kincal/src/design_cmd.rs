@@ -98,15 +98,15 @@ pub fn run(args: &DesignArgs) -> Result<()> {
         .map_err(|e: String| anyhow::anyhow!(e))
         .context("--measure")?;
     let pool = match (&args.candidates, &args.scenario, args.random) {
-        (Some(path), _, _) => Candidates::from_file(&robot, path)?,
+        (Some(path), _, _) => {
+            let pool = Candidates::from_file(&robot, path)?;
+            // Read (about a row's memory each); designed, each needs a pose's.
+            campaign::check_poses(pool.len())
+                .with_context(|| format!("--candidates {}", path.display()))?;
+            pool
+        }
         (None, Some(path), Some(n)) => {
-            measurements::check_size(
-                "candidates",
-                n as u64,
-                campaign::MAX_POSES,
-                campaign::BYTES_PER_POSE,
-            )
-            .with_context(|| format!("--random {n}"))?;
+            campaign::check_poses(n).with_context(|| format!("--random {n}"))?;
             let loaded = campaign::Scenario::from_file(path)
                 .with_context(|| format!("loading {}", path.display()))?;
             // The virtual robot samples on the geometric model (its physics beyond geometry

@@ -103,13 +103,7 @@ pub fn run(args: &IdentifiabilityArgs) -> Result<()> {
         )
     } else {
         let n = args.random_poses.expect("clap requires one pose source");
-        measurements::check_size(
-            "poses",
-            n as u64,
-            campaign::MAX_POSES,
-            campaign::BYTES_PER_POSE,
-        )
-        .with_context(|| format!("--random-poses {n}"))?;
+        campaign::check_poses(n).with_context(|| format!("--random-poses {n}"))?;
         let mut rng = ChaCha8Rng::seed_from_u64(args.seed);
         let sampled = PoseSampler::default()
             .sample(&robot, n, &mut rng)

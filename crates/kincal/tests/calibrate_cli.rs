@@ -831,15 +831,7 @@ fn predict_and_compensate_reject_malformed_joint_files() {
         let out_file = tmp.path().join(format!("{name}.out.csv"));
         for args in [
             vec!["predict", "--robot", s(kr1000()), "--joints", s(&file)],
-            vec![
-                "compensate",
-                "--robot",
-                s(kr1000()),
-                "--nominal",
-                s(kr1000()),
-                "--targets",
-                s(&file),
-            ],
+            compensate_kr1000(&file),
         ] {
             let mut args = args.clone();
             args.extend(["--out", s(&out_file)]);
@@ -849,6 +841,42 @@ fn predict_and_compensate_reject_malformed_joint_files() {
             assert!(!out_file.exists(), "{args:?} wrote {}", out_file.display());
         }
     }
+}
+
+/// `kincal compensate` of `targets` with the KR1000 as both the calibrated and the nominal
+/// robot (the arguments, `--out` to be added).
+fn compensate_kr1000(targets: &Path) -> Vec<&str> {
+    vec![
+        "compensate",
+        "--robot",
+        s(kr1000()),
+        "--nominal",
+        s(kr1000()),
+        "--targets",
+        s(targets),
+    ]
+}
+
+/// `compensate` with a targets file of no rows (a header only) says so, naming the file,
+/// rather than that no target is reachable; nothing is written.
+#[test]
+fn compensate_with_no_targets_says_the_file_has_no_rows() {
+    let (header, _) = clean_rows(1);
+    let tmp = tempfile::tempdir().unwrap();
+    let file = tmp.path().join("empty-targets.csv");
+    std::fs::write(&file, format!("{header}\n")).unwrap();
+    let out_file = tmp.path().join("out.csv");
+    let mut args = compensate_kr1000(&file);
+    args.extend(["--out", s(&out_file)]);
+    let out = kincal(&args);
+    assert_eq!(out.status.code(), Some(1), "{}", stderr(&out));
+    let msg = stderr(&out);
+    assert!(
+        msg.contains("empty-targets.csv: the targets file has no rows"),
+        "{msg}"
+    );
+    assert!(!msg.contains("reachable"), "{msg}");
+    assert!(!out_file.exists());
 }
 
 /// `identifiability --json` carries the keys the issue names, computed for the KR1000.

@@ -181,7 +181,9 @@ mod rotation;
 mod write;
 
 pub use error::{EXPONENT_FROM, EulerConventionError, MeasurementError, number, short};
-pub use limits::{SizeError, available_memory, bytes_in_words, check_size};
+pub use limits::{
+    BYTES_PER_ROW, SizeError, available_memory, bytes_in_words, check_rows, check_size,
+};
 #[cfg(unix)]
 pub use output::{
     FAULT_ENV, NO_EXCHANGE_ENV, OutputDir, OutputError, OutputKind, SharedOutputDir, TargetProblem,

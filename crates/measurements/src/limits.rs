@@ -49,6 +49,19 @@ pub enum SizeError {
     },
 }
 
+/// The memory one row of joints (and its measured point) takes from being read to being
+/// identified on, validated on or predicted, in bytes: `docs/timings.md` ("A measurement
+/// file of many rows": the peak of `identify` on 10⁶ rows divided by the rows, 785 B when
+/// this was set). Arrays handed over by the Python package are checked with it.
+pub const BYTES_PER_ROW: u64 = 800;
+
+/// [`check_size`] for data rows that have no limit but the machine's memory:
+/// [`BYTES_PER_ROW`] each, or `bytes_per_row` where a use of the rows costs less
+/// (forward kinematics of an array keeps only its joints and points).
+pub fn check_rows(what: &str, rows: usize, bytes_per_row: u64) -> Result<(), SizeError> {
+    check_size(what, rows as u64, u64::MAX, bytes_per_row)
+}
+
 /// `1.5 GB`, `12 kB`, `640 B` (decimal units).
 pub fn bytes_in_words(bytes: u128) -> String {
     const UNITS: [&str; 6] = ["B", "kB", "MB", "GB", "TB", "PB"];
@@ -135,6 +148,12 @@ mod tests {
         for n in [1_000_000_000_000_000_000u64, u64::MAX] {
             let e = check_size("poses", n, 1_000_000, 4096).unwrap_err();
             assert!(e.to_string().starts_with("poses: "), "{e}");
+        }
+        // Rows: no limit but the memory; 10¹⁵ rows of 800 B fit in no machine.
+        assert!(check_rows("q_deg", 10, BYTES_PER_ROW).is_ok());
+        if available_memory().is_some() {
+            let e = check_rows("q_deg", 1_000_000_000_000_000, BYTES_PER_ROW).unwrap_err();
+            assert!(matches!(e, SizeError::OutOfMemory { .. }), "{e}");
         }
         // Within a huge limit but beyond any machine's memory (16 EB).
         if available_memory().is_some() {

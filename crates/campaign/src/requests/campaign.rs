@@ -17,7 +17,7 @@ use crate::run::budget::{budget_runs, budget_trials, residual_budget};
 use crate::run::checkpoint::{
     Checkpoint, CheckpointConfig, code_version, finish, run_range_checkpointed,
 };
-use crate::run::range::run_range;
+use crate::run::range::run_range_until;
 use crate::run::shard::{Shard, ShardFile, merge_shards, shard_budget};
 use crate::scenario::Scenario;
 use crate::trial::Context;
@@ -187,6 +187,29 @@ pub(crate) fn check_some_succeeded(
     Ok(())
 }
 
+/// At most this many worker threads per core: results do not depend on the count, and more
+/// threads than a few per core only add switching and memory (each thread keeps its own
+/// workspace). A larger count is capped (with a note from [`cap_threads`]), not refused.
+pub const MAX_THREADS_PER_CORE: usize = 4;
+
+/// A thread count the user asked for, capped at [`MAX_THREADS_PER_CORE`] × the cores this
+/// process may use: the count to use, and when it was capped a note for the user that starts
+/// with the count asked for (the front end puts its option's name before it: `--threads`,
+/// `threads=`). Both front ends (the CLI and Python) cap through this.
+pub fn cap_threads(asked: usize) -> (usize, Option<String>) {
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let max = MAX_THREADS_PER_CORE * cores;
+    if asked > max {
+        let note = format!(
+            "{asked} capped at {max} ({MAX_THREADS_PER_CORE} per core, {cores} core(s) here); \
+             the results do not depend on the thread count"
+        );
+        (max, Some(note))
+    } else {
+        (asked, None)
+    }
+}
+
 /// A thread pool of `threads` workers (`None`: all cores), and that count. A count of 0 is
 /// refused ([`CampaignError::ZeroThreads`]).
 pub(crate) fn thread_pool(
@@ -312,16 +335,18 @@ impl CampaignRun {
             None => "campaign".to_string(),
         };
         let progress = |k| observer.trials_done(k);
+        let stop = || observer.stop_requested();
         observer.phase_started(Phase::Trials, range.end - range.start);
         let agg = pool.install(|| match &checkpoint {
-            None => Ok(run_range(&ctx, range.clone(), &progress)),
-            Some(cfg) => run_range_checkpointed(&ctx, &what, range.clone(), cfg, &progress),
+            None => run_range_until(&ctx, range.clone(), &progress, &stop)
+                .ok_or(CampaignError::Stopped { done: 0 }),
+            Some(cfg) => run_range_checkpointed(&ctx, &what, range.clone(), cfg, &progress, &stop),
         })?;
         observer.phase_finished(Phase::Trials);
         let budget = if Shard::runs_budget(self.shard) {
             let total = budget_runs(&scenario) * budget_trials(&scenario);
             observer.phase_started(Phase::ResidualBudget, total);
-            let b = pool.install(|| residual_budget(&ctx.loaded, &progress))?;
+            let b = pool.install(|| residual_budget(&ctx.loaded, &progress, &stop))?;
             observer.phase_finished(Phase::ResidualBudget);
             b
         } else {

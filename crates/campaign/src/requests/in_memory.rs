@@ -11,7 +11,7 @@ use crate::observer::{Observer, Phase};
 use crate::outputs::summary::CampaignSummary;
 use crate::requests::campaign::thread_pool;
 use crate::run::budget::{budget_runs, budget_trials, residual_budget};
-use crate::run::range::run_range;
+use crate::run::range::run_range_until;
 use crate::scenario::LoadedScenario;
 use crate::trial::Context;
 
@@ -29,11 +29,12 @@ pub struct InMemoryOutcome {
 
 /// Runs every trial of `loaded` (with its residual budget if the scenario enables it) on
 /// `threads` workers (`None`: all cores) and returns the summary; nothing is written.
-/// Progress goes to `observer`, as for [`CampaignRun::run`](crate::CampaignRun::run).
+/// Progress goes to `observer`, as for [`CampaignRun::run`](crate::CampaignRun::run), which
+/// may stop the run between trials ([`Observer::stop_requested`]).
 ///
 /// # Errors
 /// A trial count of 0, a thread pool that cannot be built, a scenario whose simulation
-/// cannot be set up, a failing budget run.
+/// cannot be set up, a failing budget run, a stop ([`CampaignError::Stopped`]).
 pub fn summarize(
     loaded: LoadedScenario,
     threads: Option<usize>,
@@ -47,15 +48,18 @@ pub fn summarize(
     let started = Instant::now();
     let ctx = Context::new(loaded)?;
     let progress = |k| observer.trials_done(k);
+    let stop = || observer.stop_requested();
     observer.phase_started(Phase::Trials, scenario.trials);
-    let agg = pool.install(|| run_range(&ctx, 0..scenario.trials, &progress));
+    let agg = pool
+        .install(|| run_range_until(&ctx, 0..scenario.trials, &progress, &stop))
+        .ok_or(CampaignError::Stopped { done: 0 })?;
     observer.phase_finished(Phase::Trials);
     let budget = if scenario.residual_budget.enabled {
         observer.phase_started(
             Phase::ResidualBudget,
             budget_runs(&scenario) * budget_trials(&scenario),
         );
-        let b = pool.install(|| residual_budget(&ctx.loaded, &progress))?;
+        let b = pool.install(|| residual_budget(&ctx.loaded, &progress, &stop))?;
         observer.phase_finished(Phase::ResidualBudget);
         b
     } else {

@@ -28,7 +28,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::error::CampaignError;
 use crate::run::aggregate::Summary;
-use crate::run::range::run_range;
+use crate::run::range::run_range_until;
 use crate::scenario::{LoadedScenario, Scenario};
 use crate::trial::Context;
 use report::fmt;
@@ -155,10 +155,12 @@ pub struct ResidualBudget {
 
 /// Runs the budget of a loaded scenario on the current rayon pool: `None` when its
 /// `residual_budget` is off. `progress(1)` is called after each finished trial of every run
-/// (there are [`budget_trials`] trials per run and [`budget_runs`] runs).
+/// (there are [`budget_trials`] trials per run and [`budget_runs`] runs), `stop()` before
+/// each as in [`run_range_until`] (a stop is [`CampaignError::Stopped`]).
 pub fn residual_budget(
     loaded: &LoadedScenario,
     progress: &(dyn Fn(u64) + Sync),
+    stop: &(dyn Fn() -> bool + Sync),
 ) -> Result<Option<ResidualBudget>, CampaignError> {
     let cfg = &loaded.scenario.residual_budget;
     if !cfg.enabled {
@@ -171,7 +173,8 @@ pub fn residual_budget(
         l.scenario.iso.enabled = false;
         edit(&mut l.scenario);
         let ctx = Context::new(l)?;
-        let agg = run_range(&ctx, 0..trials, progress);
+        let agg = run_range_until(&ctx, 0..trials, progress, stop)
+            .ok_or(CampaignError::Stopped { done: 0 })?;
         let get = |k: &str| agg.metrics.get(k).and_then(|s| s.summary());
         Ok(RunFigures {
             after_mean_mm: get("after_mean_mm"),

@@ -24,7 +24,7 @@ use std::time::{Duration, Instant};
 use serde::{Deserialize, Serialize};
 
 use crate::error::CampaignError;
-use crate::run::range::{Aggregate, run_range};
+use crate::run::range::{Aggregate, run_range_until};
 use crate::scenario::Scenario;
 use crate::trial::Context;
 
@@ -290,25 +290,31 @@ pub fn starting_point(
     Ok((c.next_trial, c.aggregate))
 }
 
-/// Runs trials `next..end` in chunks (of `cfg.every_trials` if set, else of
+/// Runs trials `trials` (`next..end`) in chunks (of `cfg.every_trials` if set, else of
 /// `cfg.chunk_trials`) on the current rayon pool, adding them to `agg`; after a chunk, calls
 /// `save(next_trial, &aggregate)` when `cfg.every_trials` trials or `cfg.every` have passed
-/// since the last save (never after the last chunk). `progress(k)` as in [`run_range`].
+/// since the last save (never after the last chunk). `progress(k)` and `stop_requested()` as
+/// in [`run_range_until`]; a stop drops the chunk in progress and is
+/// [`CampaignError::Stopped`].
 pub fn run_chunks(
     ctx: &Context,
-    next: u64,
-    end: u64,
+    trials: Range<u64>,
     mut agg: Aggregate,
     cfg: &CheckpointConfig,
     progress: &(dyn Fn(u64) + Sync),
+    stop_requested: &(dyn Fn() -> bool + Sync),
     save: &mut dyn FnMut(u64, &Aggregate) -> Result<(), CampaignError>,
 ) -> Result<Aggregate, CampaignError> {
     let chunk = cfg.every_trials.unwrap_or(cfg.chunk_trials).max(1);
-    let mut next = next;
+    let (mut next, end) = (trials.start, trials.end);
     let (mut last, mut since) = (Instant::now(), 0u64);
     while next < end {
         let stop = end.min(next.saturating_add(chunk));
-        let part = run_range(ctx, next..stop, progress);
+        // A stop drops the chunk in progress: the last checkpoint written stays the place a
+        // resumed run continues from.
+        let Some(part) = run_range_until(ctx, next..stop, progress, stop_requested) else {
+            return Err(CampaignError::Stopped { done: agg.trials });
+        };
         agg.merge(&part);
         since += stop - next;
         next = stop;
@@ -331,6 +337,7 @@ pub fn run_range_checkpointed(
     range: Range<u64>,
     cfg: &CheckpointConfig,
     progress: &(dyn Fn(u64) + Sync),
+    stop_requested: &(dyn Fn() -> bool + Sync),
 ) -> Result<Aggregate, CampaignError> {
     let manifest = CheckpointManifest::new(what, ctx, range.clone(), &cfg.code);
     let started = Instant::now();
@@ -339,7 +346,7 @@ pub fn run_range_checkpointed(
     if next > range.start {
         progress(next - range.start);
     }
-    run_chunks(ctx, next, range.end, agg, cfg, progress, &mut |n, a| {
+    let save = &mut |n, a: &Aggregate| {
         Checkpoint {
             manifest: manifest.clone(),
             next_trial: n,
@@ -347,7 +354,16 @@ pub fn run_range_checkpointed(
             wall_seconds: prior + started.elapsed().as_secs_f64(),
         }
         .write(&cfg.path)
-    })
+    };
+    run_chunks(
+        ctx,
+        next..range.end,
+        agg,
+        cfg,
+        progress,
+        stop_requested,
+        save,
+    )
 }
 
 /// The wall-clock seconds of the earlier segments of a resumed run (the checkpoint's

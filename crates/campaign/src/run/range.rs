@@ -259,17 +259,34 @@ impl Aggregate {
 }
 
 /// Runs the trials in `range` on the current rayon pool; `progress(1)` is called after
-/// each finished trial.
+/// each finished trial. [`run_range_until`] without a stop.
+pub fn run_range(ctx: &Context, range: Range<u64>, progress: &(dyn Fn(u64) + Sync)) -> Aggregate {
+    run_range_until(ctx, range, progress, &|| false).unwrap_or_default()
+}
+
+/// Runs the trials in `range` on the current rayon pool; `progress(1)` is called after
+/// each finished trial, and `stop()` before each trial: once it is true no further trial
+/// starts (those in progress finish) and the result is `None`.
 ///
 /// Each worker thread folds the trials it runs into its own [`Aggregate`] (a slot indexed by
 /// its pool index, locked only by that thread), and the slots are merged at the end: memory
 /// is one aggregate per thread whatever the trial count, and since every part of an
 /// aggregate merges exactly and order-free, which thread ran which trial does not matter.
-pub fn run_range(ctx: &Context, range: Range<u64>, progress: &(dyn Fn(u64) + Sync)) -> Aggregate {
+pub fn run_range_until(
+    ctx: &Context,
+    range: Range<u64>,
+    progress: &(dyn Fn(u64) + Sync),
+    stop: &(dyn Fn() -> bool + Sync),
+) -> Option<Aggregate> {
     let slots: Vec<Mutex<Aggregate>> = (0..rayon::current_num_threads().max(1))
         .map(|_| Mutex::new(Aggregate::default()))
         .collect();
+    let stopped = std::sync::atomic::AtomicBool::new(false);
     range.into_par_iter().for_each(|t| {
+        if stopped.load(std::sync::atomic::Ordering::Relaxed) || stop() {
+            stopped.store(true, std::sync::atomic::Ordering::Relaxed);
+            return;
+        }
         let result = run_trial(ctx, t);
         let slot = rayon::current_thread_index().unwrap_or(0) % slots.len();
         // A panic elsewhere cannot leave a slot half-updated in a way that matters: the
@@ -290,6 +307,9 @@ pub fn run_range(ctx: &Context, range: Range<u64>, progress: &(dyn Fn(u64) + Syn
         drop(agg);
         progress(1);
     });
+    if stopped.into_inner() {
+        return None;
+    }
     // Merge into the first slot rather than a fresh aggregate: one aggregate fewer at the
     // peak.
     let mut slots = slots
@@ -299,5 +319,5 @@ pub fn run_range(ctx: &Context, range: Range<u64>, progress: &(dyn Fn(u64) + Syn
     for slot in slots {
         total.merge(&slot);
     }
-    total
+    Some(total)
 }

@@ -486,7 +486,15 @@ pub fn run_sweep_checkpointed(
                     });
                     write_sweep_checkpoint(&cfg.path, &state)
                 };
-                let agg = run_chunks(&ctx, next, scenario.trials, agg, cfg, &|_| {}, &mut save)?;
+                let agg = run_chunks(
+                    &ctx,
+                    next..scenario.trials,
+                    agg,
+                    cfg,
+                    &|_| {},
+                    &|| false,
+                    &mut save,
+                )?;
                 state.current = None;
                 agg
             }

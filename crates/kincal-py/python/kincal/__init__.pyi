@@ -150,7 +150,9 @@ class Robot:
 
         Any array-like of numbers is accepted (converted to float64). The same numbers as
         ``kincal predict``, to the bit. Raises KincalError on another shape or a non-finite
-        angle. The GIL is released during the computation.
+        angle, and MemoryError, before copying anything, on more rows than this machine's
+        available memory holds (a broadcast array costs numpy nothing but its full size
+        here; docs/scale.md). The GIL is released during the computation.
         """
 
     def __repr__(self) -> str: ...
@@ -249,6 +251,11 @@ class Calibration:
         """Indices into :attr:`identification_rows` of the rows the outlier screen flagged."""
 
     @property
+    def measurement_scale(self) -> float | None:
+        """The measurements' scale factor ``fit_scale=True`` identified (the points were
+        divided by it before identifying), or None (not asked, or not significant)."""
+
+    @property
     def excluded(self) -> list[int]:
         """Indices into :attr:`identification_rows` of the rows the robust screen excluded
         from the final fit (the gross errors by default; every flagged row with
@@ -300,16 +307,21 @@ def identify(
     length_units: Literal["mm", "m", "cm", "in"] = "mm",
     allow: str | Sequence[str] | None = None,
     prior: str = "auto",
+    fit_scale: bool = False,
 ) -> Calibration:
     """Identifies the robot's parameters from measured points ``(n, 3)`` (mm) at joints
     ``(n, N)`` (degrees), as ``kincal identify`` does on a file with the same rows; the
     options are the CLI's flags: ``params`` (``None`` = ``"paper"``; ``"minimal"``, names,
     ``"paper+compliance"``; or a list of names), ``validate=(q_deg, points_mm)``,
-    ``every``/``offset`` or ``select``/``criterion`` (hold-out splits), ``schedule``
+    ``every``/``offset`` or ``select``/``criterion`` (hold-out splits; ``criterion`` is
+    checked whether or not ``select`` is given, and one other than ``"d"`` needs it, as
+    ``--criterion`` needs ``--select``), ``schedule``
     (levenberg, marquardt, nielsen), ``redundant`` (hold, damp), ``registration`` (auto,
     always, never), ``reject_outliers`` (drop every flagged row; by default the robust
     screen drops the gross errors alone), ``keep_outliers`` (keep every row), ``outlier_k``, ``worst``, ``prior`` (``--prior``:
-    ``"auto"``, ``"none"``, ``"tolerance"`` or ``"tolerance,NAME=SD,..."``).
+    ``"auto"``, ``"none"``, ``"tolerance"`` or ``"tolerance,NAME=SD,..."``), ``fit_scale``
+    (``--fit-scale``: identify the measurements' scale factor instead of refusing a scaled
+    tracker; ``Calibration.measurement_scale`` gives it).
 
     ``joint_units`` and ``length_units`` declare the arrays' units (``--joint-units``,
     ``--length-units``: converted to degrees and millimetres, the joint limits checked in
@@ -322,7 +334,7 @@ def identify(
     parameters far from the nominal, validation worse than before. Each raises
     :class:`Refused` (a KincalError), saying why and naming its override in ``e.check``:
     ``allow="mirror"`` (or a list of check names: ``joint-units``, ``length-units``,
-    ``mirror``, ``outliers``, ``parameters``, ``validation``) is ``--allow``. Other errors
+    ``mirror``, ``outliers``, ``scale``, ``parameters``, ``validation``) is ``--allow``. Other errors
     raise KincalError with the library's message. The GIL is released during the work.
     """
 
@@ -367,6 +379,10 @@ class FrameOutlier(TypedDict):
 class FrameCalibration:
     """The result of :func:`identify_frames`: the 6-DoF / multi-target calibration
     ``kincal identify`` computes on a file with the same rows. Immutable."""
+
+    @property
+    def measurement_scale(self) -> float | None:
+        """The measurements' scale factor ``fit_scale=True`` identified, or None."""
 
     @property
     def robot(self) -> Robot:
@@ -437,6 +453,7 @@ def identify_frames(
     length_units: Literal["mm", "m", "cm", "in"] = "mm",
     allow: str | Sequence[str] | None = None,
     prior: str = "auto",
+    fit_scale: bool = False,
 ) -> FrameCalibration:
     """Identifies the robot and its tool frame from 6-DoF measurements and/or several
     targets per pose, as ``kincal identify`` does on a file with ``qw,qx,qy,qz`` or
@@ -471,7 +488,11 @@ def design(
     = ``"minimal"``), each pose measuring ``measure``: ``"point"`` (one reflector),
     ``"frame"`` (a 6-DoF probe: the tool frame's unknowns join the robot's) or
     ``"targets"`` (every target of the robot file's ``targets``), as ``kincal design
-    --candidates --measure`` does (docs/design.md)."""
+    --candidates --measure`` does (docs/design.md). More than 10⁶ candidates raise
+    KincalError, fewer that do not fit in memory MemoryError, before anything is copied
+    (the limits of ``kincal design``, docs/scale.md). The GIL is released during the work;
+    Ctrl-C raises KeyboardInterrupt within a second (the selection stops at its next
+    step)."""
 
 def campaign(
     scenario: _Path | Mapping[str, Any],
@@ -487,8 +508,12 @@ def campaign(
     relative ``robot`` path is taken from the current directory) and returns its summary:
     the contents of ``summary.json`` of ``kincal campaign`` with the same options
     (``iso=False`` is ``--no-iso``, ``budget=False`` ``--no-budget``). Nothing is written.
-    ``progress(done, total)`` is called on the calling thread about every 0.1 s. The same
-    seed gives the same summary on any thread count. The GIL is released during the work."""
+    ``progress(done, total)`` is called on the calling thread about every 0.05 s. The same
+    seed gives the same summary on any thread count; ``threads`` above 4 per core is capped
+    with a UserWarning, as ``--threads`` is. The GIL is released during the work, and the
+    calling thread checks for signals every 0.05 s: Ctrl-C raises KeyboardInterrupt once
+    the trials in progress finish (well within a second), and an exception raised by
+    ``progress`` stops the run the same way and is raised as it was."""
 
 def simulate(
     scenario: _Path | Mapping[str, Any],
