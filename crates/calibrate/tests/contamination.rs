@@ -1,12 +1,18 @@
 //! Issue 38, item 6: random contamination of the README's UR10 example never hands out a
 //! worse robot. Every 15th row identifies (100 rows) and the other 1,395 validate, given as a
 //! separate validation set; a property draws gross errors on the identification rows
-//! (fraction 0–30 %, magnitude 2–200 mm), a tracker scale on every point of both files
+//! (fraction 0–30 %, magnitude 3–200 mm), a tracker scale on every point of both files
 //! (1 in half the cases, else 0.95–1.05) and a unit or frame corruption of either file (in
 //! half the cases). Every run either refuses (a typed refusal naming its check) or validates
 //! within 0.02 mm of the fit on the rows left clean (the oracle that knew the moved rows: a
 //! fit on fewer rows validates a little worse, 0.474 mm on 74 of the 100, so the clean fit's
 //! 0.452 mm is no fair bar for 26 % dropped).
+//!
+//! Below 3 mm (6.5 σ̂₃ of this recording, σ̂₃ = 0.46 mm) errors are not gross: most draws are
+//! still separated or refused, but not all — 5 % of the rows moved 2.5 mm moved the held-out
+//! mean by +0.035 mm, 21 % moved 2.1 mm by +0.056 mm, 26 % moved 2.3 mm by +0.124 mm
+//! (σ̂/σ̃ = 1.89, under the outliers check's 2, which the clean 6-DoF UR10 series reaches at
+//! 1.51). `docs/calibrating-real-data.md` ("Robust screening") states this limit.
 
 use std::path::PathBuf;
 use std::sync::OnceLock;
@@ -113,7 +119,7 @@ type Draw = ((f64, f64, u64), f64, Option<(Corruption, bool)>);
 
 fn draw() -> impl Strategy<Value = Draw> {
     (
-        (0.0..=0.3f64, 2.0..=200.0f64, any::<u64>()),
+        (0.0..=0.3f64, 3.0..=200.0f64, any::<u64>()),
         prop_oneof![Just(1.0), 0.95..=1.05f64],
         corruption(),
     )
