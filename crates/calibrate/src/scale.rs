@@ -39,6 +39,12 @@ pub const MAX_SCALE_ERROR: f64 = 5e-4;
 /// Standard deviations of ε̂ beyond which a scale is significant [3].
 pub const SCALE_SIGNIFICANCE: f64 = 3.0;
 
+/// Largest scale error that is said to be one [0.1 (10 %): no tracker's scale or temperature
+/// compensation is that far off; lengths moving by more, even in proportion, are a unit
+/// (the `length-units` check), a mirrored frame or another robot (the `parameters` check),
+/// whose refusals say so].
+pub const MAX_SCALE_EVIDENCE: f64 = 0.1;
+
 /// The common scale of the identified lengths (module docs).
 #[derive(Clone, Debug, PartialEq)]
 pub struct ScaleEvidence {
@@ -56,11 +62,11 @@ impl ScaleEvidence {
         self.factor - 1.0
     }
 
-    /// Whether the data say the measurements are scaled: `|ε̂| > MAX_SCALE_ERROR` and
-    /// `|ε̂| > SCALE_SIGNIFICANCE · sd`.
+    /// Whether the data say the measurements are scaled: `MAX_SCALE_ERROR < |ε̂| ≤
+    /// MAX_SCALE_EVIDENCE` and `|ε̂| > SCALE_SIGNIFICANCE · sd`.
     pub fn significant(&self) -> bool {
         let e = self.error().abs();
-        e > MAX_SCALE_ERROR && e > SCALE_SIGNIFICANCE * self.sd
+        e > MAX_SCALE_ERROR && e <= MAX_SCALE_EVIDENCE && e > SCALE_SIGNIFICANCE * self.sd
     }
 
     /// The factor in words, as the console and the report give it after `--fit-scale`.
