@@ -443,3 +443,31 @@ fn simulate_writes_the_scenarios_measurement_and_identify_reads_it() {
         );
     }
 }
+
+/// Issue 39, item 3: a point identify into a directory holding a 6-DoF run's set leaves
+/// exactly its own set there (the 6-DoF run's `orientation-error-cdf.svg`, which a point run
+/// does not draw, is gone: the previous set's manifest lists it), and keeps a file of the
+/// user's.
+#[test]
+fn a_point_set_replaces_a_six_dof_set_whole() {
+    let tmp = tempfile::tempdir().unwrap();
+    let (mixed, fresh) = (tmp.path().join("mixed"), tmp.path().join("fresh"));
+    let points = "data/ur10-ipa/series-b-joint-configurations.csv";
+    ok(&identify(SIX, &mixed, &["--every", "15"]));
+    assert!(mixed.join("orientation-error-cdf.svg").exists());
+    std::fs::write(mixed.join("notes.txt"), "mine").unwrap();
+    ok(&identify(points, &mixed, &["--every", "15"]));
+    ok(&identify(points, &fresh, &["--every", "15"]));
+    let names = |d: &Path| -> Vec<String> {
+        let mut v: Vec<String> = std::fs::read_dir(d)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        v.sort();
+        v
+    };
+    let mut expected = names(&fresh);
+    expected.push("notes.txt".into());
+    expected.sort();
+    assert_eq!(names(&mixed), expected);
+}

@@ -106,9 +106,11 @@
 //!   directory and flushed to disk, then exchanged with the directory in one atomic rename
 //!   (Linux `renameat2(RENAME_EXCHANGE)`), and the previous set (now under the staged name)
 //!   is removed. The directory keeps its permission bits; its owner becomes the writer.
+//! * *A set is replaced whole.* A set lists its files in the manifest [`SET_MANIFEST`]; the
+//!   files the previous manifest lists that the new set does not write are not carried over.
 //! * *Foreign files survive.* Every entry of the directory that is not a file of the new set
-//!   — the user's own files, a checkpoint or `timing.json` written during the run, files of
-//!   an earlier set that this one does not rewrite — is carried into the staged directory as
+//!   or of the previous manifest — the user's own files, a checkpoint written during the run,
+//!   files of a set written before manifests — is carried into the staged directory as
 //!   a hard link (the same file, no copy; subdirectories are recreated with their entries
 //!   linked; a copy where the file system has no hard links). Entries that appear in the
 //!   directory between that scan and the exchange are moved over afterwards. Files of an
@@ -186,8 +188,8 @@ pub use limits::{
 };
 #[cfg(unix)]
 pub use output::{
-    FAULT_ENV, NO_EXCHANGE_ENV, OutputDir, OutputError, OutputKind, SharedOutputDir, TargetProblem,
-    check_output, same_file,
+    FAULT_ENV, NO_EXCHANGE_ENV, OutputDir, OutputError, OutputKind, SET_MANIFEST, SharedOutputDir,
+    TargetProblem, check_output, same_file,
 };
 pub use read::{read_file, read_str, read_text};
 pub use rotation::{

@@ -429,6 +429,35 @@ fn utc(secs: u64) -> String {
     )
 }
 
+/// The manifest of an output set: the names of the files the last set written into the
+/// directory holds, one per line after a comment line ([`OutputDir::write_set`]).
+pub const SET_MANIFEST: &str = ".kincal-set";
+
+/// The manifest's text for the set `names`.
+fn manifest_text(names: &BTreeSet<PathBuf>) -> String {
+    let mut t = String::from(
+        "# kincal output set: the files the last run wrote here, removed by the next run into \
+         this directory unless it writes them again (other files are kept)\n",
+    );
+    for n in names {
+        t.push_str(&n.to_string_lossy());
+        t.push('\n');
+    }
+    t
+}
+
+/// The files the previous set of `dir` listed in its manifest (none when it has none).
+fn previous_set(dir: &Path) -> Vec<String> {
+    fs::read_to_string(dir.join(SET_MANIFEST))
+        .map(|t| {
+            t.lines()
+                .filter(|l| !l.is_empty() && !l.starts_with('#'))
+                .map(String::from)
+                .collect()
+        })
+        .unwrap_or_default()
+}
+
 impl OutputDir {
     /// Checks `path` as an output directory ([`check_output`] with
     /// [`OutputKind::Directory`]; a link to a directory is followed), creates its parent
@@ -629,8 +658,14 @@ impl OutputDir {
     /// previous one is removed. The directory keeps its permission bits. Where the file
     /// system has no atomic exchange, two renames are used (see the crate documentation).
     ///
+    /// The set is listed in the directory's manifest [`SET_MANIFEST`], written with it: the
+    /// files of the previous set (the previous manifest's) that this set does not write are
+    /// not carried over — a 6-DoF identify into a point run's directory leaves no stale
+    /// `parameters.json` or plots beside its own — while files no manifest lists (the user's
+    /// own, a checkpoint, a directory written before manifests) are kept.
+    ///
     /// On error the directory holds its previous set and nothing staged is left. The bytes
-    /// written are exactly `files`' contents.
+    /// written are exactly `files`' contents, and the manifest.
     pub fn write_set<N: AsRef<str>, B: AsRef<[u8]>>(
         &self,
         files: &[(N, B)],
@@ -657,6 +692,25 @@ impl OutputDir {
         for o in obsolete {
             skip.insert(self.checked_name(o.as_ref())?);
         }
+        // The previous set's files that this one does not write go with it; the manifest is
+        // rewritten.
+        for old in previous_set(&self.dir) {
+            if let Ok(rel) = self.checked_name(&old) {
+                skip.insert(rel);
+            }
+        }
+        let manifest_name = PathBuf::from(SET_MANIFEST);
+        if names.contains(&manifest_name) {
+            return Err(self.bad_name(SET_MANIFEST));
+        }
+        skip.insert(manifest_name);
+        let manifest = manifest_text(&names);
+        let mut files: Vec<(&str, &[u8])> = files
+            .iter()
+            .map(|(n, b)| (n.as_ref(), b.as_ref()))
+            .collect();
+        files.push((SET_MANIFEST, manifest.as_bytes()));
+        let files = &files[..];
         let stage = sibling(
             &self.parent,
             &self.name,
@@ -983,7 +1037,8 @@ fn carry(
                     why: "is a mount point inside the output directory",
                 });
             }
-            if fs::symlink_metadata(&dst).is_err() {
+            let created = fs::symlink_metadata(&dst).is_err();
+            if created {
                 fs::create_dir(&dst).map_err(io_err(&dst, "creating"))?;
                 let perm = fs::metadata(&src).map_err(io_err(&src, "inspecting"))?;
                 fs::set_permissions(&dst, perm.permissions())
@@ -992,6 +1047,11 @@ fn carry(
                 continue; // the set writes a file where a directory was
             }
             carry(&src, &dst, &r, skip, scanned)?;
+            // A directory that held only files of the previous set goes with them.
+            let empty = |d: &Path| fs::read_dir(d).is_ok_and(|mut i| i.next().is_none());
+            if created && empty(&dst) && !empty(&src) {
+                fs::remove_dir(&dst).map_err(io_err(&dst, "removing"))?;
+            }
         } else if fs::symlink_metadata(&dst).is_ok() {
             continue; // the set writes a directory where this file was
         } else {

@@ -101,10 +101,13 @@ fn scratch(name: &str) -> PathBuf {
     dir
 }
 
+/// The entries of `dir`, leftovers included, less the set's manifest
+/// ([`measurements::SET_MANIFEST`], which every set writes).
 fn names(dir: &Path) -> Vec<String> {
     let mut v: Vec<String> = fs::read_dir(dir)
         .unwrap()
         .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| n != measurements::SET_MANIFEST)
         .collect();
     v.sort();
     v
@@ -669,4 +672,35 @@ fn directory_links_are_followed() {
     symlink("gone", root.join("dangling")).unwrap();
     let e = OutputDir::lock(&root.join("dangling")).unwrap_err();
     assert!(e.to_string().contains("which does not exist"), "{e}");
+}
+
+/// Issue 39, item 3: an output set is replaced whole. The manifest lists the set; the next
+/// set removes the previous set's files it does not write itself (stale plots, a point run's
+/// `parameters.json` under a 6-DoF run's set) and keeps the user's own files; a directory
+/// written before manifests keeps every file.
+#[test]
+fn a_new_set_removes_the_previous_sets_other_files_and_keeps_the_users() {
+    let dir = scratch("manifest");
+    let out = dir.join("out");
+    let write = |files: &[(&str, &str)]| OutputDir::lock(&out).unwrap().write_set(files).unwrap();
+    write(&[("a.txt", "1"), ("old.svg", "1"), ("plots/p.svg", "1")]);
+    let manifest = fs::read_to_string(out.join(measurements::SET_MANIFEST)).unwrap();
+    assert!(
+        manifest.ends_with("a.txt\nold.svg\nplots/p.svg\n"),
+        "{manifest}"
+    );
+    fs::write(out.join("mine.txt"), "the user's").unwrap();
+    write(&[("a.txt", "2"), ("new.svg", "2")]);
+    assert_eq!(names(&out), ["a.txt", "mine.txt", "new.svg"]);
+    assert_eq!(fs::read_to_string(out.join("a.txt")).unwrap(), "2");
+    // Before manifests: nothing is known to be a set's, so nothing is removed.
+    fs::remove_file(out.join(measurements::SET_MANIFEST)).unwrap();
+    write(&[("b.txt", "3")]);
+    assert_eq!(names(&out), ["a.txt", "b.txt", "mine.txt", "new.svg"]);
+    // A set may not name the manifest.
+    let e = OutputDir::lock(&out)
+        .unwrap()
+        .write_set(&[(measurements::SET_MANIFEST, "x")])
+        .unwrap_err();
+    assert!(matches!(e, OutputError::BadName { .. }), "{e}");
 }
