@@ -52,3 +52,38 @@ pub fn contaminate(
     }
     moved
 }
+
+/// A unit or frame corruption of a whole file, for studies of the plausibility checks: what a
+/// wrong unit or a mirrored frame makes of every row.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Corruption {
+    /// Joints in radians (read as degrees).
+    Radians,
+    /// Points in metres.
+    Metres,
+    /// Points in centimetres.
+    Centimetres,
+    /// Points in inches.
+    Inches,
+    /// Two point axes swapped (a mirrored frame).
+    Swap(usize, usize),
+    /// One point axis negated (a mirrored frame).
+    Negate(usize),
+}
+
+impl Corruption {
+    /// Applies the corruption to every row of `rows` (which must have points).
+    pub fn apply(self, rows: &mut [measurements::Measurement]) {
+        for r in rows {
+            let p = r.point_mm.as_mut().expect("rows with points");
+            match self {
+                Corruption::Radians => r.q_deg.iter_mut().for_each(|q| *q = q.to_radians()),
+                Corruption::Metres => p.iter_mut().for_each(|v| *v /= 1000.0),
+                Corruption::Centimetres => p.iter_mut().for_each(|v| *v /= 10.0),
+                Corruption::Inches => p.iter_mut().for_each(|v| *v /= 25.4),
+                Corruption::Swap(a, b) => p.swap(a, b),
+                Corruption::Negate(a) => p[a] = -p[a],
+            }
+        }
+    }
+}

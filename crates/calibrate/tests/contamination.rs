@@ -17,7 +17,7 @@
 use std::path::PathBuf;
 use std::sync::OnceLock;
 
-use calibrate::contamination::contaminate;
+use calibrate::contamination::{Corruption, contaminate};
 use calibrate::{CalibrateError, IdentifyRequest, Inputs, LoadedRobot, Refusal, Split};
 use measurements::{Measurement, MeasurementSet, ReadOptions, read_file};
 use proptest::prelude::*;
@@ -76,31 +76,6 @@ fn clean() -> f64 {
     })
 }
 
-/// A unit or frame corruption of every row of one file.
-#[derive(Clone, Copy, Debug)]
-enum Corruption {
-    Radians,
-    Metres,
-    Centimetres,
-    Inches,
-    Swap(usize, usize),
-    Negate(usize),
-}
-
-fn apply(c: Corruption, rows: &mut [Measurement]) {
-    for r in rows {
-        let p = r.point_mm.as_mut().unwrap();
-        match c {
-            Corruption::Radians => r.q_deg.iter_mut().for_each(|q| *q = q.to_radians()),
-            Corruption::Metres => p.iter_mut().for_each(|v| *v /= 1000.0),
-            Corruption::Centimetres => p.iter_mut().for_each(|v| *v /= 10.0),
-            Corruption::Inches => p.iter_mut().for_each(|v| *v /= 25.4),
-            Corruption::Swap(a, b) => p.swap(a, b),
-            Corruption::Negate(a) => p[a] = -p[a],
-        }
-    }
-}
-
 fn corruption() -> impl Strategy<Value = Option<(Corruption, bool)>> {
     let c = prop_oneof![
         Just(Corruption::Radians),
@@ -140,7 +115,7 @@ fn outcome(((fraction, magnitude, seed), scale, corrupt): Draw) -> Result<(f64, 
         p.iter_mut().for_each(|v| *v *= scale);
     }
     if let Some((c, in_id)) = corrupt {
-        apply(c, if in_id { &mut id } else { &mut val });
+        c.apply(if in_id { &mut id } else { &mut val });
     }
     let kept: Vec<Measurement> = (0..id.len())
         .filter(|i| moved.binary_search(i).is_err())

@@ -562,32 +562,8 @@ fn implausible_parameters_and_worse_validation_are_refused() {
 
 mod corruption {
     use super::*;
+    use calibrate::contamination::Corruption;
     use proptest::prelude::*;
-
-    /// A unit or frame corruption of measurement rows.
-    #[derive(Clone, Copy, Debug)]
-    enum Corruption {
-        Radians,
-        Metres,
-        Centimetres,
-        Inches,
-        Swap(usize, usize),
-        Negate(usize),
-    }
-
-    fn apply(c: Corruption, rows: &mut [Measurement]) {
-        for r in rows {
-            let p = r.point_mm.as_mut().unwrap();
-            match c {
-                Corruption::Radians => r.q_deg.iter_mut().for_each(|q| *q = q.to_radians()),
-                Corruption::Metres => p.iter_mut().for_each(|v| *v /= 1000.0),
-                Corruption::Centimetres => p.iter_mut().for_each(|v| *v /= 10.0),
-                Corruption::Inches => p.iter_mut().for_each(|v| *v /= 25.4),
-                Corruption::Swap(a, b) => p.swap(a, b),
-                Corruption::Negate(a) => p[a] = -p[a],
-            }
-        }
-    }
 
     fn corruption() -> impl Strategy<Value = Corruption> {
         prop_oneof![
@@ -613,7 +589,7 @@ mod corruption {
                 let (robot, rows, _) = kr1000_simulated(30, &[0, 1, 2, 3, 4, 5]);
                 (robot, rows)
             };
-            apply(c, &mut rows);
+            c.apply(&mut rows);
             let r = IdentifyRequest::new("robot.json", "id.csv");
             match calibrate::calibrate(&r, in_memory(&robot, rows, None)) {
                 Ok(cal) => prop_assert!(false, "{c:?} calibrated: {}", points(cal).registration_decision),
