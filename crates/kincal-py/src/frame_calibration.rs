@@ -199,7 +199,8 @@ fn py_identify_frames<'py>(
         },
         ..request
     };
-    py.detach(|| {
+    // Ctrl-C raises at once: the identification finishes in the background, dropped.
+    crate::interrupt::run_abandonable(py, move || {
         let err = |e: calibrate::CalibrateError| kincal_error(&e);
         let inputs =
             calibrate::Inputs::from_sets(&request, nominal, data, validate).map_err(err)?;

@@ -50,3 +50,33 @@ pub(crate) fn run_interruptible<T: Send>(
         (None, Err(panic)) => std::panic::resume_unwind(panic),
     }
 }
+
+/// Runs `work`, which cannot stop early (one identification), on a detached worker thread
+/// with the GIL released, checking for signals every [`POLL`]: Ctrl-C raises
+/// `KeyboardInterrupt` at once and the worker finishes in the background, its result dropped
+/// (it holds no Python object and writes nothing). A panic of `work` is resumed here.
+pub(crate) fn run_abandonable<T: Send + 'static>(
+    py: Python<'_>,
+    work: impl FnOnce() -> PyResult<T> + Send + 'static,
+) -> PyResult<T> {
+    use std::sync::mpsc::{RecvTimeoutError, channel};
+    let (tx, rx) = channel();
+    std::thread::spawn(move || {
+        let r = std::panic::catch_unwind(std::panic::AssertUnwindSafe(work));
+        let _ = tx.send(r);
+    });
+    let mut rx = rx;
+    loop {
+        // The receiver is Send, not Sync: moved into the wait and back.
+        let (got, back) = py.detach(move || (rx.recv_timeout(POLL), rx));
+        rx = back;
+        match got {
+            Ok(Ok(r)) => return r,
+            Ok(Err(panic)) => std::panic::resume_unwind(panic),
+            Err(RecvTimeoutError::Timeout) => py.check_signals()?,
+            Err(RecvTimeoutError::Disconnected) => {
+                unreachable!("the worker sends its result before it ends")
+            }
+        }
+    }
+}

@@ -595,3 +595,24 @@ def test_a_scaled_tracker_is_refused_and_fit_scale_identifies_it():
     assert abs(cal.measurement_scale / 1.02 - 1) < 0.002
     assert abs(cal.validation["after_mean_mm"] - 0.452) < 0.01
     assert kincal.identify(robot, q, p, every=15).measurement_scale is None
+
+
+def test_ctrl_c_interrupts_an_identification_on_large_data_within_a_second():
+    """Issue 39: one identification cannot stop between chunks; Ctrl-C raises at once and
+    it finishes in the background, its result dropped. 600,000 rows (the UR10 recording
+    tiled) take about 2 s in the library; the signal comes at 0.2 s."""
+    import time
+
+    robot = kincal.Robot.load(ROBOTS / "ur10.json")
+    q, p = ur10_data()
+    reps = 600_000 // len(q) + 1
+    q, p = np.tile(q, (reps, 1)), np.tile(p, (reps, 1))
+    sent = _interrupt_after(0.2)
+    started = time.monotonic()
+    with pytest.raises(KeyboardInterrupt):
+        kincal.identify(robot, q, p)
+    raised = time.monotonic()
+    assert sent, f"the identification ended before the signal ({raised - started:.1f} s)"
+    latency = raised - sent[0]
+    print(f"Ctrl-C latency (identify): {latency * 1e3:.0f} ms")
+    assert latency <= 1.0, f"KeyboardInterrupt {latency:.2f} s after the signal"
