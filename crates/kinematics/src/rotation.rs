@@ -50,6 +50,15 @@ pub fn log_so3(r: &Matrix3<f64>) -> Vector3<f64> {
     qv * (2.0 * n.atan2(w) / n)
 }
 
+/// The rotation `r` as a unit quaternion `[w, x, y, z]`, scalar first, normalised, with
+/// `w ≥ 0` (the sign that makes it unique, as the measurement files' orientation columns
+/// and the measurement reader's Euler conversion write it).
+pub fn unit_quaternion(r: &Matrix3<f64>) -> [f64; 4] {
+    let q = UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix_unchecked(*r));
+    let s = if q.w < 0.0 { -1.0 } else { 1.0 };
+    [s * q.w, s * q.i, s * q.j, s * q.k]
+}
+
 /// `exp` of SO(3): the rotation by the rotation vector `v` (rad).
 pub fn exp_so3(v: &Vector3<f64>) -> Matrix3<f64> {
     *Rotation3::new(*v).matrix()
