@@ -120,6 +120,33 @@ mod tests {
     use super::*;
     use std::f64::consts::PI;
 
+    /// `unit_quaternion` is `(cos θ/2, sin θ/2 · axis)` of the rotation, unit, `w ≥ 0`
+    /// (the axis flipped past π), at small, medium and near-π angles.
+    #[test]
+    fn unit_quaternion_is_the_half_angle_form_with_w_non_negative() {
+        for (axis, angle) in [
+            (Vector3::new(1.0, 2.0, 3.0), 1e-9),
+            (Vector3::new(0.3, -0.2, 0.9), 1.3),
+            (Vector3::new(0.0, 1.0, 1.0), PI - 1e-7),
+            (Vector3::new(1.0, -1.0, 0.5), 4.0),
+        ] {
+            let a = axis.normalize();
+            let q = unit_quaternion(&exp_so3(&(a * angle)));
+            let (s, c) = (0.5 * angle).sin_cos();
+            let want = if c < 0.0 {
+                [-c, -s * a.x, -s * a.y, -s * a.z]
+            } else {
+                [c, s * a.x, s * a.y, s * a.z]
+            };
+            assert!(q[0] >= 0.0, "{q:?}");
+            let n = q.iter().map(|v| v * v).sum::<f64>().sqrt();
+            assert!((n - 1.0).abs() < 1e-15, "{n}");
+            for k in 0..4 {
+                assert!((q[k] - want[k]).abs() < 1e-14, "{angle}: {q:?} vs {want:?}");
+            }
+        }
+    }
+
     #[test]
     fn logarithm_matches_axis_angle_small_medium_and_near_pi() {
         for (axis, angle) in [
