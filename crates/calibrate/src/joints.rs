@@ -5,8 +5,9 @@ use std::path::Path;
 
 use identify::{CompensationOptions, compensate_nearest, kabsch};
 use kinematics::Robot;
-use measurements::{Measurement, MeasurementSet, to_csv_string};
-use nalgebra::Vector3;
+use kinematics::rotation::{log_so3, unit_quaternion};
+use measurements::{Measurement, MeasurementSet, quaternion_to_matrix, to_csv_string};
+use nalgebra::{Matrix3, Vector3};
 
 use crate::error::{CalibrateError, Refusal, Result};
 use crate::files::{LoadedRobot, file_name, poses_rad};
@@ -15,22 +16,43 @@ use crate::files::{LoadedRobot, file_name, poses_rad};
 #[derive(Clone, Debug)]
 pub struct Prediction {
     /// `id` (if the input has ids), `q1…qN` as read, predicted `x, y, z` (mm, the robot's
-    /// measurement frame), with a comment header.
+    /// measurement frame) and, when the robot has a tool orientation, the measured frame's
+    /// orientation `qw, qx, qy, qz` ([`orientation_wxyz`]), with a comment header.
     pub csv: String,
     /// Rows predicted.
     pub rows: usize,
     /// When every input row has a point: mean and max of |file − predicted| (mm).
     pub file_error_mm: Option<(f64, f64)>,
+    /// Whether the output has the orientation columns `qw, qx, qy, qz` (the robot has a
+    /// tool orientation, `tool_rotation_deg`).
+    pub orientation: bool,
+    /// When the output has them and every input row has an orientation: mean and max of
+    /// the angle between the file's and the predicted orientation (degrees).
+    pub file_error_deg: Option<(f64, f64)>,
     /// Reader notices (ignored columns).
     pub notices: Vec<String>,
 }
 
-/// Predicts the measured point of `robot` at each row of the joint file `joints`; `out_label`
-/// names the output in the CSV (a path or `stdout`).
+/// The orientation of the measured frame of `robot` at the joints `q_rad`, when the robot
+/// has a tool orientation (`tool_rotation_deg`; `None` otherwise): the flange rotation times
+/// the tool rotation `R_tool = Rz·Ry·Rx` (`docs/model.md` §5), the frame model that 6-DoF
+/// identification fits, as a unit quaternion `[w, x, y, z]`, scalar first, `w ≥ 0` — the
+/// orientation columns `qw, qx, qy, qz` of a measurement file.
+pub fn orientation_wxyz(robot: &Robot, q_rad: &[f64]) -> Option<[f64; 4]> {
+    robot
+        .tool_rotation_rad()
+        .map(|_| unit_quaternion(&(robot.flange(q_rad).rot * robot.tool_rotation())))
+}
+
+/// Predicts the measured point of `robot` at each row of the joint file `joints`, and the
+/// measured frame's orientation when the robot has a tool orientation
+/// ([`orientation_wxyz`]); `out_label` names the output in the CSV (a path or `stdout`).
 pub fn predict(robot: &LoadedRobot, joints: &Path, out_label: &str) -> Result<Prediction> {
     let set = robot.read_set(joints, false, (1, None), "joint file")?;
     let mut rows = Vec::with_capacity(set.rows.len());
     let mut errors = Vec::new();
+    let mut angles = Vec::new();
+    let orientation = robot.robot.tool_rotation_rad().is_some();
     let mut q = vec![0.0; robot.robot.n_joints()];
     for r in &set.rows {
         for (qr, d) in q.iter_mut().zip(&r.q_deg) {
@@ -40,23 +62,34 @@ pub fn predict(robot: &LoadedRobot, joints: &Path, out_label: &str) -> Result<Pr
         if let Some(m) = r.point_mm {
             errors.push((Vector3::from(m) - p).norm());
         }
+        let o = orientation_wxyz(&robot.robot, &q);
+        if let (Some(o), Some(m)) = (o, r.orientation) {
+            angles.push(angle_deg(o, m));
+        }
         rows.push(Measurement {
             line: 0,
             id: r.id.clone(),
             q_deg: r.q_deg.clone(),
             point_mm: Some([p.x, p.y, p.z]),
+            orientation: o,
             ..Default::default()
         });
     }
     let n = rows.len();
     let out_set = MeasurementSet::new(out_label, robot.robot.n_joints(), rows);
-    let header = format!(
+    let mut header = format!(
         "kincal predict: points of {} ({}) at the joints of {}\nq in degrees as read; x y z \
          predicted, mm, in the robot's measurement frame",
         robot.robot.name(),
         file_name(&robot.path),
         file_name(joints)
     );
+    if orientation {
+        header.push_str(
+            "; qw qx qy qz the measured frame's orientation (flange rotation times the \
+             robot's tool_rotation_deg) in that frame, unit quaternion, scalar first, qw >= 0",
+        );
+    }
     let csv = to_csv_string(&out_set, Some(&header)).map_err(|source| CalibrateError::Read {
         context: "formatting the predictions".into(),
         source,
@@ -65,12 +98,25 @@ pub fn predict(robot: &LoadedRobot, joints: &Path, out_label: &str) -> Result<Pr
         let mean = errors.iter().sum::<f64>() / n as f64;
         (mean, errors.iter().copied().fold(0.0, f64::max))
     });
+    let file_error_deg = (n > 0 && angles.len() == n).then(|| {
+        let mean = angles.iter().sum::<f64>() / n as f64;
+        (mean, angles.iter().copied().fold(0.0, f64::max))
+    });
     Ok(Prediction {
         csv,
         rows: n,
         file_error_mm,
+        orientation,
+        file_error_deg,
         notices: set.notices,
     })
+}
+
+/// The angle (degrees) of the rotation between two orientations given as quaternions
+/// `[w, x, y, z]` (the second normalised first, as the reader accepts it).
+fn angle_deg(a: [f64; 4], b: [f64; 4]) -> f64 {
+    let m = |q: [f64; 4]| Matrix3::from_fn(|i, j| quaternion_to_matrix(q)[i][j]);
+    log_so3(&(m(a).transpose() * m(b))).norm().to_degrees()
 }
 
 /// Smallest mean shift (mm) of the rigid transform between the nominal and the calibrated
@@ -354,4 +400,78 @@ pub fn compensate_rows(
         max_ik_error_mm: max_err_mm,
         notices: set.notices,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use identify::frames::{FrameData, FrameModel, FrameRow};
+    use kinematics::rotation::exp_so3;
+
+    use super::*;
+
+    /// The orientation `predict` writes is the frame model's of 6-DoF identification
+    /// (`identify::frames`): a robot written by [`FrameModel::to_robot`] predicts, at any
+    /// joints, the quaternion whose rotation the model sees with no error (to 1e-12 rad),
+    /// unit and with w ≥ 0; a robot without a tool orientation predicts none.
+    #[test]
+    fn predicted_orientation_is_the_frame_models() {
+        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenarios/robots/ur10.json");
+        let mut robot = Robot::from_file(&path).unwrap();
+        assert_eq!(orientation_wxyz(&robot, &[0.1; 6]), None);
+        let p: Vec<f64> = robot
+            .params()
+            .iter()
+            .enumerate()
+            .map(|(k, v)| v + 1e-3 * ((k as f64) * 0.7).sin())
+            .collect();
+        robot.set_params(&p).unwrap();
+        for v in [
+            Vector3::new(0.2, -0.1, 0.4),
+            Vector3::new(-1.4, 2.1, 0.3),
+            Vector3::new(0.0, 3.1, 0.0),
+        ] {
+            let model = FrameModel {
+                robot: robot.clone(),
+                tool_rotation: exp_so3(&v),
+                targets_mm: vec![Vector3::new(10.0, -20.0, 150.0)],
+            };
+            let written = model.to_robot(&[String::new()], true);
+            let poses: Vec<Vec<f64>> = (0..20)
+                .map(|j| {
+                    (0..6)
+                        .map(|i| ((j * 6 + i) as f64 * 1.3).sin() * 3.0)
+                        .collect()
+                })
+                .collect();
+            let rows = poses
+                .iter()
+                .enumerate()
+                .map(|(j, q)| {
+                    let o = orientation_wxyz(&written, q).unwrap();
+                    let n = o.iter().map(|x| x * x).sum::<f64>().sqrt();
+                    assert!((n - 1.0).abs() < 1e-15 && o[0] >= 0.0, "{o:?}");
+                    let m = quaternion_to_matrix(o);
+                    FrameRow {
+                        pose: j,
+                        target: 0,
+                        point_mm: written.point(q),
+                        rotation: Some(Matrix3::from_fn(|r, c| m[r][c])),
+                        w_pos: [1.0; 3],
+                        w_rot: 1.0,
+                    }
+                })
+                .collect();
+            let data = FrameData {
+                poses_rad: poses.concat(),
+                n_joints: 6,
+                target_names: vec![String::new()],
+                rows,
+            };
+            for (dp, dr) in model.errors(&data) {
+                assert!(dp.norm() < 1e-9, "{dp}");
+                let angle_rad = dr.unwrap().norm().to_radians();
+                assert!(angle_rad < 1e-12, "{v}: {angle_rad:e} rad");
+            }
+        }
+    }
 }

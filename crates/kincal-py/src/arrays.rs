@@ -138,10 +138,48 @@ pub(crate) fn memory_set(
 pub(crate) fn fk_array<'py>(
     py: Python<'py>,
     robot: &kinematics::Robot,
-    q_deg: ArrayArg<'py>,
+    q_deg: &ArrayArg<'py>,
+) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
+    pose_array::<3>(py, robot, q_deg, |q_rad| {
+        robot
+            .points(q_rad)
+            .iter()
+            .flat_map(|p| [p.x, p.y, p.z])
+            .collect()
+    })
+}
+
+/// The measured frame's orientation of `robot` on `q_deg` as a numpy array of unit
+/// quaternions `w, x, y, z` (see `Robot.fk_orientation`); `None` for a robot without a tool
+/// orientation.
+pub(crate) fn orientation_array<'py>(
+    py: Python<'py>,
+    robot: &kinematics::Robot,
+    q_deg: &ArrayArg<'py>,
+) -> PyResult<Option<Bound<'py, PyArrayDyn<f64>>>> {
+    if robot.tool_rotation_rad().is_none() {
+        return Ok(None);
+    }
+    let n = robot.n_joints();
+    pose_array::<4>(py, robot, q_deg, |q_rad| {
+        q_rad
+            .chunks_exact(n)
+            .flat_map(|q| calibrate::orientation_wxyz(robot, q).expect("a tool orientation"))
+            .collect()
+    })
+    .map(Some)
+}
+
+/// `value` of the flat joint vectors (radians) of `q_deg`, `(n, N)` → `(n, K)` or `(N,)` →
+/// `(K,)`, computed without the GIL; non-finite angles refused, naming the first.
+fn pose_array<'py, const K: usize>(
+    py: Python<'py>,
+    robot: &kinematics::Robot,
+    q_deg: &ArrayArg<'py>,
+    value: impl Fn(&[f64]) -> Vec<f64> + Sync,
 ) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
     let n = robot.n_joints();
-    let (flat_deg, single) = joints_arg(&q_deg, n, "q_deg")?;
+    let (flat_deg, single) = joints_arg(q_deg, n, "q_deg")?;
     if let Some(k) = flat_deg.iter().position(|v| !v.is_finite()) {
         let at = if single {
             format!("{k}")
@@ -154,18 +192,12 @@ pub(crate) fn fk_array<'py>(
         )));
     }
     let q_rad: Vec<f64> = flat_deg.iter().map(|d| d.to_radians()).collect();
-    let flat: Vec<f64> = py.detach(|| {
-        robot
-            .points(&q_rad)
-            .iter()
-            .flat_map(|p| [p.x, p.y, p.z])
-            .collect()
-    });
+    let flat: Vec<f64> = py.detach(|| value(&q_rad));
     let out = if single {
         Array1::from(flat).into_dyn()
     } else {
-        Array2::from_shape_vec((flat.len() / 3, 3), flat)
-            .expect("three coordinates per pose")
+        Array2::from_shape_vec((flat.len() / K, K), flat)
+            .expect("K values per pose")
             .into_dyn()
     };
     Ok(out.into_pyarray(py))

@@ -72,7 +72,7 @@ impl PyCalibration {
         py: Python<'py>,
         q_deg: ArrayArg<'py>,
     ) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
-        fk_array(py, &self.identified.robot, q_deg)
+        fk_array(py, &self.identified.robot, &q_deg)
     }
 
     /// Residuals `measured − calibrated` `(n, 3)` (mm) on the identification rows (all of

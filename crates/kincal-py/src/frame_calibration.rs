@@ -3,10 +3,14 @@
 
 use std::path::PathBuf;
 
+use numpy::PyArrayDyn;
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyTuple};
 
-use crate::arrays::{ArrayArg, fixed_rows, joint_rows, memory_set, point_rows, string_rows};
+use crate::arrays::{
+    ArrayArg, fixed_rows, fk_array, joint_rows, memory_set, orientation_array, point_rows,
+    string_rows,
+};
 use crate::errors::{kincal_error, refuse, save_outputs};
 use crate::options::{Shared, identify_request};
 use crate::robot::PyRobot;
@@ -269,6 +273,27 @@ impl PyFrameCalibration {
         PyRobot {
             loaded: self.identified.clone(),
         }
+    }
+
+    /// The calibrated robot's prediction at `q_deg` (degrees, `(n, N)`, or `(N,)`): a tuple
+    /// `(points_mm, orientations_wxyz)`, the points `(n, 3)` (mm, the measurement frame) and
+    /// the measured frame's orientation `(n, 4)` (unit quaternions, scalar first, `w ≥ 0`;
+    /// `None` when no orientation was measured): `kincal predict`'s `x, y, z` and
+    /// `qw, qx, qy, qz`, `(robot.fk(q_deg), robot.fk_orientation(q_deg))`.
+    #[allow(clippy::type_complexity)]
+    fn predict<'py>(
+        &self,
+        py: Python<'py>,
+        q_deg: ArrayArg<'py>,
+    ) -> PyResult<(
+        Bound<'py, PyArrayDyn<f64>>,
+        Option<Bound<'py, PyArrayDyn<f64>>>,
+    )> {
+        let robot = &self.identified.robot;
+        Ok((
+            fk_array(py, robot, &q_deg)?,
+            orientation_array(py, robot, &q_deg)?,
+        ))
     }
 
     /// The unknowns of the fit as records `{"name", "unit", "start", "identified",

@@ -7,7 +7,7 @@ use numpy::PyArrayDyn;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
-use crate::arrays::{ArrayArg, fk_array};
+use crate::arrays::{ArrayArg, fk_array, orientation_array};
 use crate::errors::{kincal_error, refuse, write_file};
 use crate::options::allow_arg;
 
@@ -170,7 +170,20 @@ impl PyRobot {
         py: Python<'py>,
         q_deg: ArrayArg<'py>,
     ) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
-        fk_array(py, self.robot(), q_deg)
+        fk_array(py, self.robot(), &q_deg)
+    }
+
+    /// The measured frame's orientation (in the measurement frame) for joint angles in
+    /// degrees as unit quaternions `w, x, y, z` (scalar first, `w ≥ 0`), shape `(n, N)` →
+    /// `(n, 4)` or `(N,)` → `(4,)`: the flange rotation times the tool orientation
+    /// (`tool_rotation_deg`), the columns `qw, qx, qy, qz` of `kincal predict`; `None` for a
+    /// robot without a tool orientation.
+    fn fk_orientation<'py>(
+        &self,
+        py: Python<'py>,
+        q_deg: ArrayArg<'py>,
+    ) -> PyResult<Option<Bound<'py, PyArrayDyn<f64>>>> {
+        orientation_array(py, self.robot(), &q_deg)
     }
 
     fn __repr__(&self) -> String {

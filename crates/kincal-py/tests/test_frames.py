@@ -171,3 +171,37 @@ def test_simulate_gives_the_clis_frame_files_and_identify_frames_reads_them(kind
     assert cal.robot.parameters == kincal.Robot.load(tmp_path / "cal" / "identified.json").parameters
     after = cal.validation["identified"]["position_mean_mm"]
     assert after < 0.5 and after < cal.validation["start"]["position_mean_mm"]
+
+
+def test_predict_returns_the_orientation_of_kincal_predict(tmp_path):
+    """Issue 40 item 1: FrameCalibration.predict returns the points and the measured frame's
+    orientation (unit quaternions w, x, y, z, w >= 0), the columns `kincal predict` writes
+    for the same robot, to the bit; they agree with the file's orientations to the fit's
+    residual. A robot without a tool orientation has none."""
+    q, p, o = six_dof()
+    robot = kincal.Robot.load(ROBOTS / "ur10.json")
+    assert robot.fk_orientation(q) is None
+    cal = kincal.identify_frames(robot, q, p, orientations_wxyz=o, every=15)
+    points, wxyz = cal.predict(q)
+    assert points.shape == (len(q), 3) and wxyz.shape == (len(q), 4)
+    assert np.array_equal(points, cal.robot.fk(q))
+    assert np.array_equal(wxyz, cal.robot.fk_orientation(q))
+    assert np.all(np.abs(np.linalg.norm(wxyz, axis=1) - 1) < 1e-15) and np.all(wxyz[:, 0] >= 0)
+    one_p, one_o = cal.predict(q[3])
+    assert one_p.shape == (3,) and np.array_equal(one_o, wxyz[3])
+    cal.save(tmp_path / "cal")
+    run_cli("predict", "--robot", tmp_path / "cal" / "identified.json", "--joints", SIX_DOF,
+            "--out", tmp_path / "p.csv")
+    rows = read_csv(tmp_path / "p.csv")
+    cli = np.array([[float(r[c]) for c in ("qw", "qx", "qy", "qz")] for r in rows])
+    assert np.array_equal(cli, wxyz)
+    o = o / np.linalg.norm(o, axis=1)[:, None]
+    # The angle of conj(predicted)·measured: 2·atan2(|vector part|, |w|).
+    w = np.sum(wxyz * o, axis=1)
+    v = wxyz[:, :1] * o[:, 1:] - o[:, :1] * wxyz[:, 1:] - np.cross(wxyz[:, 1:], o[:, 1:])
+    angle = np.degrees(2 * np.arctan2(np.linalg.norm(v, axis=1), np.abs(w)))
+    # The fit's 100 poses and the 1395 validation poses: the identify figures.
+    fit = cal.fit_errors["identified"]["orientation_mean_deg"]
+    val = cal.validation["identified"]["orientation_mean_deg"]
+    assert abs(angle.mean() - (100 * fit + 1395 * val) / 1495) < 1e-9
+    assert 0.01 < angle.mean() < 0.05

@@ -35,12 +35,14 @@ pub struct PredictArgs {
     #[arg(long)]
     robot: PathBuf,
     /// Joint file (docs/model.md §5 CSV; the joints-only form `id, q1…qN` is enough; other
-    /// columns are ignored; `x, y, z`, if present, are compared with the prediction on
-    /// stderr).
+    /// columns are ignored; `x, y, z` and `qw, qx, qy, qz`, if present, are compared with
+    /// the prediction on stderr).
     #[arg(long)]
     joints: PathBuf,
     /// Output file [stdout; `-` is stdout too]: `id` (if the input has ids), `q1…qN` as read, and the
-    /// predicted `x, y, z` in mm in the robot's measurement frame.
+    /// predicted `x, y, z` in mm in the robot's measurement frame; when the robot has a tool
+    /// orientation (`tool_rotation_deg`, a 6-DoF calibration), also the measured frame's
+    /// orientation `qw, qx, qy, qz` (unit quaternion, scalar first, qw ≥ 0).
     #[arg(long)]
     out: Option<PathBuf>,
 }
@@ -69,6 +71,13 @@ pub fn predict(args: &PredictArgs) -> Result<()> {
             report::fmt::mm(max)
         ),
         None => crate::errln!("{} rows", p.rows),
+    }
+    if let Some((mean, max)) = p.file_error_deg {
+        crate::errln!(
+            "the file has orientations qw, qx, qy, qz: angle file − predicted mean {}°, max {}°",
+            report::fmt::deg(mean),
+            report::fmt::deg(max)
+        );
     }
     if let Some(out) = args.out.as_deref().filter(|p| !crate::is_stdout(p)) {
         crate::errln!("→ {}", out.display());

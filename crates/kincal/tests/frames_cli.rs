@@ -471,3 +471,116 @@ fn a_point_set_replaces_a_six_dof_set_whole() {
     expected.sort();
     assert_eq!(names(&mixed), expected);
 }
+
+/// The columns `names` of the CSV `text` (comment lines skipped), one vector per row.
+fn columns(text: &str, names: &[&str]) -> Vec<Vec<f64>> {
+    let mut lines = text.lines().filter(|l| !l.starts_with('#'));
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let idx: Vec<usize> = names
+        .iter()
+        .map(|n| header.iter().position(|h| h == n).expect(n))
+        .collect();
+    lines
+        .map(|l| {
+            let f: Vec<&str> = l.split(',').collect();
+            idx.iter().map(|&i| f[i].parse().unwrap()).collect()
+        })
+        .collect()
+}
+
+/// The angle (degrees) between two unit quaternions `[w, x, y, z]`.
+fn quaternion_angle_deg(a: &[f64], b: &[f64]) -> f64 {
+    let dot: f64 = a.iter().zip(b).map(|(x, y)| x * y).sum();
+    let norm = |q: &[f64]| q.iter().map(|v| v * v).sum::<f64>().sqrt();
+    let c = (dot.abs() / (norm(a) * norm(b))).min(1.0);
+    2.0 * c.acos().to_degrees()
+}
+
+/// The mean of the number after `key` in the line of `text` that starts with `line`.
+fn figure_after(text: &str, line: &str, key: &str) -> f64 {
+    let l = text.lines().find(|l| l.starts_with(line)).expect(line);
+    let rest = &l[l.rfind(key).expect(key) + key.len()..];
+    rest.split('°').next().unwrap().trim().parse().unwrap()
+}
+
+/// Issue 40 item 1: `predict` of a 6-DoF calibration writes the measured frame's orientation
+/// `qw, qx, qy, qz` (unit, w ≥ 0), which agrees with the file's orientations to the fit's
+/// orientation residual (over all 1495 poses: the fit's and the validation's means, weighted
+/// by their pose counts); a point calibration's `predict` writes no orientation.
+#[test]
+fn predict_of_a_six_dof_calibration_writes_the_orientation() {
+    let tmp = tempfile::tempdir().unwrap();
+    let six = ok(&identify(SIX, &tmp.path().join("six"), &["--every", "15"]));
+    let out = tmp.path().join("predicted.csv");
+    let robot = tmp.path().join("six/identified.json");
+    let p = kincal(&[
+        "predict",
+        "--robot",
+        s(&robot),
+        "--joints",
+        SIX,
+        "--out",
+        s(&out),
+    ]);
+    let err = stderr(&p);
+    assert!(p.status.success(), "{err}");
+    let text = std::fs::read_to_string(&out).unwrap();
+    assert!(
+        text.lines()
+            .find(|l| !l.starts_with('#'))
+            .unwrap()
+            .ends_with(",x,y,z,qw,qx,qy,qz"),
+        "{text:.600}"
+    );
+    let q = ["qw", "qx", "qy", "qz"];
+    let predicted = columns(&text, &q);
+    let measured = columns(
+        &std::fs::read_to_string(crate::common::root().join(SIX)).unwrap(),
+        &q,
+    );
+    assert_eq!(predicted.len(), 1495);
+    assert_eq!(predicted.len(), measured.len());
+    for o in &predicted {
+        let n = o.iter().map(|v| v * v).sum::<f64>().sqrt();
+        assert!((n - 1.0).abs() < 1e-15 && o[0] >= 0.0, "{o:?}");
+    }
+    let angles: Vec<f64> = predicted
+        .iter()
+        .zip(&measured)
+        .map(|(a, b)| quaternion_angle_deg(a, b))
+        .collect();
+    let mean = angles.iter().sum::<f64>() / angles.len() as f64;
+    let max = angles.iter().copied().fold(0.0, f64::max);
+    // identify: fit orientation mean on its 100 poses, validation on the 1395 others.
+    let fit = figure_after(&six, "fit:", "orientation mean ");
+    let validation = figure_after(&six, "validation", "orientation mean ");
+    let expected = (100.0 * fit + 1395.0 * validation) / 1495.0;
+    eprintln!(
+        "predicted vs measured orientation: mean {mean:.5}°, max {max:.4}° (fit {fit}°, \
+         validation {validation}°)"
+    );
+    assert!((mean - expected).abs() < 1e-4, "{mean} vs {expected}");
+    assert!(max < 0.2, "{max}");
+    assert!(
+        err.contains(&format!("angle file − predicted mean {:.4}°", mean)),
+        "{err}"
+    );
+    // A point calibration of the same data: x, y, z only.
+    ok(&identify(
+        SIX,
+        &tmp.path().join("points"),
+        &["--every", "15", "--points-only"],
+    ));
+    let p = kincal(&[
+        "predict",
+        "--robot",
+        s(&tmp.path().join("points/identified.json")),
+        "--joints",
+        SIX,
+    ]);
+    assert!(p.status.success(), "{}", stderr(&p));
+    let text = String::from_utf8(p.stdout.clone()).unwrap();
+    let header = text.lines().find(|l| !l.starts_with('#')).unwrap();
+    assert!(header.ends_with(",x,y,z"), "{header}");
+    assert!(!stderr(&p).contains("orientations"));
+}

@@ -50,6 +50,15 @@ pub fn log_so3(r: &Matrix3<f64>) -> Vector3<f64> {
     qv * (2.0 * n.atan2(w) / n)
 }
 
+/// The rotation `r` as a unit quaternion `[w, x, y, z]`, scalar first, normalised, with
+/// `w ≥ 0` (the sign that makes it unique, as the measurement files' orientation columns
+/// and the measurement reader's Euler conversion write it).
+pub fn unit_quaternion(r: &Matrix3<f64>) -> [f64; 4] {
+    let q = UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix_unchecked(*r));
+    let s = if q.w < 0.0 { -1.0 } else { 1.0 };
+    [s * q.w, s * q.i, s * q.j, s * q.k]
+}
+
 /// `exp` of SO(3): the rotation by the rotation vector `v` (rad).
 pub fn exp_so3(v: &Vector3<f64>) -> Matrix3<f64> {
     *Rotation3::new(*v).matrix()
@@ -110,6 +119,33 @@ pub fn rpy_of(r: &Matrix3<f64>) -> [f64; 3] {
 mod tests {
     use super::*;
     use std::f64::consts::PI;
+
+    /// `unit_quaternion` is `(cos θ/2, sin θ/2 · axis)` of the rotation, unit, `w ≥ 0`
+    /// (the axis flipped past π), at small, medium and near-π angles.
+    #[test]
+    fn unit_quaternion_is_the_half_angle_form_with_w_non_negative() {
+        for (axis, angle) in [
+            (Vector3::new(1.0, 2.0, 3.0), 1e-9),
+            (Vector3::new(0.3, -0.2, 0.9), 1.3),
+            (Vector3::new(0.0, 1.0, 1.0), PI - 1e-7),
+            (Vector3::new(1.0, -1.0, 0.5), 4.0),
+        ] {
+            let a = axis.normalize();
+            let q = unit_quaternion(&exp_so3(&(a * angle)));
+            let (s, c) = (0.5 * angle).sin_cos();
+            let want = if c < 0.0 {
+                [-c, -s * a.x, -s * a.y, -s * a.z]
+            } else {
+                [c, s * a.x, s * a.y, s * a.z]
+            };
+            assert!(q[0] >= 0.0, "{q:?}");
+            let n = q.iter().map(|v| v * v).sum::<f64>().sqrt();
+            assert!((n - 1.0).abs() < 1e-15, "{n}");
+            for k in 0..4 {
+                assert!((q[k] - want[k]).abs() < 1e-14, "{angle}: {q:?} vs {want:?}");
+            }
+        }
+    }
 
     #[test]
     fn logarithm_matches_axis_angle_small_medium_and_near_pi() {

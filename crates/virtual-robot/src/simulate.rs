@@ -143,23 +143,13 @@ impl World {
                     row = row.with_target(*name);
                 }
                 if let (0, Some(r)) = (k, rotation) {
-                    row = row.with_orientation(unit_quaternion(&r));
+                    row = row.with_orientation(kinematics::rotation::unit_quaternion(&r));
                 }
                 rows.push(row);
             }
         }
         Ok(MeasurementSet::new(source, n, rows))
     }
-}
-
-/// The rotation `r` as a unit quaternion `[w, x, y, z]` with `w ≥ 0` (the measurement
-/// files' orientation columns).
-fn unit_quaternion(r: &nalgebra::Matrix3<f64>) -> [f64; 4] {
-    let q = nalgebra::UnitQuaternion::from_rotation_matrix(
-        &nalgebra::Rotation3::from_matrix_unchecked(*r),
-    );
-    let s = if q.w < 0.0 { -1.0 } else { 1.0 };
-    [s * q.w, s * q.i, s * q.j, s * q.k]
 }
 
 impl Simulation {

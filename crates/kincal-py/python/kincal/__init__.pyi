@@ -155,6 +155,14 @@ class Robot:
         here; docs/scale.md). The GIL is released during the computation.
         """
 
+    def fk_orientation(self, q_deg: ArrayLike) -> NDArray[np.float64] | None:
+        """The measured frame's orientation (in the measurement frame) for joint angles in
+        degrees, as unit quaternions ``w, x, y, z`` (scalar first, ``w ≥ 0``), shape
+        ``(n, N)`` → ``(n, 4)``, or ``(N,)`` → ``(4,)``: the flange rotation times the tool
+        orientation ``tool_rotation_deg`` (docs/model.md §5), the columns ``qw, qx, qy, qz``
+        of ``kincal predict``, to the bit. ``None`` for a robot without a tool orientation
+        (a point calibration). Arguments and errors as :meth:`fk`."""
+
     def __repr__(self) -> str: ...
 
 class CalibrationParameter(TypedDict):
@@ -387,6 +395,15 @@ class FrameCalibration:
     @property
     def robot(self) -> Robot:
         """The calibrated robot with its tool frame (``identified.json``)."""
+
+    def predict(
+        self, q_deg: ArrayLike
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64] | None]:
+        """The calibrated robot's prediction at joints ``(n, N)`` in degrees (or ``(N,)``):
+        ``(points_mm, orientations_wxyz)``, the points ``(n, 3)`` (mm, the measurement frame)
+        and the measured frame's orientation ``(n, 4)`` (unit quaternions, scalar first,
+        ``w ≥ 0``; ``None`` when no orientation was measured) — ``kincal predict``'s
+        ``x, y, z`` and ``qw, qx, qy, qz``: ``(robot.fk(q_deg), robot.fk_orientation(q_deg))``."""
 
     @property
     def parameters(self) -> list[FrameParameter]:
