@@ -16,7 +16,7 @@
 //! the least-squares factor of `δ ≈ ε L`, with the scatter of the lengths about it as its
 //! standard deviation, `sd(ε̂) = √(Σ_k r_k² / (n − 1)) / √(Σ_k L_k²)`, `r_k = δ_k − ε̂ L_k`.
 //! The data say the measurements are scaled by `s = 1 + ε̂` when `|ε̂|` exceeds
-//! [`MAX_SCALE_ERROR`] and [`SCALE_SIGNIFICANCE`] standard deviations ([`crate::checks::scale`]
+//! [`MAX_SCALE_ERROR`] and [`SCALE_SIGNIFICANCE`] standard deviations ([`check`]
 //! refuses then; `--fit-scale` divides the points by s and identifies again).
 
 use kinematics::{ParamKind, Robot};
@@ -25,24 +25,24 @@ use crate::checks::refuse_with;
 use crate::error::Refusal;
 use crate::request::{Check, Setting};
 
-/// Shortest length of the robot file that carries scale evidence, mm [100: a link offset of
+/// Shortest length of the robot file that carries scale evidence, mm \[100: a link offset of
 /// a few tens of millimetres moves by manufacturing errors as much as by a percent of
-/// scale].
+/// scale\].
 pub const MIN_LENGTH_MM: f64 = 100.0;
 
-/// Largest scale error of the measurements accepted without a word [5·10⁻⁴ (0.05 %): a laser
+/// Largest scale error of the measurements accepted without a word \[5·10⁻⁴ (0.05 %): a laser
 /// tracker's scale is a few ppm, and an uncompensated air temperature error of 10 K gives
 /// 10 ppm; 0.05 % is a wrong unit conversion, a wrong scale setting or a
-/// temperature-compensation error far beyond what a tracker and a hall explain].
+/// temperature-compensation error far beyond what a tracker and a hall explain\].
 pub const MAX_SCALE_ERROR: f64 = 5e-4;
 
-/// Standard deviations of ε̂ beyond which a scale is significant [3].
+/// Standard deviations of ε̂ beyond which a scale is significant \[3\].
 pub const SCALE_SIGNIFICANCE: f64 = 3.0;
 
-/// Largest scale error that is said to be one [0.1 (10 %): no tracker's scale or temperature
+/// Largest scale error that is said to be one \[0.1 (10 %): no tracker's scale or temperature
 /// compensation is that far off; lengths moving by more, even in proportion, are a unit
 /// (the `length-units` check), a mirrored frame or another robot (the `parameters` check),
-/// whose refusals say so].
+/// whose refusals say so\].
 pub const MAX_SCALE_EVIDENCE: f64 = 0.1;
 
 /// The common scale of the identified lengths (module docs).

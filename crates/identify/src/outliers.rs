@@ -236,10 +236,10 @@ pub fn screen(
     })
 }
 
-/// Factor G of the gross-error cut `‖e_b‖ > G·√d·σ` [5: for Gaussian residuals
+/// Factor G of the gross-error cut `‖e_b‖ > G·√d·σ` \[5: for Gaussian residuals
 /// `P(χ²₃ > 75) ≈ 4·10⁻¹⁶` — never a clean reading — while a laser-tracker reading 2 mm off on
 /// a 0.45 mm fit (the UR10 example) is beyond it; readings between k = 3 and G (heavy tails of
-/// real data, such as the UR10 example's line 857 at 3.9 σ̂₃) are flagged and kept].
+/// real data, such as the UR10 example's line 857 at 3.9 σ̂₃) are flagged and kept\].
 pub const GROSS_K: f64 = 5.0;
 
 /// Regularised lower incomplete gamma function `P(a, x) = γ(a, x)/Γ(a)` for `a = two_a/2`,

@@ -203,8 +203,9 @@ pub mod points {
     pub use super::parameters::parameters_json;
     pub use super::summary::summary;
 
-    /// Renders the output files of `cal` in memory, as `(file name, contents)` in writing order:
-    /// [`ROBOT_FILE`], [`REGISTERED_FILE`], [`PARAMETERS_FILE`], [`REPORT_FILE`], then
+    /// Renders the output files of `cal` in memory, as `(file name, contents)` in writing order
+    /// (after [`super::ROBOT_FILE`] and [`super::REGISTERED_FILE`], which [`super::render`]
+    /// adds): [`PARAMETERS_FILE`], [`REPORT_FILE`], then
     /// [`REPORT_HTML_FILE`] with the plots of [`plots::identify_plots`] (errors of the start model
     /// and of the identified one on the screened identification rows and on the validation rows;
     /// the outlier screen) inline, and those plots as SVG files. The caller writes them (all or
