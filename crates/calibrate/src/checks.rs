@@ -108,11 +108,7 @@ pub fn declared_radians(
     deg_rows: &[Measurement],
     limits_deg: &[Option<[f64; 2]>],
 ) -> Result<(), Refusal> {
-    let largest = deg_rows
-        .iter()
-        .flat_map(|r| r.q_deg.iter().zip(limits_deg))
-        .filter(|(_, l)| l.is_some())
-        .fold(0.0_f64, |m, (q, _)| m.max(q.abs()));
+    let largest = crate::files::largest_revolute(deg_rows, limits_deg);
     if largest > std::f64::consts::TAU {
         return Err(refuse_with(
             Check::JointUnits,

@@ -308,11 +308,7 @@ pub fn radians_evidence(
     rows: &[Measurement],
     limits_deg: &[Option<[f64; 2]>],
 ) -> Option<String> {
-    let largest = rows
-        .iter()
-        .flat_map(|r| r.q_deg.iter().zip(limits_deg))
-        .filter(|(_, l)| l.is_some())
-        .fold(0.0_f64, |m, (q, _)| m.max(q.abs()));
+    let largest = largest_revolute(rows, limits_deg);
     let widest = limits_deg
         .iter()
         .flatten()
@@ -324,6 +320,15 @@ pub fn radians_evidence(
              degrees (convert with q·180/π)"
         )
     })
+}
+
+/// The largest |q| of the revolute joints of `rows` (those whose `limits_deg` is `Some`;
+/// a prismatic joint's column is a length), 0 without any.
+pub(crate) fn largest_revolute(rows: &[Measurement], limits_deg: &[Option<[f64; 2]>]) -> f64 {
+    rows.iter()
+        .flat_map(|r| r.q_deg.iter().zip(limits_deg))
+        .filter(|(_, l)| l.is_some())
+        .fold(0.0_f64, |m, (q, _)| m.max(q.abs()))
 }
 
 /// The joint values of `rows`, radians, flat.

@@ -5,7 +5,6 @@
 //! different runs instead of writing the anti-compensation.
 
 use kinematics::{FileRole, Provenance, RobotSpec};
-use measurements::Measurement;
 use sha2::{Digest, Sha256};
 
 use crate::error::Refusal;
@@ -20,10 +19,10 @@ fn sha256_hex(bytes: &[u8]) -> String {
         .collect()
 }
 
-/// SHA-256 (hex) of measurement rows as read: every field of every row (joints, points,
-/// orientation, σ, id, target, line) in their shortest round-trip form, so that the same rows
-/// give the same digest from a file or from memory.
-pub fn rows_sha256(rows: &[Measurement]) -> String {
+/// SHA-256 (hex) of rows as read (measurement rows, or the 6-DoF fit's rows): every field of
+/// every row (joints, points, orientation, σ, id, target, line) in their shortest round-trip
+/// form, so that the same rows give the same digest from a file or from memory.
+pub fn rows_sha256<R: std::fmt::Debug>(rows: &[R]) -> String {
     sha256_hex(format!("{rows:?}").as_bytes())
 }
 
@@ -32,7 +31,7 @@ impl Calibration {
     fn identification_rows_sha256(&self) -> String {
         match self {
             Calibration::Points(c) => rows_sha256(&c.screened_rows),
-            Calibration::ToolFrame(c) => sha256_hex(format!("{:?}", c.screened.rows).as_bytes()),
+            Calibration::ToolFrame(c) => rows_sha256(&c.screened.rows),
         }
     }
 

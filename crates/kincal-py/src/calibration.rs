@@ -337,14 +337,8 @@ fn py_identify<'py>(
             fit_scale,
         },
     )?;
-    // Ctrl-C raises at once: the identification finishes in the background, dropped.
-    crate::interrupt::run_abandonable(py, move || {
+    calibrate_abandonable(py, request, (nominal, data, validate), |cal, library_ms| {
         let err = |e: calibrate::CalibrateError| kincal_error(&e);
-        let inputs =
-            calibrate::Inputs::from_sets(&request, nominal, data, validate).map_err(err)?;
-        let started = std::time::Instant::now();
-        let cal = calibrate::calibrate(&request, inputs).map_err(err)?;
-        let library_ms = started.elapsed().as_secs_f64() * 1e3;
         let written = |r: kinematics::Robot, label: &str| {
             calibrate::LoadedRobot::from_spec(r.to_spec(), label, "robot").map_err(err)
         };
@@ -356,6 +350,31 @@ fn py_identify<'py>(
             registered,
             library_ms,
         })
+    })
+}
+
+/// Calibrates the in-memory sets of `request` on a detached worker
+/// ([`crate::interrupt::run_abandonable`]: Ctrl-C raises at once, the identification
+/// finishes in the background, dropped), then `finish` builds the result from the calibration
+/// and the library's time (ms): the one place `identify` and `identify_frames` call the
+/// library.
+pub(crate) fn calibrate_abandonable<T: Send + 'static>(
+    py: Python<'_>,
+    request: calibrate::IdentifyRequest,
+    (nominal, data, validate): (
+        calibrate::LoadedRobot,
+        measurements::MeasurementSet,
+        Option<measurements::MeasurementSet>,
+    ),
+    finish: impl FnOnce(calibrate::Calibration, f64) -> PyResult<T> + Send + 'static,
+) -> PyResult<T> {
+    crate::interrupt::run_abandonable(py, move || {
+        let err = |e: calibrate::CalibrateError| kincal_error(&e);
+        let inputs =
+            calibrate::Inputs::from_sets(&request, nominal, data, validate).map_err(err)?;
+        let started = std::time::Instant::now();
+        let cal = calibrate::calibrate(&request, inputs).map_err(err)?;
+        finish(cal, started.elapsed().as_secs_f64() * 1e3)
     })
 }
 

@@ -203,31 +203,29 @@ fn py_identify_frames<'py>(
         },
         ..request
     };
-    // Ctrl-C raises at once: the identification finishes in the background, dropped.
-    crate::interrupt::run_abandonable(py, move || {
-        let err = |e: calibrate::CalibrateError| kincal_error(&e);
-        let inputs =
-            calibrate::Inputs::from_sets(&request, nominal, data, validate).map_err(err)?;
-        let started = std::time::Instant::now();
-        let cal = calibrate::calibrate(&request, inputs).map_err(err)?;
-        let library_ms = started.elapsed().as_secs_f64() * 1e3;
-        if cal.tool_frame().is_none() {
-            return Err(refuse(
-                "identify_frames: the arrays give neither orientations nor targets (use identify)",
-            ));
-        }
-        let identified = calibrate::LoadedRobot::from_spec(
-            cal.identified_robot().to_spec(),
-            "identified.json",
-            "robot",
-        )
-        .map_err(err)?;
-        Ok(PyFrameCalibration {
-            cal,
-            identified,
-            library_ms,
-        })
-    })
+    crate::calibration::calibrate_abandonable(
+        py,
+        request,
+        (nominal, data, validate),
+        |cal, library_ms| {
+            if cal.tool_frame().is_none() {
+                return Err(refuse(
+                    "identify_frames: the arrays give neither orientations nor targets (use identify)",
+                ));
+            }
+            let identified = calibrate::LoadedRobot::from_spec(
+                cal.identified_robot().to_spec(),
+                "identified.json",
+                "robot",
+            )
+            .map_err(|e| kincal_error(&e))?;
+            Ok(PyFrameCalibration {
+                cal,
+                identified,
+                library_ms,
+            })
+        },
+    )
 }
 
 /// The errors of a model on a set of poses, as a dict.

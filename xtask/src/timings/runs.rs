@@ -44,19 +44,18 @@ pub(super) struct First {
 
 pub(super) fn first_command(ctx: &Ctx<'_>, args: &TimingsArgs) -> Result<First> {
     let (kincal, tmp, scenario) = (ctx.kincal, ctx.tmp, ctx.scenario);
-    let out = |name: &str| ctx.out(name);
     let repeat = args.repeat.max(1);
     let mut first = Vec::new();
     let mut no_budget = Vec::new();
     for i in 0..repeat {
-        let o = out(&format!("first-{i}"));
+        let o = ctx.out(&format!("first-{i}"));
         first.push(measure(
             kincal,
             &["campaign", scenario, "--quiet", "--out", &o],
             tmp,
             None,
         )?);
-        let o = out(&format!("no-budget-{i}"));
+        let o = ctx.out(&format!("no-budget-{i}"));
         no_budget.push(measure(
             kincal,
             &["campaign", scenario, "--no-budget", "--quiet", "--out", &o],
@@ -66,7 +65,7 @@ pub(super) fn first_command(ctx: &Ctx<'_>, args: &TimingsArgs) -> Result<First> 
     }
     let (first, no_budget) = (median(first), median(no_budget));
     let trials = args.trials.to_string();
-    let o = out("rate");
+    let o = ctx.out("rate");
     let long = measure(
         kincal,
         &[
@@ -108,7 +107,6 @@ pub(super) fn without_iso(
     args: &TimingsArgs,
 ) -> Result<Vec<(u64, usize, Measured)>> {
     let (kincal, tmp, scenario) = (ctx.kincal, ctx.tmp, ctx.scenario);
-    let out = |name: &str| ctx.out(name);
     let mut no_iso = Vec::new();
     let mut counts: Vec<u64> = [1_000, 10_000]
         .into_iter()
@@ -118,7 +116,7 @@ pub(super) fn without_iso(
     for &n in &counts {
         let threads: &[usize] = if n <= 10_000 { &[1, 2] } else { &[2] };
         for &t in threads {
-            let o = out(&format!("no-iso-{n}-{t}"));
+            let o = ctx.out(&format!("no-iso-{n}-{t}"));
             let (n_s, t_s) = (n.to_string(), t.to_string());
             let m = measure(
                 kincal,
@@ -147,13 +145,12 @@ pub(super) fn without_iso(
 /// One trial on one thread with each identification pose count: `(poses, measured)`.
 pub(super) fn poses(ctx: &Ctx<'_>, args: &TimingsArgs) -> Result<Vec<(u64, Measured)>> {
     let (kincal, root, tmp, scenario) = (ctx.kincal, ctx.root, ctx.tmp, ctx.scenario);
-    let out = |name: &str| ctx.out(name);
     // Budget off (its reruns are a fixed extra).
     let mut pose_runs = Vec::new();
     for &n in &args.poses {
         let file = scenario_with_poses(root, scenario, n, tmp)?;
         let file = file.display().to_string();
-        let o = out(&format!("poses-{n}"));
+        let o = ctx.out(&format!("poses-{n}"));
         let m = measure(
             kincal,
             &[
@@ -189,14 +186,13 @@ pub(super) struct Rows {
 
 pub(super) fn many_rows(ctx: &Ctx<'_>, args: &TimingsArgs) -> Result<Rows> {
     let (kincal, root, tmp) = (ctx.kincal, ctx.root, ctx.tmp);
-    let out = |name: &str| ctx.out(name);
     let robot = "scenarios/robots/ur10.json";
     let source = root.join("data/ur10-ipa/series-b-joint-configurations.csv");
     let big = tmp.join("rows.csv");
     repeated_rows(&source, args.rows, &big)?;
     let big_mb = std::fs::metadata(&big)?.len() as f64 / 1e6;
     let big = big.display().to_string();
-    let cal = out("rows-identify");
+    let cal = ctx.out("rows-identify");
     let identify = measure(
         kincal,
         &[
@@ -213,7 +209,7 @@ pub(super) fn many_rows(ctx: &Ctx<'_>, args: &TimingsArgs) -> Result<Rows> {
         .join("rows-identify/identified.json")
         .display()
         .to_string();
-    let predicted = out("rows-predicted.csv");
+    let predicted = ctx.out("rows-predicted.csv");
     let predict = measure(
         kincal,
         &[
@@ -244,13 +240,12 @@ pub(super) fn many_rows(ctx: &Ctx<'_>, args: &TimingsArgs) -> Result<Rows> {
 /// streamed aggregate, which must not grow with the trials run.
 pub(super) fn huge(ctx: &Ctx<'_>, args: &TimingsArgs) -> Result<Vec<Measured>> {
     let (kincal, tmp, scenario) = (ctx.kincal, ctx.tmp, ctx.scenario);
-    let out = |name: &str| ctx.out(name);
     let mut huge = Vec::new();
     for (i, seconds) in [args.huge_seconds.div_ceil(3), args.huge_seconds]
         .into_iter()
         .enumerate()
     {
-        let o = out(&format!("huge-{i}"));
+        let o = ctx.out(&format!("huge-{i}"));
         let m = measure(
             kincal,
             &[

@@ -195,19 +195,24 @@ pub struct Checkpoint {
     pub wall_seconds: f64,
 }
 
+/// The bytes of the checkpoint file `path`, `None` when there is none; other errors name it.
+pub(crate) fn read_if_exists(path: &Path) -> Result<Option<Vec<u8>>, CampaignError> {
+    match std::fs::read(path) {
+        Ok(t) => Ok(Some(t)),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(None),
+        Err(source) => Err(CampaignError::Io {
+            path: path.display().to_string(),
+            source,
+        }),
+    }
+}
+
 impl Checkpoint {
     /// Reads and checks a checkpoint file; `Ok(None)` when there is none. Errors name the
     /// file (and the JSON line and column, or the inconsistent field).
     pub fn read(path: &Path) -> Result<Option<Checkpoint>, CampaignError> {
-        let text = match std::fs::read(path) {
-            Ok(t) => t,
-            Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
-            Err(source) => {
-                return Err(CampaignError::Io {
-                    path: path.display().to_string(),
-                    source,
-                });
-            }
+        let Some(text) = read_if_exists(path)? else {
+            return Ok(None);
         };
         let c: Checkpoint =
             serde_json::from_slice(&text).map_err(|source| CampaignError::NotACheckpoint {

@@ -27,7 +27,7 @@ use crate::error::{FieldPathError, SweepPlotError};
 use crate::outputs::summary::CampaignSummary;
 use crate::run::aggregate::Summary;
 use crate::run::checkpoint::{
-    CHECKPOINT_FORMAT, Checkpoint, CheckpointConfig, CheckpointManifest, run_chunks,
+    CHECKPOINT_FORMAT, Checkpoint, CheckpointConfig, CheckpointManifest, read_if_exists, run_chunks,
 };
 use crate::run::range::{Aggregate, run_range};
 use crate::scenario::Scenario;
@@ -346,15 +346,8 @@ pub struct SweepCheckpoint {
 
 impl SweepCheckpoint {
     fn read(path: &Path) -> Result<Option<SweepCheckpoint>, CampaignError> {
-        let text = match std::fs::read(path) {
-            Ok(t) => t,
-            Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
-            Err(source) => {
-                return Err(CampaignError::Io {
-                    path: path.display().to_string(),
-                    source,
-                });
-            }
+        let Some(text) = read_if_exists(path)? else {
+            return Ok(None);
         };
         serde_json::from_slice(&text).map(Some).map_err(|source| {
             CampaignError::NotASweepCheckpoint {
