@@ -8,16 +8,13 @@ use crate::{AXES, ControllerError, Declaration, ReadTarget};
 const HEADER: &str = "target,a1_deg,a2_deg,a3_deg,a4_deg,a5_deg,a6_deg,x_mm,y_mm,z_mm,qw,qx,qy,qz";
 
 /// The header lines as `#` comments, the header row, one row a target (a name with a comma
-/// or quote is quoted, quotes doubled).
+/// or quote, or starting with `#`, is quoted, quotes doubled).
 pub fn write(header: &[String], declarations: &[Declaration]) -> String {
-    let mut out = String::new();
-    for h in header {
-        out += &format!("# {h}\n");
-    }
+    let mut out: String = header.iter().map(|h| format!("# {h}\n")).collect();
     out += HEADER;
     out.push('\n');
     for d in declarations {
-        let name = if d.name.contains([',', '"']) {
+        let name = if d.name.contains([',', '"']) || d.name.starts_with('#') {
             format!("\"{}\"", d.name.replace('"', "\"\""))
         } else {
             d.name.clone()

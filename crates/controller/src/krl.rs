@@ -3,7 +3,7 @@
 
 use measurements::EulerConvention;
 
-use crate::number::{At, Collect, DEG, MM, fixed, target_comment};
+use crate::number::{At, DEG, MM, fixed, opening, read_lines};
 use crate::{ControllerError, Declaration, ReadTarget, kuka_status, kuka_turn};
 
 /// The external axes of a six-axis arm without any: `E1 0.0,…,E6 0.0`.
@@ -12,10 +12,7 @@ const NO_EXTERNAL: &str = "E1 0.0,E2 0.0,E3 0.0,E4 0.0,E5 0.0,E6 0.0";
 /// `DEFDAT program PUBLIC`, the header as comments, per target a `; target` comment, an
 /// E6POS `XPk` and an E6AXIS `XAk` (k from 1), `ENDDAT`.
 pub fn write(program: &str, header: &[String], declarations: &[Declaration]) -> String {
-    let mut out = format!("DEFDAT {program} PUBLIC\n");
-    for h in header {
-        out += &format!("; {h}\n");
-    }
+    let mut out = opening(&format!("DEFDAT {program} PUBLIC"), ";", header);
     for (k, d) in declarations.iter().enumerate() {
         let k = k + 1;
         let [x, y, z] = d.position_mm;
@@ -88,25 +85,13 @@ fn bits(at: At<'_>, field: &str, v: &str) -> Result<u8, ControllerError> {
 /// The E6POS (or POS) and E6AXIS (or AXIS) declarations of a `.dat`; other lines are
 /// skipped.
 pub fn read(text: &str, source_name: &str) -> Result<Vec<ReadTarget>, ControllerError> {
-    let mut c = Collect::default();
-    for (i, raw) in text.lines().enumerate() {
-        let at = At {
-            source_name,
-            line: i + 1,
-        };
-        let line = raw.trim();
-        if let Some(comment) = line.strip_prefix(';') {
-            if let Some(name) = target_comment(comment) {
-                c.named(name);
-            }
-            continue;
-        }
+    read_lines(text, source_name, ';', |at, line, c| {
         let Some((kind, rest)) = declaration(line) else {
-            continue;
+            return Ok(());
         };
         let pos = matches!(kind.as_str(), "E6POS" | "POS");
         if !pos && !matches!(kind.as_str(), "E6AXIS" | "AXIS") {
-            continue;
+            return Ok(());
         }
         let (var, value) = rest
             .split_once('=')
@@ -160,6 +145,6 @@ pub fn read(text: &str, source_name: &str) -> Result<Vec<ReadTarget>, Controller
             }
             c.target_for(var, |t| t.axes_deg.is_some()).axes_deg = Some(axes);
         }
-    }
-    Ok(c.finish())
+        Ok(())
+    })
 }

@@ -84,7 +84,8 @@ pub const AXES: usize = 6;
 /// One target as a compensation gives it (calibrate's result converts field by field).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Target {
-    /// Name or id (one line; written in a comment before the declarations).
+    /// Name or id (one line without control characters or spaces around it; written in a
+    /// comment before the declarations).
     pub name: String,
     /// The joints to command: model joint values, degrees.
     pub joints_deg: Vec<f64>,
@@ -253,9 +254,12 @@ pub fn declare(robot: &Robot, targets: &[Target]) -> Result<Vec<Declaration>, Co
                 name: t.name.clone(),
                 message,
             };
-            if t.name.is_empty() || t.name.chars().any(char::is_control) {
+            if t.name.is_empty() || t.name.chars().any(char::is_control) || t.name.trim() != t.name
+            {
                 return Err(bad(
-                    "a name is one line of text, without control characters".into(),
+                    "a name is one line of text, without control characters \
+                     or spaces around it"
+                        .into(),
                 ));
             }
             if t.joints_deg.len() != n {

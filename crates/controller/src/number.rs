@@ -33,6 +33,15 @@ pub fn join(values: &[f64], decimals: usize, sep: &str) -> String {
         .join(sep)
 }
 
+/// The first line of a program and the header lines as comments (`comment` then a space).
+pub fn opening(first: &str, comment: &str, header: &[String]) -> String {
+    let mut out = format!("{first}\n");
+    for h in header {
+        out += &format!("{comment} {h}\n");
+    }
+    out
+}
+
 /// Where a reader is: the text's label and the line, for errors.
 #[derive(Clone, Copy)]
 pub struct At<'a> {
@@ -66,7 +75,15 @@ impl At<'_> {
         field: &str,
         text: &str,
     ) -> Result<[f64; N], ControllerError> {
-        let parts: Vec<&str> = text.split(',').collect();
+        self.values(field, &text.split(',').collect::<Vec<_>>())
+    }
+
+    /// `parts` as exactly `N` numbers named `field[k]`.
+    pub fn values<const N: usize>(
+        &self,
+        field: &str,
+        parts: &[&str],
+    ) -> Result<[f64; N], ControllerError> {
         if parts.len() != N {
             return Err(self.err(format!(
                 "{field}: {} values where {N} are expected",
@@ -81,8 +98,36 @@ impl At<'_> {
     }
 }
 
+/// The targets of `text`, read line by line: a comment (a line starting with `marker`)
+/// `target <name>` opens a named target, any other line goes to `declaration` with where
+/// it is and the target collection.
+pub fn read_lines(
+    text: &str,
+    source_name: &str,
+    marker: char,
+    mut declaration: impl FnMut(At<'_>, &str, &mut Collect) -> Result<(), ControllerError>,
+) -> Result<Vec<crate::ReadTarget>, ControllerError> {
+    let mut c = Collect::default();
+    for (i, raw) in text.lines().enumerate() {
+        let at = At {
+            source_name,
+            line: i + 1,
+        };
+        let line = raw.trim();
+        match line.strip_prefix(marker) {
+            Some(comment) => {
+                if let Some(name) = target_comment(comment) {
+                    c.named(name);
+                }
+            }
+            None => declaration(at, line, &mut c)?,
+        }
+    }
+    Ok(c.finish())
+}
+
 /// The name of a `target <name>` comment body (after the comment marker), if it is one.
-pub fn target_comment(body: &str) -> Option<&str> {
+fn target_comment(body: &str) -> Option<&str> {
     body.trim().strip_prefix("target ").map(str::trim)
 }
 
@@ -91,22 +136,24 @@ pub fn target_comment(body: &str) -> Option<&str> {
 #[derive(Default)]
 pub struct Collect {
     /// Targets closed so far.
-    pub done: Vec<crate::ReadTarget>,
-    /// The open one, and whether its name came from a comment.
-    pub open: Option<(crate::ReadTarget, bool)>,
+    done: Vec<crate::ReadTarget>,
+    /// The open one.
+    open: Option<crate::ReadTarget>,
 }
 
 impl Collect {
     /// A `target <name>` comment: closes the open target, opens a named one.
     pub fn named(&mut self, name: &str) {
+        self.open_new(name);
+    }
+
+    /// Closes the open target and opens one named `name`.
+    fn open_new(&mut self, name: &str) {
         self.close();
-        self.open = Some((
-            crate::ReadTarget {
-                name: name.to_owned(),
-                ..Default::default()
-            },
-            true,
-        ));
+        self.open = Some(crate::ReadTarget {
+            name: name.to_owned(),
+            ..Default::default()
+        });
     }
 
     /// The open target for a declaration of variable `var` that fills the slot `taken`
@@ -116,22 +163,15 @@ impl Collect {
         var: &str,
         taken: impl Fn(&crate::ReadTarget) -> bool,
     ) -> &mut crate::ReadTarget {
-        if self.open.as_ref().is_none_or(|(t, _)| taken(t)) {
-            self.close();
-            self.open = Some((
-                crate::ReadTarget {
-                    name: var.to_owned(),
-                    ..Default::default()
-                },
-                false,
-            ));
+        if self.open.as_ref().is_none_or(&taken) {
+            self.open_new(var);
         }
-        &mut self.open.as_mut().expect("opened above").0
+        self.open.as_mut().expect("opened above")
     }
 
     /// Closes the open target (one without declarations is dropped).
-    pub fn close(&mut self) {
-        if let Some((t, _)) = self.open.take()
+    fn close(&mut self) {
+        if let Some(t) = self.open.take()
             && (t.axes_deg.is_some() || t.position_mm.is_some())
         {
             self.done.push(t);
@@ -139,7 +179,7 @@ impl Collect {
     }
 
     /// Every target read.
-    pub fn finish(mut self) -> Vec<crate::ReadTarget> {
+    fn finish(mut self) -> Vec<crate::ReadTarget> {
         self.close();
         self.done
     }

@@ -1,7 +1,7 @@
 //! ABB RAPID: a module of robtarget and jointtarget declarations (crate docs, "Conventions
 //! and sources").
 
-use crate::number::{At, Collect, DEG, MM, QUAT, join, target_comment};
+use crate::number::{At, DEG, MM, QUAT, join, opening, read_lines};
 use crate::{AXES, ControllerError, Declaration, ReadTarget, abb_confdata};
 
 /// Six external axes that are not there.
@@ -11,10 +11,7 @@ const NO_EXTERNAL: &str = "[9E+09,9E+09,9E+09,9E+09,9E+09,9E+09]";
 /// `CONST robtarget pk` and a `CONST jointtarget jk` (k from 1), a `main` moving to the
 /// joint targets in order, `ENDMODULE`.
 pub fn write(program: &str, header: &[String], declarations: &[Declaration]) -> String {
-    let mut out = format!("MODULE {program}\n");
-    for h in header {
-        out += &format!("  ! {h}\n");
-    }
+    let mut out = opening(&format!("MODULE {program}"), "  !", header);
     for (k, d) in declarations.iter().enumerate() {
         let k = k + 1;
         let cf = abb_confdata(&d.config, &d.axes_deg);
@@ -84,47 +81,29 @@ fn numbers<const N: usize>(at: At<'_>, field: &str, n: &Node) -> Result<[f64; N]
     let Node::List(items) = n else {
         return Err(at.err(format!("{field}: a list [..] is expected")));
     };
-    if items.len() != N {
-        return Err(at.err(format!(
-            "{field}: {} values where {N} are expected",
-            items.len()
-        )));
-    }
-    let mut out = [0.0; N];
+    let mut parts = Vec::with_capacity(items.len());
     for (k, item) in items.iter().enumerate() {
         let Node::Num(t) = item else {
             return Err(at.err(format!("{field}[{k}]: a number is expected")));
         };
-        out[k] = at.number(&format!("{field}[{k}]"), t)?;
+        parts.push(t.as_str());
     }
-    Ok(out)
+    at.values(field, &parts)
 }
 
 /// The robtarget and jointtarget declarations (CONST, PERS or VAR) of a module; other
 /// lines are skipped.
 pub fn read(text: &str, source_name: &str) -> Result<Vec<ReadTarget>, ControllerError> {
-    let mut c = Collect::default();
-    for (i, raw) in text.lines().enumerate() {
-        let at = At {
-            source_name,
-            line: i + 1,
-        };
-        let line = raw.trim();
-        if let Some(comment) = line.strip_prefix('!') {
-            if let Some(name) = target_comment(comment) {
-                c.named(name);
-            }
-            continue;
-        }
+    read_lines(text, source_name, '!', |at, line, c| {
         let mut words = line.splitn(3, char::is_whitespace);
         let storage = words.next().unwrap_or("");
         if !["CONST", "PERS", "VAR"].contains(&storage) {
-            continue;
+            return Ok(());
         }
         let kind = words.next().unwrap_or("");
         let robtarget = kind == "robtarget";
         if !robtarget && kind != "jointtarget" {
-            continue;
+            return Ok(());
         }
         let rest = words.next().unwrap_or("");
         let (var, value) = rest
@@ -178,6 +157,6 @@ pub fn read(text: &str, source_name: &str) -> Result<Vec<ReadTarget>, Controller
             numbers::<6>(at, &format!("{var}.extax"), &parts[1])?;
             c.target_for(var, |t| t.axes_deg.is_some()).axes_deg = Some(axes);
         }
-    }
-    Ok(c.finish())
+        Ok(())
+    })
 }

@@ -3,17 +3,14 @@
 
 use measurements::{quaternion_to_rotvec, rotvec_to_quaternion};
 
-use crate::number::{At, Collect, M, RAD, join, target_comment};
+use crate::number::{M, RAD, join, opening, read_lines};
 use crate::{AXES, ControllerError, Declaration, ReadTarget};
 
 /// `def program():`, the header as `#` comments, per target a `# target` comment,
 /// `global pk = p[x, y, z, rx, ry, rz]` (m, rad) and `global qk = [q1, …, q6]` (rad), the
 /// `movej` to each joint target in order, `end`.
 pub fn write(program: &str, header: &[String], declarations: &[Declaration]) -> String {
-    let mut out = format!("def {program}():\n");
-    for h in header {
-        out += &format!("  # {h}\n");
-    }
+    let mut out = opening(&format!("def {program}():"), "  #", header);
     for (k, d) in declarations.iter().enumerate() {
         let k = k + 1;
         let mut pose = [0.0; 6];
@@ -40,22 +37,10 @@ pub fn write(program: &str, header: &[String], declarations: &[Declaration]) -> 
 /// The pose (`p[…]`) and joint (`[…]`, six numbers) assignments of a program, `global` or
 /// not; other lines are skipped.
 pub fn read(text: &str, source_name: &str) -> Result<Vec<ReadTarget>, ControllerError> {
-    let mut c = Collect::default();
-    for (i, raw) in text.lines().enumerate() {
-        let at = At {
-            source_name,
-            line: i + 1,
-        };
-        let line = raw.trim();
-        if let Some(comment) = line.strip_prefix('#') {
-            if let Some(name) = target_comment(comment) {
-                c.named(name);
-            }
-            continue;
-        }
+    read_lines(text, source_name, '#', |at, line, c| {
         let line = line.strip_prefix("global ").unwrap_or(line);
         let Some((var, value)) = line.split_once('=') else {
-            continue;
+            return Ok(());
         };
         let var = var.trim();
         if var.is_empty()
@@ -63,7 +48,7 @@ pub fn read(text: &str, source_name: &str) -> Result<Vec<ReadTarget>, Controller
                 .chars()
                 .all(|ch| ch.is_ascii_alphanumeric() || ch == '_')
         {
-            continue;
+            return Ok(());
         }
         let value = value.trim();
         if let Some(body) = value.strip_prefix("p[").and_then(|b| b.strip_suffix(']')) {
@@ -75,6 +60,6 @@ pub fn read(text: &str, source_name: &str) -> Result<Vec<ReadTarget>, Controller
             let q = at.numbers::<AXES>(&format!("{var} (joints)"), body)?;
             c.target_for(var, |t| t.axes_deg.is_some()).axes_deg = Some(q.map(f64::to_degrees));
         }
-    }
-    Ok(c.finish())
+        Ok(())
+    })
 }

@@ -278,6 +278,8 @@ fn bad_targets_and_robots_are_refused() {
     );
     let e = controller::declare(&robot, &[t("a\nb", 6, None)]).unwrap_err();
     assert!(e.to_string().contains("one line"), "{e}");
+    let e = controller::declare(&robot, &[t(" a", 6, None)]).unwrap_err();
+    assert!(e.to_string().contains("spaces around it"), "{e}");
     let e = controller::declare(&robot, &[t("a", 6, Some([0.5, 0.0, 0.0, 0.0]))]).unwrap_err();
     assert!(e.to_string().contains("not a unit quaternion"), "{e}");
     let track = self::robot("kr1000-track.json");
