@@ -12,7 +12,7 @@
 //! the joints is written). [`declare`] applies the robot file's `controller` mapping
 //! (`kinematics::ControllerSpec`: `axis = sign · q + offset`, the identity where the file has
 //! none) and computes the arm's configuration ([`ArmConfig`]) from the model's geometry;
-//! [`write`] renders the declarations in a [`Format`]; [`read`] parses them back.
+//! [`write()`] renders the declarations in a [`Format`]; [`read`] parses them back.
 //!
 //! | format | declarations |
 //! |---|---|
