@@ -41,7 +41,8 @@
 //!   description): the orientation is the quaternion `[q1, q2, q3, q4] = [w, x, y, z]`;
 //!   `cf1, cf4, cf6 = ⌊axis/90°⌋` (quadrant 0 is \[0°, 90°), −1 is \[−90°, 0°)); `cfx` of a
 //!   serial six-axis arm `= 4·(wrist behind axis 1) + 2·(wrist behind the lower arm) +
-//!   (axis 5 < 0)`; the external axes are 9E+09 (none).
+//!   (axis 5 < 0)` (ABB's table as recalled, not checked against a copy of the manual);
+//!   the external axes are 9E+09 (none).
 //! - **URScript** (Universal Robots "The URScript Programming Language", `movej`, `movel`,
 //!   pose `p[x, y, z, rx, ry, rz]`): positions in metres, orientation as the rotation vector
 //!   (axis · angle, rad; `measurements::quaternion_to_rotvec`, angle in \[0, π\]), joints in

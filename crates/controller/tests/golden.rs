@@ -45,3 +45,36 @@ fn kr1000_examples_cover_the_status_bits() {
         );
     }
 }
+
+/// The excerpts of `docs/controller.md` (a ```text block after a line naming
+/// `docs/controller/FILE`) are lines of that file, in order (`…` stands for any lines).
+#[test]
+fn doc_excerpts_are_the_files_lines() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+    let doc = std::fs::read_to_string(root.join("docs/controller.md")).unwrap();
+    let lines: Vec<&str> = doc.lines().collect();
+    let mut checked = 0;
+    for (i, l) in lines.iter().enumerate() {
+        if l.trim() != "```text" {
+            continue;
+        }
+        let named = lines[..i]
+            .iter()
+            .rev()
+            .find_map(|p| p.split('`').find(|w| w.starts_with("docs/controller/")))
+            .expect("an excerpt names its file");
+        let file = std::fs::read_to_string(root.join(named)).unwrap();
+        let mut rest = file.lines();
+        for want in lines[i + 1..].iter().take_while(|w| w.trim() != "```") {
+            if want.trim() == "…" {
+                continue;
+            }
+            assert!(
+                rest.any(|got| got == *want),
+                "docs/controller.md: {want:?} is not a later line of {named}"
+            );
+        }
+        checked += 1;
+    }
+    assert_eq!(checked, 4);
+}
