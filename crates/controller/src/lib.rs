@@ -198,7 +198,8 @@ impl FromStr for Format {
     }
 }
 
-/// The robot's controller mapping: the robot file's, else the identity.
+/// The robot's controller mapping: the robot file's, else the identity (its `kind` then
+/// `kuka`, which no writer reads: the format is chosen by the caller).
 pub fn mapping(robot: &Robot) -> ControllerSpec {
     robot
         .controller()
