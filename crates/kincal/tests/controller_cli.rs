@@ -84,3 +84,73 @@ fn compensate_writes_every_format_and_it_reads_back() {
         stderr(&bad)
     );
 }
+
+/// `identify` keeps the robot file's controller mapping in both files it writes, and
+/// `compensate --format` with that pair writes the compensated joints (the CSV's) as the
+/// controller's axes.
+#[test]
+fn identify_keeps_the_mapping_and_compensate_uses_it() {
+    let root = crate::common::root();
+    let robot = root.join("scenarios/robots/ur10.json");
+    let data = root.join("data/ur10-ipa/series-b-joint-configurations.csv");
+    let dir = tempfile::tempdir().unwrap();
+    let cal = dir.path().join("cal");
+    ok(&kincal(&[
+        "identify",
+        "--robot",
+        s(&robot),
+        "--data",
+        s(&data),
+        "--every",
+        "15",
+        "--out",
+        s(&cal),
+    ]));
+    let nominal = kinematics::RobotSpec::from_file(&robot).unwrap();
+    assert!(nominal.controller.is_some());
+    for file in ["identified.json", "registered-nominal.json"] {
+        let spec = kinematics::RobotSpec::from_file(&cal.join(file)).unwrap();
+        assert_eq!(spec.controller, nominal.controller, "{file}");
+    }
+    let targets = dir.path().join("targets.csv");
+    std::fs::write(
+        &targets,
+        "id,q1,q2,q3,q4,q5,q6\na,10,-80,70,-90,-80,20\nb,-30,-100,90,-60,-100,45\n",
+    )
+    .unwrap();
+    let run = |format: &str| {
+        ok(&kincal(&[
+            "compensate",
+            "--robot",
+            s(&cal.join("identified.json")),
+            "--nominal",
+            s(&cal.join("registered-nominal.json")),
+            "--targets",
+            s(&targets),
+            "--allow-unreachable",
+            "--format",
+            format,
+        ]))
+    };
+    let csv = run("csv");
+    let rows: Vec<Vec<f64>> = csv
+        .lines()
+        .filter(|l| !l.starts_with('#'))
+        .skip(1)
+        .map(|l| {
+            l.split(',')
+                .skip(1)
+                .take(6)
+                .map(|v| v.parse().unwrap())
+                .collect()
+        })
+        .collect();
+    let back = controller::read(Format::AbbRapid, &run("abb-rapid"), "out").unwrap();
+    assert_eq!(back.len(), rows.len());
+    for (b, q) in back.iter().zip(&rows) {
+        let axes = b.axes_deg.unwrap();
+        for i in 0..6 {
+            assert!((axes[i] - q[i]).abs() <= 0.5e-4 + 1e-9, "{axes:?} vs {q:?}");
+        }
+    }
+}
