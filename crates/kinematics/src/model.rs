@@ -836,17 +836,21 @@ impl RobotSpec {
                 }
             }
         }
-        if let Some(c) = &self.controller {
-            if c.axes.len() != self.joints.len() {
-                return Err(invalid(
-                    "controller.axes".into(),
-                    format!(
-                        "needs one entry per joint ({}), has {}",
-                        self.joints.len(),
-                        c.axes.len()
-                    ),
-                ));
+        // A section of one entry per joint: `field` has `len` entries.
+        let per_joint = |field: &str, len: usize| {
+            if len == self.joints.len() {
+                return Ok(());
             }
+            Err(invalid(
+                field.into(),
+                format!(
+                    "needs one entry per joint ({}), has {len}",
+                    self.joints.len()
+                ),
+            ))
+        };
+        if let Some(c) = &self.controller {
+            per_joint("controller.axes", c.axes.len())?;
             for (i, a) in c.axes.iter().enumerate() {
                 if !(a.offset_deg.is_finite() && a.offset_deg.abs() <= MAX_ANGLE_DEG) {
                     return Err(invalid(
@@ -884,16 +888,7 @@ impl RobotSpec {
                 }
             };
             non_negative("mass_model.gravity_m_per_s2".into(), m.gravity_m_per_s2)?;
-            if m.links.len() != self.joints.len() {
-                return Err(invalid(
-                    "mass_model.links".into(),
-                    format!(
-                        "needs one entry per joint ({}), has {}",
-                        self.joints.len(),
-                        m.links.len()
-                    ),
-                ));
-            }
+            per_joint("mass_model.links", m.links.len())?;
             for (i, l) in m.links.iter().enumerate() {
                 non_negative(format!("mass_model.links[{i}].mass_kg"), l.mass_kg)?;
                 for (k, v) in l.com_mm.iter().enumerate() {
