@@ -26,6 +26,7 @@ mod pipeline;
 pub mod prior;
 pub mod provenance;
 mod request;
+pub mod residual;
 pub mod scale;
 mod tolerance;
 pub mod tool_frame;

@@ -32,7 +32,7 @@ pub use ik::{
 };
 pub use model::{
     BaseSpec, ExtendedParamSpec, FileRole, JointSpec, JointType, LinkMassSpec, MAX_ANGLE_DEG,
-    MAX_JOINTS, MAX_LENGTH_MM, MassModelSpec, Provenance, RobotSpec, TargetSpec,
+    MAX_JOINTS, MAX_LENGTH_MM, MassModelSpec, Provenance, ResidualModelRef, RobotSpec, TargetSpec,
 };
 pub use params::{BETA_ALPHA_TOL_DEG, ExtendedKind, ParamInfo, ParamKind, ParamLayout, Unit};
 pub use robot::{

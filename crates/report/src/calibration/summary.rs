@@ -144,5 +144,8 @@ pub fn summary(o: &PointCalibration) -> String {
             mm_col(af.max_mm)
         );
     }
+    if let Some(r) = &o.residual {
+        let _ = writeln!(out, "{}", super::residual::decision(r));
+    }
     out
 }
