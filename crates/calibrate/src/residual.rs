@@ -30,7 +30,7 @@ use crate::workflow::{Calibration, PointCalibration, as_written, fit_points, res
 
 pub use residual::{
     Coverage, CrossValidation, CvOptions, DEFAULT_FOLDS, FoldResult, Gain, GpOptions,
-    Hyperparameters, MODEL_FILE, Prediction, ResidualModel,
+    Hyperparameters, MODEL_FILE, Prediction, ResidualModel, cross_validate, evenly_spaced, folds,
 };
 
 /// What `identify --residual-model gp` found.
