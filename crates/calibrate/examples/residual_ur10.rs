@@ -12,16 +12,16 @@
 //! poses of the other four folds identify the geometry (`calibrate::calibrate`, every option
 //! at its default: paper parameters, registration, the robust screen) and the same poses'
 //! residuals (the identification rows the final fit used) train the GP (defaults of
-//! `residual::GpOptions`); the held-out fold is predicted by the geometry alone and by the
+//! `residual::GpOptions` but `max_train_poses`, raised to hold all 700); the held-out fold is predicted by the geometry alone and by the
 //! geometry + the GP's mean. 3-D errors of all five folds pooled (1,495 predictions), mm;
 //! the coverage of the GP's standard deviation on them; and the gate's decision on the
 //! first fold's `n` training poses (its own 5-fold cross-validation inside them, as
 //! `identify --residual-model gp` runs it).
 //!
 //! **Gate cases**: a simulated noise floor (a UR10 with geometric errors only, measured at
-//! the recording's joints with 0.05 mm of white noise: nothing is left for a GP to learn)
-//! and the recording's first 60 evenly spaced poses (too few for the structure to be
-//! learnt).
+//! the recording's joints with 0.05 mm of white noise: nothing is left for a GP to learn);
+//! the same with heavy-tailed errors kept in the data (the GP chases them: the hybrid
+//! hurts); and the recording's 60 and 100 evenly spaced poses.
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -32,7 +32,7 @@ use evaluate::AxisStats;
 use measurements::{Measurement, MeasurementSet};
 use rand::SeedableRng;
 use rand::rngs::ChaCha8Rng;
-use rand_distr::{Distribution, Normal};
+use rand_distr::{Distribution, Normal, StudentT};
 
 fn root() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
@@ -88,8 +88,12 @@ fn table(request: &IdentifyRequest, inputs: &Inputs, sizes: &[usize]) {
             let robot = cal.identified_robot();
             let used = &cal.points().expect("points").used;
             let q: Vec<Vec<f64>> = used.iter().map(|r| r.q_deg.clone()).collect();
-            let model = ResidualModel::fit(&q, &residuals(&robot, used), &GpOptions::default())
-                .expect("GP");
+            // Every training pose (the default cap, 600, would hold 600 of the 700).
+            let every = GpOptions {
+                max_train_poses: 1000,
+                ..GpOptions::default()
+            };
+            let model = ResidualModel::fit(&q, &residuals(&robot, used), &every).expect("GP");
             let rows: Vec<Measurement> =
                 test.iter().map(|&i| inputs.data.rows[i].clone()).collect();
             let e = residuals(&robot, &rows);
@@ -146,23 +150,49 @@ fn gate_cases(request: &IdentifyRequest, inputs: &Inputs) {
         };
     }
     let truth = nominal.with_params(&p).expect("truth");
-    let mut rng = ChaCha8Rng::seed_from_u64(1);
-    let noise = Normal::new(0.0, 0.05).unwrap();
-    let rows: Vec<Measurement> = calibrate::residual::evenly_spaced(inputs.data.rows.len(), 400)
-        .into_iter()
-        .map(|i| {
-            let q = inputs.data.rows[i].q_deg.clone();
-            let rad: Vec<f64> = q.iter().map(|v| v.to_radians()).collect();
-            let x = truth.point(&rad);
-            let point = [x.x, x.y, x.z].map(|v| v + noise.sample(&mut rng));
-            Measurement::new(q, Some(point))
-        })
-        .collect();
+    let simulate = |n: usize, noise: &dyn Fn(&mut ChaCha8Rng) -> f64| -> Vec<Measurement> {
+        let mut rng = ChaCha8Rng::seed_from_u64(1);
+        calibrate::residual::evenly_spaced(inputs.data.rows.len(), n)
+            .into_iter()
+            .map(|i| {
+                let q = inputs.data.rows[i].q_deg.clone();
+                let rad: Vec<f64> = q.iter().map(|v| v.to_radians()).collect();
+                let x = truth.point(&rad);
+                let point = [x.x, x.y, x.z].map(|v| v + noise(&mut rng));
+                Measurement::new(q, Some(point))
+            })
+            .collect()
+    };
+    let gaussian = Normal::new(0.0, 0.05).unwrap();
+    let rows = simulate(400, &|rng| gaussian.sample(rng));
     let mut cal = calibrate(request, with_rows(inputs, rows, "simulated noise floor"))
         .expect("simulated calibration");
     println!(
         "simulated noise floor (400 poses, geometric errors only, σ = 0.05 mm): gate {}",
         decision(&mut cal)
+    );
+    // The same robot measured with heavy-tailed errors (Student t, 1.2 degrees of freedom,
+    // scale 0.05 mm: a gross error every few poses), every row kept (`keep_outliers`):
+    // a GP chases the gross errors of its training poses.
+    let heavy = StudentT::new(1.2).unwrap();
+    let rows = simulate(100, &|rng| 0.05 * heavy.sample(rng));
+    let keep = IdentifyRequest {
+        keep_outliers: true,
+        ..request.clone()
+    };
+    let mut cal = calibrate(&keep, with_rows(inputs, rows, "simulated heavy tails"))
+        .expect("simulated calibration");
+    let r = {
+        let d = decision(&mut cal);
+        let cv = &cal.residual().expect("outcome").cv;
+        format!(
+            "{d}; held-out mean {:.3} → {:.3} mm, p95 {:.3} → {:.3} mm",
+            cv.geometry.mean_mm, cv.hybrid.mean_mm, cv.geometry.p95_mm, cv.hybrid.p95_mm
+        )
+    };
+    println!(
+        "simulated heavy-tailed errors kept (100 poses, geometric errors only, Student t ν = \
+         1.2, scale 0.05 mm, keep_outliers): gate {r}"
     );
     for n in [60, 100] {
         let rows: Vec<Measurement> = calibrate::residual::evenly_spaced(inputs.data.rows.len(), n)

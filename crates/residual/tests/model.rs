@@ -160,3 +160,25 @@ fn the_gate_takes_structure_and_declines_noise() {
         "{e}"
     );
 }
+
+/// A case where the hybrid hurts: heavy-tailed errors (Student t, ν = 1.2: a gross error
+/// every few poses) with no structure. The GP chases its training poses' gross errors, the
+/// held-out error grows, and the gate declines.
+#[test]
+fn the_gate_declines_a_model_that_hurts() {
+    let mut rng = ChaCha8Rng::seed_from_u64(1);
+    let q: Vec<Vec<f64>> = (0..100)
+        .map(|_| (0..6).map(|_| rng.random_range(-170.0..170.0)).collect())
+        .collect();
+    let t = rand_distr::StudentT::new(1.2).unwrap();
+    let r: Vec<[f64; 3]> = (0..100)
+        .map(|_| [0; 3].map(|_| 0.05 * t.sample(&mut rng)))
+        .collect();
+    let cv = cross_validate(&q, &CvOptions::default(), |_| Ok(r.clone())).unwrap();
+    assert!(!cv.helps(), "{cv:#?}");
+    assert!(cv.hybrid.mean_mm > 1.1 * cv.geometry.mean_mm, "{cv:#?}");
+    assert!(
+        cv.mean_gain.mean_mm < 0.0 && cv.p95_gain.mean_mm < 0.0,
+        "{cv:#?}"
+    );
+}
