@@ -26,7 +26,7 @@
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use calibrate::residual::{CvOptions, GpOptions, ResidualModel};
+use calibrate::residual::{CvOptions, GpOptions, ResidualModel, held_out};
 use calibrate::{Calibration, IdentifyRequest, Inputs, calibrate, residuals};
 use evaluate::AxisStats;
 use measurements::{Measurement, MeasurementSet};
@@ -36,10 +36,6 @@ use rand_distr::{Distribution, Normal, StudentT};
 
 fn root() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
-}
-
-fn norm(e: [f64; 3]) -> f64 {
-    (e[0] * e[0] + e[1] * e[1] + e[2] * e[2]).sqrt()
 }
 
 fn with_rows(inputs: &Inputs, rows: Vec<Measurement>, label: &str) -> Inputs {
@@ -96,18 +92,13 @@ fn table(request: &IdentifyRequest, inputs: &Inputs, sizes: &[usize]) {
             let model = ResidualModel::fit(&q, &residuals(&robot, used), &every).expect("GP");
             let rows: Vec<Measurement> =
                 test.iter().map(|&i| inputs.data.rows[i].clone()).collect();
-            let e = residuals(&robot, &rows);
             let qt: Vec<Vec<f64>> = rows.iter().map(|r| r.q_deg.clone()).collect();
-            for (e, p) in e.iter().zip(model.predict(&qt).expect("predict")) {
-                let h = [0, 1, 2].map(|c| e[c] - p.mean_mm[c]);
-                geo.push(norm(*e));
-                hyb.push(norm(h));
-                for c in 0..3 {
-                    values += 1;
-                    in1 += usize::from(h[c].abs() <= p.sd_mm[c]);
-                    in2 += usize::from(h[c].abs() <= 2.0 * p.sd_mm[c]);
-                }
-            }
+            let fold = held_out(&model, &qt, &residuals(&robot, &rows)).expect("predict");
+            geo.extend(fold.geometry_mm);
+            hyb.extend(fold.hybrid_mm);
+            in1 += fold.coverage.0;
+            in2 += fold.coverage.1;
+            values += fold.coverage.2;
             if f == 0 {
                 gate = decision(&mut cal);
             }

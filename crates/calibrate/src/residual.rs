@@ -29,8 +29,9 @@ use crate::files::{LoadedRobot, points_mm, poses_rad};
 use crate::workflow::{Calibration, PointCalibration, as_written, fit_points, residuals};
 
 pub use residual::{
-    Coverage, CrossValidation, CvOptions, DEFAULT_FOLDS, FoldResult, Gain, GpOptions,
+    Coverage, CrossValidation, CvOptions, DEFAULT_FOLDS, FoldResult, Gain, GpOptions, HeldOut,
     Hyperparameters, MODEL_FILE, Prediction, ResidualModel, cross_validate, evenly_spaced, folds,
+    held_out,
 };
 
 /// What `identify --residual-model gp` found.
@@ -44,6 +45,9 @@ pub struct ResidualOutcome {
     /// (it is then written, [`MODEL_FILE`]); `None` when it does not (the geometric robot
     /// is written alone).
     pub model: Option<ResidualModel>,
+    /// The kept model on the validation rows (`--validate`, `--every`), when there are
+    /// both: the geometry's and the hybrid's errors there, and the coverage of its sd.
+    pub validation: Option<HeldOut>,
     /// Wall-clock time of the cross-validation and the final fit, ms.
     pub elapsed_ms: f64,
 }
@@ -110,10 +114,21 @@ impl PointCalibration {
         } else {
             None
         };
+        let validation = match (&model, &self.validation) {
+            (Some(m), Some(v)) => {
+                let q: Vec<Vec<f64>> = v.rows.iter().map(|r| r.q_deg.clone()).collect();
+                Some(held_out(m, &q, &v.after).map_err(gp_err(format!(
+                    "predicting the residual model on the validation rows of {}",
+                    v.source
+                )))?)
+            }
+            _ => None,
+        };
         self.residual = Some(ResidualOutcome {
             options: options.clone(),
             cv,
             model,
+            validation,
             elapsed_ms: started.elapsed().as_secs_f64() * 1e3,
         });
         Ok(())

@@ -191,20 +191,15 @@ pub fn cross_validate(
         let r_train: Vec<[f64; 3]> = train.iter().map(|&i| res[i]).collect();
         let model = ResidualModel::fit(&q_train, &r_train, &opts.gp)?;
         let q_test: Vec<Vec<f64>> = test.iter().map(|&i| joints_deg[i].clone()).collect();
-        let pred = model.predict(&q_test)?;
-        let mut geo = Vec::with_capacity(test.len());
-        let mut hyb = Vec::with_capacity(test.len());
-        for (&i, p) in test.iter().zip(&pred) {
-            let e = res[i];
-            let h = [0, 1, 2].map(|c| e[c] - p.mean_mm[c]);
-            geo.push(norm(e));
-            hyb.push(norm(h));
-            for c in 0..3 {
-                values += 1;
-                in1 += usize::from(h[c].abs() <= p.sd_mm[c]);
-                in2 += usize::from(h[c].abs() <= 2.0 * p.sd_mm[c]);
-            }
-        }
+        let r_test: Vec<[f64; 3]> = test.iter().map(|&i| res[i]).collect();
+        let HeldOut {
+            geometry_mm: geo,
+            hybrid_mm: hyb,
+            coverage: c,
+        } = held_out(&model, &q_test, &r_test)?;
+        in1 += c.0;
+        in2 += c.1;
+        values += c.2;
         let stats = |v: &[f64]| {
             AxisStats::from_values(v).map_err(|e| ResidualError::Geometry {
                 fold: f + 1,
@@ -243,6 +238,60 @@ pub fn cross_validate(
         },
         folds: results,
     })
+}
+
+/// The errors of held-out rows: the geometry's and the hybrid's 3-D norms, and the
+/// coverage counts of the model's sd.
+#[derive(Clone, Debug, PartialEq)]
+pub struct HeldOut {
+    /// `‖e_i‖`, the geometry's error, mm, one a row.
+    pub geometry_mm: Vec<f64>,
+    /// `‖e_i − r̂(q_i)‖`, the hybrid's error, mm, one a row.
+    pub hybrid_mm: Vec<f64>,
+    /// Axis values within 1 sd, within 2 sd, and counted (3 a row).
+    pub coverage: (usize, usize, usize),
+}
+
+impl HeldOut {
+    /// The coverage as fractions.
+    pub fn coverage(&self) -> Coverage {
+        let (in1, in2, values) = self.coverage;
+        Coverage {
+            values,
+            within_1sd: in1 as f64 / values as f64,
+            within_2sd: in2 as f64 / values as f64,
+        }
+    }
+}
+
+/// The geometry's and the hybrid's errors at the rows `joints_deg` whose geometric
+/// residuals (measured − geometry, mm) are `residuals_mm`, with the coverage of `model`'s
+/// sd: `|e_c − r̂_c| ≤ z·sd_c` for z = 1, 2.
+///
+/// # Errors
+/// The model's prediction errors (a row's joint count, a value not finite).
+pub fn held_out(
+    model: &ResidualModel,
+    joints_deg: &[Vec<f64>],
+    residuals_mm: &[[f64; 3]],
+) -> Result<HeldOut> {
+    let pred = model.predict(joints_deg)?;
+    let mut out = HeldOut {
+        geometry_mm: Vec::with_capacity(pred.len()),
+        hybrid_mm: Vec::with_capacity(pred.len()),
+        coverage: (0, 0, 0),
+    };
+    for (e, p) in residuals_mm.iter().zip(&pred) {
+        let h = [0, 1, 2].map(|c| e[c] - p.mean_mm[c]);
+        out.geometry_mm.push(norm(*e));
+        out.hybrid_mm.push(norm(h));
+        for c in 0..3 {
+            out.coverage.0 += usize::from(h[c].abs() <= p.sd_mm[c]);
+            out.coverage.1 += usize::from(h[c].abs() <= 2.0 * p.sd_mm[c]);
+            out.coverage.2 += 1;
+        }
+    }
+    Ok(out)
 }
 
 fn norm(e: [f64; 3]) -> f64 {

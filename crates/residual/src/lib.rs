@@ -35,8 +35,8 @@ mod error;
 pub mod gp;
 
 pub use cv::{
-    Coverage, CrossValidation, CvOptions, DEFAULT_FOLDS, FoldResult, Gain, GeometryResult,
-    cross_validate, folds,
+    Coverage, CrossValidation, CvOptions, DEFAULT_FOLDS, FoldResult, Gain, GeometryResult, HeldOut,
+    cross_validate, folds, held_out,
 };
 pub use error::{ResidualError, Result};
 pub use gp::{

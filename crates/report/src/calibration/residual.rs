@@ -106,6 +106,30 @@ pub fn markdown(o: &ResidualOutcome) -> String {
         pct(100.0 * cv.coverage.within_1sd),
         pct(100.0 * cv.coverage.within_2sd)
     );
+    if let Some(v) = &o.validation {
+        let (g, h) = (
+            evaluate::AxisStats::from_values(&v.geometry_mm),
+            evaluate::AxisStats::from_values(&v.hybrid_mm),
+        );
+        if let (Ok(g), Ok(h)) = (g, h) {
+            let c = v.coverage();
+            let _ = writeln!(
+                s,
+                "**On the validation rows** ({} poses never used to fit the geometry or the \
+                 model): mean {} → {} mm, p95 {} → {} mm, max {} → {} mm (geometry → hybrid); \
+                 {} % within 1 sd, {} % within 2 sd.\n",
+                v.geometry_mm.len(),
+                mm(g.mean_mm),
+                mm(h.mean_mm),
+                mm(g.p95_mm),
+                mm(h.p95_mm),
+                mm(g.max_mm),
+                mm(h.max_mm),
+                pct(100.0 * c.within_1sd),
+                pct(100.0 * c.within_2sd)
+            );
+        }
+    }
     match &o.model {
         Some(m) => {
             let h = m.hyperparameters();
