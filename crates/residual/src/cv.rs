@@ -285,9 +285,9 @@ pub fn held_out(
         let h = [0, 1, 2].map(|c| e[c] - p.mean_mm[c]);
         out.geometry_mm.push(norm(*e));
         out.hybrid_mm.push(norm(h));
-        for c in 0..3 {
-            out.coverage.0 += usize::from(h[c].abs() <= p.sd_mm[c]);
-            out.coverage.1 += usize::from(h[c].abs() <= 2.0 * p.sd_mm[c]);
+        for (hc, sd) in h.iter().zip(p.sd_mm) {
+            out.coverage.0 += usize::from(hc.abs() <= sd);
+            out.coverage.1 += usize::from(hc.abs() <= 2.0 * sd);
             out.coverage.2 += 1;
         }
     }

@@ -289,13 +289,13 @@ impl Train {
         let mut alpha = vec![0.0; n * 3];
         let mut col = vec![0.0; n];
         for c in 0..3 {
-            for a in 0..n {
-                col[a] = self.y[a * 3 + c];
+            for (a, v) in col.iter_mut().enumerate() {
+                *v = self.y[a * 3 + c];
             }
             forward(&l, n, &mut col);
             backward(&l, n, &mut col);
-            for a in 0..n {
-                alpha[a * 3 + c] = col[a];
+            for (a, v) in col.iter().enumerate() {
+                alpha[a * 3 + c] = *v;
             }
         }
         Some((l, alpha))
@@ -357,11 +357,15 @@ const G_TOL: f64 = 1e-5;
 /// Largest step in any ln θ component (a factor e² ≈ 7.4 on a hyperparameter).
 const MAX_STEP: f64 = 2.0;
 
+/// A value and its gradient; `None` where the objective is undefined (the kernel matrix is
+/// not positive definite there).
+type Objective<'a> = &'a dyn Fn(&[f64]) -> Option<(f64, Vec<f64>)>;
+
 /// Minimises `f` over the box `[lo, hi]` by projected BFGS with a backtracking (Armijo)
 /// line search, from `x0`: deterministic (no random restarts). Returns the minimiser, its
 /// value and the report.
 fn minimise(
-    f: &dyn Fn(&[f64]) -> Option<(f64, Vec<f64>)>,
+    f: Objective<'_>,
     x0: Vec<f64>,
     lo: &[f64],
     hi: &[f64],
