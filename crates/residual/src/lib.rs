@@ -25,7 +25,7 @@
 //! nalgebra; `egobox-gp` brings ndarray, linfa, linfa-pls, cobyla, rayon and egobox-doe, and its
 //! multistart draws start points from entropy; `linfa` has no GP regression; `argmin` would
 //! give the optimiser only (its L-BFGS is deterministic) for another dependency tree, while
-//! the problem has 8 unknowns. The arithmetic here has one order (dot products in four
+//! the problem has 8 unknowns. The arithmetic here has one order (dot products in eight
 //! fixed lanes, no FMA, no threads): a fit gives the same bytes on every run.
 //!
 //! Errors are [`ResidualError`]s naming the input at fault.
