@@ -57,7 +57,7 @@ pub fn run(args: &IdentifyArgs) -> Result<()> {
     let mut cal = calibrate::run(&request).map_err(|e| args.flagged(e))?;
     if let Some(options) = args.residual_options() {
         cal.fit_residual_model(&options)
-            .context("--residual-model gp")?;
+            .with_context(|| format!("--residual-model gp --residual-folds {}", options.folds))?;
     }
     for notice in cal.notices() {
         crate::errln!("note: {notice}");
