@@ -192,3 +192,22 @@ fn structure_is_kept_written_read_back_and_checked() {
     let e = load_model(&robot).unwrap_err();
     assert!(e.to_string().contains("cannot be read"), "{e}");
 }
+
+/// Orientation residuals are not modelled: a 6-DoF calibration is refused, with the way to
+/// a model of its position residuals.
+#[test]
+fn six_dof_data_are_refused() {
+    let mut request = IdentifyRequest::new(
+        root().join("scenarios/robots/ur10.json"),
+        root().join("data/ur10-ipa/series-b-6dof.csv"),
+    );
+    request.split = calibrate::Split::Every {
+        every: 15,
+        offset: 0,
+    };
+    let mut cal = calibrate::run(&request).unwrap();
+    let e = cal.fit_residual_model(&CvOptions::default()).unwrap_err();
+    assert!(matches!(e, CalibrateError::ResidualMismatch(_)), "{e}");
+    assert!(e.to_string().contains("points_only"), "{e}");
+    assert!(cal.residual().is_none() && cal.written_residual_model().is_none());
+}
