@@ -50,6 +50,30 @@ pub fn decision(o: &ResidualOutcome) -> String {
     }
 }
 
+/// The kept model on the validation rows in one line (console and report): the geometry's
+/// and the hybrid's mean, p95 and max, and the coverage; `None` without validation rows or
+/// without a kept model.
+pub fn validation(o: &ResidualOutcome) -> Option<String> {
+    let v = o.validation.as_ref()?;
+    let g = evaluate::AxisStats::from_values(&v.geometry_mm).ok()?;
+    let h = evaluate::AxisStats::from_values(&v.hybrid_mm).ok()?;
+    let c = v.coverage();
+    Some(format!(
+        "residual model on the {} validation rows (never used to fit the geometry or the \
+         model): mean {} → {} mm, p95 {} → {} mm, max {} → {} mm (geometry → hybrid); {} % \
+         within 1 sd, {} % within 2 sd",
+        v.geometry_mm.len(),
+        mm(g.mean_mm),
+        mm(h.mean_mm),
+        mm(g.p95_mm),
+        mm(h.p95_mm),
+        mm(g.max_mm),
+        mm(h.max_mm),
+        pct(100.0 * c.within_1sd),
+        pct(100.0 * c.within_2sd)
+    ))
+}
+
 /// The report's section.
 pub fn markdown(o: &ResidualOutcome) -> String {
     let mut s = String::from("\n## Learned residual model\n\n");
@@ -106,29 +130,8 @@ pub fn markdown(o: &ResidualOutcome) -> String {
         pct(100.0 * cv.coverage.within_1sd),
         pct(100.0 * cv.coverage.within_2sd)
     );
-    if let Some(v) = &o.validation {
-        let (g, h) = (
-            evaluate::AxisStats::from_values(&v.geometry_mm),
-            evaluate::AxisStats::from_values(&v.hybrid_mm),
-        );
-        if let (Ok(g), Ok(h)) = (g, h) {
-            let c = v.coverage();
-            let _ = writeln!(
-                s,
-                "**On the validation rows** ({} poses never used to fit the geometry or the \
-                 model): mean {} → {} mm, p95 {} → {} mm, max {} → {} mm (geometry → hybrid); \
-                 {} % within 1 sd, {} % within 2 sd.\n",
-                v.geometry_mm.len(),
-                mm(g.mean_mm),
-                mm(h.mean_mm),
-                mm(g.p95_mm),
-                mm(h.p95_mm),
-                mm(g.max_mm),
-                mm(h.max_mm),
-                pct(100.0 * c.within_1sd),
-                pct(100.0 * c.within_2sd)
-            );
-        }
+    if let Some(line) = validation(o) {
+        let _ = writeln!(s, "**Validation.** The {line}.\n");
     }
     match &o.model {
         Some(m) => {

@@ -146,6 +146,9 @@ pub fn summary(o: &PointCalibration) -> String {
     }
     if let Some(r) = &o.residual {
         let _ = writeln!(out, "{}", super::residual::decision(r));
+        if let Some(line) = super::residual::validation(r) {
+            let _ = writeln!(out, "{line}");
+        }
     }
     out
 }
