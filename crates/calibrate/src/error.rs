@@ -91,6 +91,19 @@ pub enum CalibrateError {
         #[source]
         source: Box<CalibrateError>,
     },
+    /// The learned residual model (`crate::residual`) could not be fitted, read or checked.
+    #[error("{context}")]
+    Residual {
+        /// What was being done, naming the file where one was read.
+        context: String,
+        /// Why.
+        #[source]
+        source: residual::ResidualError,
+    },
+    /// A residual model file does not go with the robot file that names it (another digest,
+    /// another calibration run), or a residual model was asked of data it does not model.
+    #[error("{0}")]
+    ResidualMismatch(String),
     /// A request or its inputs cannot be used; the refusal names the request field or the file.
     #[error(transparent)]
     Refused(#[from] Refusal),

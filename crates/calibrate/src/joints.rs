@@ -31,6 +31,8 @@ pub struct Prediction {
     pub file_error_deg: Option<(f64, f64)>,
     /// Reader notices (ignored columns).
     pub notices: Vec<String>,
+    /// Whether `x, y, z` include a learned residual model's mean ([`predict_with`]).
+    pub residual_model: bool,
 }
 
 /// The orientation of the measured frame of `robot` at the joints `q_rad`, when the robot
@@ -48,17 +50,47 @@ pub fn orientation_wxyz(robot: &Robot, q_rad: &[f64]) -> Option<[f64; 4]> {
 /// measured frame's orientation when the robot has a tool orientation
 /// ([`orientation_wxyz`]); `out_label` names the output in the CSV (a path or `stdout`).
 pub fn predict(robot: &LoadedRobot, joints: &Path, out_label: &str) -> Result<Prediction> {
+    predict_with(robot, None, joints, out_label)
+}
+
+/// [`predict`] with a learned residual model (`crate::residual::load_model`): its mean is
+/// added to each predicted point, and with `with_sd` its predictive standard deviation is
+/// written as the `sx, sy, sz` columns (mm).
+///
+/// # Errors
+/// As [`predict`]; the residual model's errors (a joint count it was not trained on).
+pub fn predict_with(
+    robot: &LoadedRobot,
+    residual: Option<(&residual::ResidualModel, bool)>,
+    joints: &Path,
+    out_label: &str,
+) -> Result<Prediction> {
     let set = robot.read_set(joints, false, (1, None), "joint file")?;
+    let corrections = residual
+        .map(|(m, _)| {
+            let q: Vec<Vec<f64>> = set.rows.iter().map(|r| r.q_deg.clone()).collect();
+            m.predict(&q).map_err(|source| CalibrateError::Residual {
+                context: format!(
+                    "predicting the residual model at the joints of {}",
+                    joints.display()
+                ),
+                source,
+            })
+        })
+        .transpose()?;
+    let with_sd = residual.is_some_and(|(_, sd)| sd);
     let mut rows = Vec::with_capacity(set.rows.len());
     let mut errors = Vec::new();
     let mut angles = Vec::new();
     let orientation = robot.robot.tool_rotation_rad().is_some();
     let mut q = vec![0.0; robot.robot.n_joints()];
-    for r in &set.rows {
+    for (k, r) in set.rows.iter().enumerate() {
         for (qr, d) in q.iter_mut().zip(&r.q_deg) {
             *qr = d.to_radians();
         }
-        let p = robot.robot.point(&q);
+        let correction = corrections.as_ref().map(|c| c[k]);
+        let p = robot.robot.point(&q)
+            + correction.map_or_else(Vector3::zeros, |c| Vector3::from(c.mean_mm));
         if let Some(m) = r.point_mm {
             errors.push((Vector3::from(m) - p).norm());
         }
@@ -72,6 +104,7 @@ pub fn predict(robot: &LoadedRobot, joints: &Path, out_label: &str) -> Result<Pr
             q_deg: r.q_deg.clone(),
             point_mm: Some([p.x, p.y, p.z]),
             orientation: o,
+            sigma_mm: correction.filter(|_| with_sd).map(|c| c.sd_mm),
             ..Default::default()
         });
     }
@@ -88,6 +121,17 @@ pub fn predict(robot: &LoadedRobot, joints: &Path, out_label: &str) -> Result<Pr
         header.push_str(
             "; qw qx qy qz the measured frame's orientation (flange rotation times the \
              robot's tool_rotation_deg) in that frame, unit quaternion, scalar first, qw >= 0",
+        );
+    }
+    if corrections.is_some() {
+        header.push_str(
+            "; x y z include the learned residual model's mean (residual-model.json, \
+             docs/residual-model.md)",
+        );
+    }
+    if with_sd {
+        header.push_str(
+            "; sx sy sz the residual model's predictive standard deviation of the point, mm",
         );
     }
     let csv = to_csv_string(&out_set, Some(&header)).map_err(|source| CalibrateError::Read {
@@ -109,6 +153,7 @@ pub fn predict(robot: &LoadedRobot, joints: &Path, out_label: &str) -> Result<Pr
         orientation,
         file_error_deg,
         notices: set.notices,
+        residual_model: corrections.is_some(),
     })
 }
 

@@ -26,6 +26,7 @@ mod pipeline;
 pub mod prior;
 pub mod provenance;
 mod request;
+pub mod residual;
 pub mod scale;
 mod tolerance;
 pub mod tool_frame;
@@ -38,7 +39,7 @@ pub use files::{
 };
 pub use joints::{
     Compensation, Prediction, SAME_FRAME_DEG, SAME_FRAME_FRACTION, SAME_FRAME_MM, compensate_rows,
-    compensate_targets, orientation_wxyz, predict,
+    compensate_targets, orientation_wxyz, predict, predict_with,
 };
 pub use memory::compensate_set;
 pub use pipeline::{MAX_CONCENTRATION_STEPS, MAX_REJECTION_PASSES, MeasurementKind, RobustScreen};

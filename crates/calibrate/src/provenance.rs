@@ -4,7 +4,7 @@
 //! reader of the pair ([`check_pair`], `compensate`) refuses the files swapped or from
 //! different runs instead of writing the anti-compensation.
 
-use kinematics::{FileRole, Provenance, RobotSpec};
+use kinematics::{FileRole, Provenance, ResidualModelRef, RobotSpec};
 use sha2::{Digest, Sha256};
 
 use crate::error::Refusal;
@@ -12,7 +12,7 @@ use crate::files::LoadedRobot;
 use crate::workflow::Calibration;
 
 /// SHA-256 of `bytes`, hex.
-fn sha256_hex(bytes: &[u8]) -> String {
+pub(crate) fn sha256_hex(bytes: &[u8]) -> String {
     Sha256::digest(bytes)
         .iter()
         .map(|b| format!("{b:02x}"))
@@ -35,33 +35,58 @@ impl Calibration {
         }
     }
 
+    /// The run's digest: SHA-256 of the data's digest and both robots (as specs without
+    /// provenance), hex, first 16 bytes.
+    fn run_digest(&self, identified: &RobotSpec, registered: &RobotSpec) -> String {
+        sha256_hex(
+            format!(
+                "{}\n{}\n{}",
+                self.identification_rows_sha256(),
+                identified.to_json_string(),
+                registered.to_json_string()
+            )
+            .as_bytes(),
+        )[..32]
+            .to_string()
+    }
+
     /// The robot files as written: `identified.json` and `registered-nominal.json`, each with
     /// its [`Provenance`] (its role, the run's digest — SHA-256 of the data's digest and both
-    /// robots — and the data's name and digest).
+    /// robots — and the data's name and digest); `identified.json`'s names the residual model
+    /// and its SHA-256 when one is written ([`Calibration::written_residual_model`]).
     pub fn written_specs(&self) -> (RobotSpec, RobotSpec) {
         let (mut identified, mut registered) = (
             self.identified_robot().to_spec(),
             self.registered_robot().to_spec(),
         );
         let data_sha256 = self.identification_rows_sha256();
-        let run = sha256_hex(
-            format!(
-                "{data_sha256}\n{}\n{}",
-                identified.to_json_string(),
-                registered.to_json_string()
-            )
-            .as_bytes(),
-        )[..32]
-            .to_string();
-        let provenance = |role| Provenance {
+        let run = self.run_digest(&identified, &registered);
+        let residual_model = self.written_residual_model().map(|text| ResidualModelRef {
+            file: crate::residual::MODEL_FILE.to_string(),
+            sha256: sha256_hex(text.as_bytes()),
+        });
+        let provenance = |role, residual_model| Provenance {
             role,
             run: run.clone(),
             data: self.data_source().to_string(),
             data_sha256: data_sha256.clone(),
+            residual_model,
         };
-        identified.provenance = Some(provenance(FileRole::Identified));
-        registered.provenance = Some(provenance(FileRole::RegisteredNominal));
+        identified.provenance = Some(provenance(FileRole::Identified, residual_model));
+        registered.provenance = Some(provenance(FileRole::RegisteredNominal, None));
         (identified, registered)
+    }
+
+    /// The residual model file as written (`residual-model.json`, `crate::residual`), when the
+    /// gate kept one: the model with the calibration run it corrects (`fitted_for`).
+    pub fn written_residual_model(&self) -> Option<String> {
+        let mut model = self.residual()?.model.clone()?;
+        let run = self.run_digest(
+            &self.identified_robot().to_spec(),
+            &self.registered_robot().to_spec(),
+        );
+        model.set_fitted_for(run);
+        Some(model.to_json_string())
     }
 }
 

@@ -114,6 +114,10 @@ pub struct PointCalibration {
     /// points were divided by it before this calibration; `None` without `--fit-scale` or
     /// when the factor was not significant (the points were left as measured).
     pub measurement_scale: Option<crate::scale::ScaleEvidence>,
+    /// The learned residual model's cross-validation and, when it helps, the model
+    /// ([`crate::residual`]); `None` unless asked for
+    /// ([`Calibration::fit_residual_model`]).
+    pub residual: Option<crate::residual::ResidualOutcome>,
 }
 
 /// Joint range of motion below which a joint is said not to move, degrees [1: a joint that
@@ -672,18 +676,7 @@ impl Kind for PointKind<'_> {
             (&self.request.prior, &self.nominal.prior_sd()),
             (nom.name(), self.source),
         )?;
-        // An extended model evaluates its gravity torques on the geometry it was extended
-        // from (the nominal, during the fit). `identified.json` re-extends its own geometry
-        // when it is read, so the model validated and reported is that one: what every
-        // command loading the file will compute.
-        if fit.robot.is_extended() {
-            fit.robot =
-                Robot::from_spec(&fit.robot.to_spec()).map_err(|source| CalibrateError::Robot {
-                    what: "identified robot",
-                    path: self.nominal.path.clone(),
-                    source,
-                })?;
-        }
+        fit.robot = as_written(fit.robot, self.nominal)?;
         self.fit_ms
             .set(self.fit_ms.get() + started.elapsed().as_secs_f64() * 1e3);
         Ok(Pass {
@@ -795,9 +788,24 @@ impl Kind for PointKind<'_> {
     }
 }
 
+/// The identified robot as `identified.json` reads back. An extended model evaluates its
+/// gravity torques on the geometry it was extended from (the nominal, during the fit).
+/// `identified.json` re-extends its own geometry when it is read, so the model validated and
+/// reported is that one: what every command loading the file will compute.
+pub(crate) fn as_written(robot: Robot, nominal: &LoadedRobot) -> Result<Robot> {
+    if !robot.is_extended() {
+        return Ok(robot);
+    }
+    Robot::from_spec(&robot.to_spec()).map_err(|source| CalibrateError::Robot {
+        what: "identified robot",
+        path: nominal.path.clone(),
+        source,
+    })
+}
+
 /// The point fit: identification of `free` on `poses` and `points` from `start` (errors
 /// naming the robot and the data's source). The one place the point kind calls the solver.
-fn fit_points(
+pub(crate) fn fit_points(
     start: &Robot,
     (poses, points): (&[f64], &[Vector3<f64>]),
     free: Vec<usize>,
@@ -885,6 +893,7 @@ fn calibrate_points(common: Common<'_>, id_rows: Vec<Measurement>) -> Result<Poi
         registration_decision: decision,
         warnings,
         measurement_scale: None,
+        residual: None,
     })
 }
 

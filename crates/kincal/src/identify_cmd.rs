@@ -48,12 +48,17 @@ pub fn run(args: &IdentifyArgs) -> Result<()> {
             PARAMETERS_FILE,
             REPORT_FILE,
             REPORT_HTML_FILE,
+            calibrate::residual::MODEL_FILE,
         ],
         &inputs,
     )?;
     let out = lock_out(&args.out)?;
     let request = args.request();
-    let cal = calibrate::run(&request).map_err(|e| args.flagged(e))?;
+    let mut cal = calibrate::run(&request).map_err(|e| args.flagged(e))?;
+    if let Some(options) = args.residual_options() {
+        cal.fit_residual_model(&options)
+            .with_context(|| format!("--residual-model gp --residual-folds {}", options.folds))?;
+    }
     for notice in cal.notices() {
         crate::errln!("note: {notice}");
     }
@@ -70,10 +75,18 @@ pub fn run(args: &IdentifyArgs) -> Result<()> {
             "with its plots: position and orientation errors",
         )
     };
+    let residual = if cal.written_residual_model().is_some() {
+        format!(
+            ", {} (the learned residual model, named in {ROBOT_FILE})",
+            calibrate::residual::MODEL_FILE
+        )
+    } else {
+        String::new()
+    };
     crate::outln!(
         "→ {}: {ROBOT_FILE} ({robot}), {REGISTERED_FILE} (the nominal robot in the same frame: \
          compensation targets), {PARAMETERS_FILE} (parameter table), {REPORT_FILE} and \
-         {REPORT_HTML_FILE} (the report, {plots})",
+         {REPORT_HTML_FILE} (the report, {plots}){residual}",
         args.out.display(),
     );
     Ok(())

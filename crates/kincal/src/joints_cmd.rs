@@ -45,6 +45,15 @@ pub struct PredictArgs {
     /// orientation `qw, qx, qy, qz` (unit quaternion, scalar first, qw ≥ 0).
     #[arg(long)]
     out: Option<PathBuf>,
+    /// Also write the learned residual model's predictive standard deviation of each point
+    /// as `sx, sy, sz` (mm; docs/residual-model.md) [off]. Needs a robot whose provenance
+    /// names a residual model (identify --residual-model gp kept one).
+    #[arg(long, conflicts_with = "geometry_only")]
+    with_sd: bool,
+    /// Predict with the geometry alone, ignoring the residual model the robot file names
+    /// [off: a residual model named in the robot file is applied].
+    #[arg(long)]
+    geometry_only: bool,
 }
 
 /// `kincal predict`.
@@ -58,7 +67,31 @@ pub fn predict(args: &PredictArgs) -> Result<()> {
         )?;
     }
     let robot = LoadedRobot::load(&args.robot, "robot")?;
-    let p = calibrate::predict(&robot, &args.joints, &out_label(args.out.as_deref()))?;
+    let model = if args.geometry_only {
+        None
+    } else {
+        anyhow::Context::context(calibrate::residual::load_model(&robot), "--robot")?
+    };
+    if args.with_sd && model.is_none() {
+        anyhow::bail!(
+            "--with-sd: {} names no residual model (identify --residual-model gp writes one when \
+             cross-validation says it helps)",
+            args.robot.display()
+        );
+    }
+    let p = calibrate::predict_with(
+        &robot,
+        model.as_ref().map(|m| (m, args.with_sd)),
+        &args.joints,
+        &out_label(args.out.as_deref()),
+    )?;
+    if p.residual_model {
+        crate::errln!(
+            "note: the points include the learned residual model named in {} \
+             (--geometry-only to leave it out)",
+            args.robot.display()
+        );
+    }
     for notice in &p.notices {
         crate::errln!("note: {notice}");
     }

@@ -189,6 +189,21 @@ pub fn run(args: &UrdfArgs) -> Result<()> {
             if let Some(path) = offsets {
                 note(format!("joint offsets → {}", crate::out_name(path)));
             }
+            if let Some(r) = spec
+                .provenance
+                .as_ref()
+                .and_then(|p| p.residual_model.as_ref())
+            {
+                note(format!(
+                    "note: {} names a learned residual model ({}): it cannot be expressed in \
+                     URDF (a URDF holds rigid joint transforms only), so the URDF is the \
+                     geometric robot alone; `kincal predict --robot {}` applies the model \
+                     (docs/residual-model.md)",
+                    robot.display(),
+                    r.file,
+                    robot.display()
+                ));
+            }
         }
     }
     Ok(())

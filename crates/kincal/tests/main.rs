@@ -11,5 +11,6 @@ mod files_cli;
 mod frames_cli;
 mod full_device_cli;
 mod messages_cli;
+mod residual_cli;
 mod trust_cli;
 mod urdf_cli;

@@ -33,7 +33,7 @@ pub use ik::{
 pub use model::{
     AxisMapSpec, BaseSpec, ControllerKind, ControllerSpec, ExtendedParamSpec, FileRole, JointSpec,
     JointType, LinkMassSpec, MAX_ANGLE_DEG, MAX_JOINTS, MAX_LENGTH_MM, MassModelSpec, Provenance,
-    RobotSpec, TargetSpec,
+    ResidualModelRef, RobotSpec, TargetSpec,
 };
 pub use params::{BETA_ALPHA_TOL_DEG, ExtendedKind, ParamInfo, ParamKind, ParamLayout, Unit};
 pub use robot::{

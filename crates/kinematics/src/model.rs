@@ -580,6 +580,21 @@ pub struct Provenance {
     /// SHA-256 of the data (hex): the file's bytes (`sha256sum` gives the same), or of the
     /// rows for data given in memory.
     pub data_sha256: String,
+    /// The learned residual model that goes with this calibrated robot
+    /// (`docs/residual-model.md`), when `identify --residual-model` found that it helps;
+    /// absent otherwise (and from files written before it existed).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub residual_model: Option<ResidualModelRef>,
+}
+
+/// The residual model file an `identified.json` names: beside it, checked by its digest.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ResidualModelRef {
+    /// Its file name, in the robot file's directory (`residual-model.json`).
+    pub file: String,
+    /// SHA-256 of its bytes, hex (`sha256sum` gives the same).
+    pub sha256: String,
 }
 
 /// One named target (reflector) of a robot file's `targets` section.

@@ -150,9 +150,38 @@ pub struct IdentifyArgs {
     /// `scale` check].
     #[arg(long)]
     pub(crate) fit_scale: bool,
+    /// Learned residual model over the geometry (docs/residual-model.md): `gp` fits a
+    /// Gaussian process on the position residuals as a function of the joints, decides by
+    /// k-fold cross-validation on the identification rows whether the hybrid predicts
+    /// held-out poses better (mean and p95 gains beyond their fold-to-fold scatter) and only
+    /// then writes it (residual-model.json, named in identified.json), else says so and
+    /// writes the geometric robot alone [none: the geometry alone]. Point data only.
+    #[arg(long, value_name = "none|gp", default_value = "none")]
+    pub(crate) residual_model: ResidualModelArg,
+    /// Folds of --residual-model's cross-validation [5: each fold trains on 80 % of the
+    /// rows, nearly the model written].
+    #[arg(long, value_name = "K", default_value_t = calibrate::residual::DEFAULT_FOLDS, requires = "residual_model")]
+    pub(crate) residual_folds: usize,
+}
+
+/// `--residual-model`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum ResidualModelArg {
+    /// The geometry alone.
+    None,
+    /// A Gaussian process on the position residuals, used when cross-validation says it helps.
+    Gp,
 }
 
 impl IdentifyArgs {
+    /// The residual model's options, if `--residual-model gp`.
+    pub(crate) fn residual_options(&self) -> Option<calibrate::residual::CvOptions> {
+        (self.residual_model == ResidualModelArg::Gp).then(|| calibrate::residual::CvOptions {
+            folds: self.residual_folds,
+            ..Default::default()
+        })
+    }
+
     pub(crate) fn request(&self) -> IdentifyRequest {
         IdentifyRequest {
             validate: self.validate.clone(),

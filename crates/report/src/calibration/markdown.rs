@@ -455,5 +455,8 @@ pub fn markdown(o: &PointCalibration) -> String {
     } else {
         s.push_str("\n## Validation\n\nNo validation data (`--validate FILE` or `--every K`).\n");
     }
+    if let Some(r) = &o.residual {
+        s.push_str(&super::residual::markdown(r));
+    }
     s
 }

@@ -13,6 +13,7 @@
 //! | [`REPORT_HTML_FILE`] | the report with its plots inline | [`plots::identify_page`] |
 //! | [`OUTLIERS_FILE`] | the flagged units, excluded or kept | [`outliers_csv`] |
 //! | [`plots::IDENTIFY_PLOT_FILES`] | the plots, as SVG | [`plots::identify_plots`] |
+//! | `residual-model.json` | the learned residual model, when kept | [`calibrate::Calibration::written_residual_model`] |
 //!
 //! Numbers follow [`crate::fmt`]. Where today's files print a signed value with Rust's own
 //! fixed notation (a `-0.000` kept, an explicit `+`), the text keeps it: those cells are
@@ -21,6 +22,7 @@
 mod markdown;
 mod parameters;
 pub mod plots;
+pub mod residual;
 mod summary;
 pub mod tool_frame;
 
@@ -77,7 +79,8 @@ pub fn outliers_csv(rows: &[OutlierRow]) -> String {
 /// writing order: [`ROBOT_FILE`], [`REGISTERED_FILE`], [`PARAMETERS_FILE`], [`REPORT_FILE`],
 /// [`REPORT_HTML_FILE`], then the plots ([`plots::IDENTIFY_PLOT_FILES`], and
 /// [`tool_frame::ORIENTATION_CDF_FILE`] where orientation was measured), then
-/// [`OUTLIERS_FILE`]. The caller writes them (all or nothing).
+/// [`OUTLIERS_FILE`], then the residual model (`calibrate::residual::MODEL_FILE`) when
+/// `identify --residual-model` kept one. The caller writes them (all or nothing).
 ///
 /// # Errors
 /// [`PlotError`] when an error is not finite (nothing can be drawn).
@@ -92,6 +95,10 @@ pub fn render(cal: &Calibration) -> Result<Vec<(String, String)>, PlotError> {
         Calibration::Points(c) => points::render(c),
         Calibration::ToolFrame(c) => tool_frame::render(c),
     }?);
+    files.extend(
+        cal.written_residual_model()
+            .map(|text| (calibrate::residual::MODEL_FILE.to_string(), text)),
+    );
     Ok(files)
 }
 

@@ -144,5 +144,11 @@ pub fn summary(o: &PointCalibration) -> String {
             mm_col(af.max_mm)
         );
     }
+    if let Some(r) = &o.residual {
+        let _ = writeln!(out, "{}", super::residual::decision(r));
+        if let Some(line) = super::residual::validation(r) {
+            let _ = writeln!(out, "{line}");
+        }
+    }
     out
 }
