@@ -368,7 +368,9 @@ impl MeasurementSet {
 /// What the caller expects of a measurement file.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ReadOptions {
-    /// Number of joints N: the header must have exactly the joint columns `q1…qN`.
+    /// Number of joints N: the header must have exactly the joint columns `q1…qN`. 0 reads a
+    /// file of poses without joints (Cartesian targets: `x, y, z` required, an orientation
+    /// optional, any `q<k>` column refused); it needs [`ReadOptions::require_points`].
     pub n_joints: usize,
     /// Optional joint limits in degrees, one `[min, max]` per joint (inclusive). A value
     /// outside its limits is an error ([`MeasurementError::JointOutOfLimits`]).
