@@ -194,6 +194,7 @@ pub use output::{
 pub use read::{read_file, read_str, read_text};
 pub use rotation::{
     EulerConvention, QUATERNION_NORM_TOLERANCE, quaternion_product, quaternion_to_matrix,
+    quaternion_to_rotvec, rotvec_to_quaternion,
 };
 pub use write::{to_csv_string, write_all_atomically, write_atomically, write_file};
 
