@@ -15,6 +15,7 @@
 //! and the front ends write the files. Errors are [`CalibrateError`]s naming the file, line,
 //! column or request field at fault. The formats are those of `docs/model.md`.
 
+mod cartesian;
 pub mod checks;
 pub mod contamination;
 mod error;
@@ -32,6 +33,11 @@ pub mod tool_frame;
 mod tool_offset;
 mod workflow;
 
+pub use cartesian::{
+    CartesianOptions, CorrectedTarget, METRES_FRACTION, OrientationColumns, OrientationSource,
+    TargetFrame, Tcp, compensate_cartesian, compensate_file, compensate_poses, has_joint_columns,
+    read_cartesian,
+};
 pub use error::{CalibrateError, Refusal, Result};
 pub use files::{
     LoadedRobot, file_name, points_mm, poses_rad, radians_evidence, radians_notice, row_label,

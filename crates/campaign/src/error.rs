@@ -65,6 +65,23 @@ pub enum CampaignError {
         #[source]
         source: kinematics::ModelError,
     },
+    /// The calibration of a proof ([`crate::CartesianProof`]) failed.
+    #[error("{what}: {source}")]
+    Calibrate {
+        /// What was being done.
+        what: String,
+        /// Cause.
+        #[source]
+        source: calibrate::CalibrateError,
+    },
+    /// A step of a proof ([`crate::CartesianProof`]) failed.
+    #[error("{what}: {reason}")]
+    Proof {
+        /// What was being done.
+        what: String,
+        /// Why.
+        reason: String,
+    },
     /// The ISO 9283 test could not be set up: the tracker of the scenario is unusable.
     #[error("ISO 9283 setup: {source}")]
     IsoTracker {
