@@ -70,9 +70,10 @@ pub enum CampaignError {
     Calibrate {
         /// What was being done.
         what: String,
-        /// Cause.
+        /// Cause (boxed: a calibration error would set the size of every `Result` of this
+        /// crate).
         #[source]
-        source: calibrate::CalibrateError,
+        source: Box<calibrate::CalibrateError>,
     },
     /// A step of a proof ([`crate::CartesianProof`]) failed.
     #[error("{what}: {reason}")]

@@ -106,7 +106,10 @@ impl CartesianProof {
         let world = new_world().map_err(sim_err)?;
         let cal_err = |what: &str| {
             let what = what.to_string();
-            move |source| CampaignError::Calibrate { what, source }
+            move |source| CampaignError::Calibrate {
+                what,
+                source: Box::new(source),
+            }
         };
         let nominal = LoadedRobot::from_spec(loaded.nominal.to_spec(), &loaded.source, "nominal")
             .map_err(cal_err("the nominal robot"))?;
@@ -223,7 +226,7 @@ impl CartesianProof {
         )
         .map_err(|source| CampaignError::Calibrate {
             what: format!("compensating the {name} targets"),
-            source,
+            source: Box::new(source),
         })?;
         let nominal = &registered.robot;
         let base = nominal.base_frame();
