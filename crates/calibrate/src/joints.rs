@@ -143,7 +143,9 @@ pub const SAME_FRAME_DEG: f64 = 2.0;
 pub struct Compensation {
     /// `id, q1…qN, x, y, z`: the joints to command (degrees) and the target point they
     /// reach on the calibrated model (mm), with a comment header that lists the flagged
-    /// rows. Rows without an id get `L<line>` (their line in the targets file).
+    /// rows. Rows without an id get `L<line>` (their line in the targets file). For Cartesian
+    /// targets (`crate::compensate_poses`) `id, q1…qN, x, y, z, qw, qx, qy, qz`: the joints
+    /// to command and the corrected target ([`CorrectedTarget`]).
     pub csv: String,
     /// The joints to command (degrees), one row per compensated target, in the order of the
     /// targets (the rows of `csv`).

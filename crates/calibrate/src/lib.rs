@@ -7,6 +7,8 @@
 //!        pipeline for points, 6-DoF and multi-target data, MeasurementKind)
 //! identified.json + joints.csv ─► predict                                  (joints)
 //! identified.json + registered-nominal.json + targets.csv ─► compensate   (joints)
+//! identified.json + registered-nominal.json + poses.csv ─► compensate     (cartesian:
+//!     the nominal controller's IK, then the calibrated model's; CorrectedTarget)
 //! ```
 //!
 //! Every function returns values; nothing is printed, rendered or written. A [`Calibration`]
