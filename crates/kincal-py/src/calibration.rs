@@ -381,8 +381,8 @@ pub(crate) fn calibrate_abandonable<T: Send + 'static>(
 
 /// The calibrated robot and the registered nominal one of a `Calibration` or a
 /// `FrameCalibration`.
-fn pair<'a>(
-    calibration: &'a Bound<'_, PyAny>,
+fn pair(
+    calibration: &Bound<'_, PyAny>,
 ) -> PyResult<(calibrate::LoadedRobot, calibrate::LoadedRobot)> {
     if let Ok(c) = calibration.cast::<PyCalibration>() {
         let c = c.get();
@@ -448,13 +448,21 @@ fn py_compensate_cartesian<'py>(
 )> {
     let (identified, nominal) = pair(calibration)?;
     let n = nominal.robot.n_joints();
-    let frame: calibrate::TargetFrame = frame.parse().map_err(|e: String| refuse(format!("frame: {e}")))?;
+    let frame: calibrate::TargetFrame = frame
+        .parse()
+        .map_err(|e: String| refuse(format!("frame: {e}")))?;
     let rows = positions_mm.shape().first().copied().unwrap_or(0);
     let points = crate::arrays::point_rows(&positions_mm, rows, "positions_mm", "the targets")?;
     let orientations = orientations_wxyz
         .as_ref()
         .map(|o| {
-            crate::arrays::fixed_rows::<4>(o, rows, "orientations_wxyz", "quaternion", "positions_mm")
+            crate::arrays::fixed_rows::<4>(
+                o,
+                rows,
+                "orientations_wxyz",
+                "quaternion",
+                "positions_mm",
+            )
         })
         .transpose()?;
     let targets = points
@@ -462,7 +470,9 @@ fn py_compensate_cartesian<'py>(
         .enumerate()
         .map(|(k, p)| {
             if let Some(v) = p.iter().find(|v| !v.is_finite()) {
-                return Err(refuse(format!("positions_mm: row {k}: {v} is not a finite number")));
+                return Err(refuse(format!(
+                    "positions_mm: row {k}: {v} is not a finite number"
+                )));
             }
             Ok(measurements::Measurement {
                 line: k + 1,
@@ -493,7 +503,11 @@ fn py_compensate_cartesian<'py>(
     })?;
     let q: Vec<Vec<f64>> = c.corrected.iter().map(|t| t.joints_deg.clone()).collect();
     let p: Vec<Vec<f64>> = c.corrected.iter().map(|t| t.position_mm.to_vec()).collect();
-    let o: Vec<Vec<f64>> = c.corrected.iter().map(|t| t.orientation_wxyz.to_vec()).collect();
+    let o: Vec<Vec<f64>> = c
+        .corrected
+        .iter()
+        .map(|t| t.orientation_wxyz.to_vec())
+        .collect();
     let arr = |rows: &[Vec<f64>], k: usize| -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
         Ok(vec_rows_array(py, rows, k)
             .into_any()
