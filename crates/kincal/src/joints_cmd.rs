@@ -162,6 +162,12 @@ pub struct CompensateArgs {
     /// (within 1 % of its size: metres, by the look of them) as millimetres.
     #[arg(long, value_name = "CHECK", value_parser = ["provenance", "length-units"])]
     allow: Vec<String>,
+    /// Output format [csv]: `kuka-krl` (a .dat of E6POS and E6AXIS), `abb-rapid` (a module of
+    /// robtarget and jointtarget), `urscript` (poses p[…] and joints): per row the joints to
+    /// command as the nominal robot file's controller axes, and the nominal forward
+    /// kinematics of those joints as the Cartesian target (docs/controller.md).
+    #[arg(long, default_value = "csv", value_name = "FORMAT")]
+    format: controller::Format,
 }
 
 /// `kincal compensate`.
@@ -264,7 +270,10 @@ pub fn compensate(args: &CompensateArgs) -> Result<()> {
     for f in &c.flagged {
         crate::errln!("flagged: {f}");
     }
-    emit(args.out.as_deref(), &c.csv)?;
+    emit(
+        args.out.as_deref(),
+        &program_text(args.format, &nominal, &c, args.out.as_deref())?,
+    )?;
     let reasons = c
         .flag_reasons
         .iter()
@@ -292,4 +301,53 @@ pub fn compensate(args: &CompensateArgs) -> Result<()> {
             .map_or(String::new(), |p| format!(" → {}", p.display()))
     );
     Ok(())
+}
+
+/// The compensation as `--format` writes it: the CSV as is, or a controller program of the
+/// compensated rows (docs/controller.md): names the CSV's ids, axes the nominal robot file's
+/// controller mapping of the joints to command, Cartesian targets the nominal model's TCP
+/// pose at them in its base frame. The program is named after `--out`'s stem when that is
+/// an identifier (KRL's DEFDAT must be), else `kincal_targets`.
+fn program_text(
+    format: controller::Format,
+    nominal: &LoadedRobot,
+    c: &calibrate::Compensation,
+    out: Option<&Path>,
+) -> Result<String> {
+    if format == controller::Format::Csv {
+        return Ok(c.csv.clone());
+    }
+    let ids = c
+        .csv
+        .lines()
+        .filter(|l| !l.starts_with('#') && !l.trim().is_empty())
+        .skip(1)
+        .map(|l| l.split(',').next().unwrap_or_default().to_owned());
+    let targets: Vec<controller::Target> = ids
+        .zip(&c.joints_deg)
+        .map(|(name, q)| {
+            let (position_mm, orientation) = controller::tcp_pose(&nominal.robot, q);
+            controller::Target {
+                name,
+                joints_deg: q.clone(),
+                position_mm,
+                orientation_wxyz: Some(orientation),
+            }
+        })
+        .collect();
+    let declarations = controller::declare(&nominal.robot, &targets)?;
+    let mut header = vec![format!(
+        "kincal compensate: {} targets; axes by the controller mapping of {}",
+        c.compensated,
+        nominal.path.display()
+    )];
+    header.extend(c.flagged.iter().map(|f| format!("flagged: {f}")));
+    let stem = out
+        .filter(|p| !crate::is_stdout(p))
+        .and_then(|p| p.file_stem())
+        .and_then(|s| s.to_str())
+        .unwrap_or("kincal_targets");
+    let program = controller::write(format, stem, &header, &declarations)
+        .or_else(|_| controller::write(format, "kincal_targets", &header, &declarations))?;
+    Ok(program)
 }

@@ -4,6 +4,7 @@
 mod calibrate_cli;
 mod campaign_cli;
 mod common;
+mod controller_cli;
 mod design_frames_cli;
 mod docs_examples;
 mod files_cli;

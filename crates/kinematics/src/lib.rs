@@ -31,8 +31,9 @@ pub use ik::{
     NearestIk, cholesky6,
 };
 pub use model::{
-    BaseSpec, ExtendedParamSpec, FileRole, JointSpec, JointType, LinkMassSpec, MAX_ANGLE_DEG,
-    MAX_JOINTS, MAX_LENGTH_MM, MassModelSpec, Provenance, RobotSpec, TargetSpec,
+    AxisMapSpec, BaseSpec, ControllerKind, ControllerSpec, ExtendedParamSpec, FileRole, JointSpec,
+    JointType, LinkMassSpec, MAX_ANGLE_DEG, MAX_JOINTS, MAX_LENGTH_MM, MassModelSpec, Provenance,
+    RobotSpec, TargetSpec,
 };
 pub use params::{BETA_ALPHA_TOL_DEG, ExtendedKind, ParamInfo, ParamKind, ParamLayout, Unit};
 pub use robot::{

@@ -443,11 +443,107 @@ pub struct RobotSpec {
     /// line replaces these in turn. Absent from files and output when not given.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub prior_sd: Option<std::collections::BTreeMap<String, f64>>,
+    /// Optional mapping from the model's joint values to the axis values a controller
+    /// displays and reads (`docs/controller.md`): per joint `axis = sign · q + offset`. Kept
+    /// through calibration (`identified.json` carries it); absent from files and output when
+    /// not given.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub controller: Option<ControllerSpec>,
     /// What the file is and where it came from, for the files a calibration writes
     /// (`identified.json`, `registered-nominal.json`): readers such as `compensate` refuse a
     /// swapped pair or a pair from different runs. Absent from a robot file written by hand.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub provenance: Option<Provenance>,
+}
+
+/// Which controller a robot file's [`ControllerSpec`] describes: the vendor whose axis
+/// values, configuration data and program text the robot's controller uses (the default
+/// output format of `docs/controller.md` follows it).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum ControllerKind {
+    /// A KUKA KR C controller (KRL; axes A1…A6).
+    Kuka,
+    /// An ABB IRC controller (RAPID; axes 1…6).
+    Abb,
+    /// A Universal Robots controller (URScript; joints base … wrist 3).
+    Ur,
+}
+
+impl ControllerKind {
+    /// `"kuka"`, `"abb"` or `"ur"`, as the robot file writes it.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            ControllerKind::Kuka => "kuka",
+            ControllerKind::Abb => "abb",
+            ControllerKind::Ur => "ur",
+        }
+    }
+}
+
+/// One controller axis of a [`ControllerSpec`]: the controller's axis value is
+/// `sign · q + offset_deg`, with q the model's joint value (the robot file's joint variable,
+/// degrees; millimetres, and the offset too, for a prismatic joint).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct AxisMapSpec {
+    /// Added after the sign, degrees (mm for a prismatic joint); finite, within
+    /// ±[`MAX_ANGLE_DEG`].
+    pub offset_deg: f64,
+    /// +1 where the controller's positive direction is the model's, −1 where it is opposite.
+    pub sign: i8,
+}
+
+impl AxisMapSpec {
+    /// The identity mapping of one axis (offset 0, sign +1).
+    pub const IDENTITY: AxisMapSpec = AxisMapSpec {
+        offset_deg: 0.0,
+        sign: 1,
+    };
+}
+
+/// The robot file's optional `controller` section: how the controller's axis values relate
+/// to the model's joint values, one entry per joint, base to flange.
+///
+/// ```json
+///   "controller": { "kind": "kuka", "axes": [ { "offset_deg": 0, "sign": -1 }, … ] }
+/// ```
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ControllerSpec {
+    /// The controller's vendor.
+    pub kind: ControllerKind,
+    /// One mapping per joint: `axis = sign · q + offset_deg`.
+    pub axes: Vec<AxisMapSpec>,
+}
+
+impl ControllerSpec {
+    /// The controller's axis values of the model joint values `joints` (interface units):
+    /// `axis_i = sign_i · q_i + offset_i`. Extra values beyond the mapping's axes are copied.
+    pub fn axes_of(&self, joints: &[f64]) -> Vec<f64> {
+        let id = AxisMapSpec::IDENTITY;
+        joints
+            .iter()
+            .enumerate()
+            .map(|(i, q)| {
+                let m = self.axes.get(i).unwrap_or(&id);
+                f64::from(m.sign) * q + m.offset_deg
+            })
+            .collect()
+    }
+
+    /// The model joint values of controller axis values, the inverse of
+    /// [`ControllerSpec::axes_of`]: `q_i = sign_i · (axis_i − offset_i)` (sign is ±1).
+    pub fn joints_of(&self, axes: &[f64]) -> Vec<f64> {
+        let id = AxisMapSpec::IDENTITY;
+        axes.iter()
+            .enumerate()
+            .map(|(i, a)| {
+                let m = self.axes.get(i).unwrap_or(&id);
+                f64::from(m.sign) * (a - m.offset_deg)
+            })
+            .collect()
+    }
 }
 
 /// What a robot file written by a calibration is ([`RobotSpec::provenance`]).
@@ -740,6 +836,39 @@ impl RobotSpec {
                 }
             }
         }
+        // A section of one entry per joint: `field` has `len` entries.
+        let per_joint = |field: &str, len: usize| {
+            if len == self.joints.len() {
+                return Ok(());
+            }
+            Err(invalid(
+                field.into(),
+                format!(
+                    "needs one entry per joint ({}), has {len}",
+                    self.joints.len()
+                ),
+            ))
+        };
+        if let Some(c) = &self.controller {
+            per_joint("controller.axes", c.axes.len())?;
+            for (i, a) in c.axes.iter().enumerate() {
+                if !(a.offset_deg.is_finite() && a.offset_deg.abs() <= MAX_ANGLE_DEG) {
+                    return Err(invalid(
+                        format!("controller.axes[{i}].offset_deg"),
+                        format!(
+                            "{} is not a finite offset within ±{MAX_ANGLE_DEG}",
+                            short(a.offset_deg)
+                        ),
+                    ));
+                }
+                if a.sign != 1 && a.sign != -1 {
+                    return Err(invalid(
+                        format!("controller.axes[{i}].sign"),
+                        format!("{} must be 1 or -1", a.sign),
+                    ));
+                }
+            }
+        }
         let first_prismatic = self.joints.iter().position(JointSpec::is_prismatic);
         if let (Some(_), Some(i)) = (&self.mass_model, first_prismatic) {
             return Err(invalid(
@@ -759,16 +888,7 @@ impl RobotSpec {
                 }
             };
             non_negative("mass_model.gravity_m_per_s2".into(), m.gravity_m_per_s2)?;
-            if m.links.len() != self.joints.len() {
-                return Err(invalid(
-                    "mass_model.links".into(),
-                    format!(
-                        "needs one entry per joint ({}), has {}",
-                        self.joints.len(),
-                        m.links.len()
-                    ),
-                ));
-            }
+            per_joint("mass_model.links", m.links.len())?;
             for (i, l) in m.links.iter().enumerate() {
                 non_negative(format!("mass_model.links[{i}].mass_kg"), l.mass_kg)?;
                 for (k, v) in l.com_mm.iter().enumerate() {

@@ -7,8 +7,8 @@ use crate::error::ModelError;
 use crate::extended::ExtendedModel;
 use crate::frame::Frame;
 use crate::model::{
-    BaseSpec, ExtendedParamSpec, JointSpec, JointType, MAX_JOINTS, MassModelSpec, RobotSpec,
-    TargetSpec,
+    BaseSpec, ControllerSpec, ExtendedParamSpec, JointSpec, JointType, MAX_JOINTS, MassModelSpec,
+    RobotSpec, TargetSpec,
 };
 use crate::params::{ParamKind, ParamLayout};
 
@@ -173,6 +173,8 @@ pub struct Robot {
     tool_mm: Vector3<f64>,
     /// The model file's optional joint names, carried to [`Robot::to_spec`].
     joint_names: Option<Vec<String>>,
+    /// The model file's optional controller axis mapping, carried to [`Robot::to_spec`].
+    controller: Option<ControllerSpec>,
     layout: ParamLayout,
     /// Parameter index of β for each joint (`None` where β is not a parameter).
     beta_index: [Option<usize>; MAX_JOINTS],
@@ -280,6 +282,7 @@ impl Robot {
             base_axes: base.axes(),
             tool_mm: Vector3::from(spec.tool_mm),
             joint_names: spec.joint_names.clone(),
+            controller: spec.controller.clone(),
             layout,
             beta_index,
             scale_index,
@@ -618,6 +621,7 @@ impl Robot {
             base: BaseSpec::from_internal(self.base.r_rad, self.base.d_mm),
             tool_mm: self.tool_mm.into(),
             joint_names: self.joint_names.clone(),
+            controller: self.controller.clone(),
             mass_model: self.mass_model.clone(),
             extended: self.extended.as_ref().map(|e| {
                 e.model
@@ -652,6 +656,11 @@ impl Robot {
     /// see [`MassModelSpec`]).
     pub fn mass_model(&self) -> Option<&MassModelSpec> {
         self.mass_model.as_ref()
+    }
+
+    /// The controller axis mapping of the robot file, if it has one ([`ControllerSpec`]).
+    pub fn controller(&self) -> Option<&ControllerSpec> {
+        self.controller.as_ref()
     }
 
     /// The robot's name.

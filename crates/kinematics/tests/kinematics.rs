@@ -110,6 +110,7 @@ fn random_chain(u: &[f64]) -> Robot {
         tool_rotation_deg: None,
         targets: None,
         prior_sd: None,
+        controller: None,
         provenance: None,
     };
     Robot::from_spec(&spec).unwrap()

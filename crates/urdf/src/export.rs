@@ -70,6 +70,7 @@ fn link_transform(j: &JointSpec) -> Result<Frame, UrdfError> {
         tool_rotation_deg: None,
         targets: None,
         prior_sd: None,
+        controller: None,
         provenance: None,
     };
     Ok(Robot::from_spec(&one)?.flange_reference(&[0.0]))

@@ -369,6 +369,7 @@ pub fn import_str(
         tool_rotation_deg: None,
         targets: None,
         prior_sd: None,
+        controller: None,
         provenance: None,
     };
 
