@@ -26,7 +26,7 @@ use nalgebra::{Matrix3, Vector3};
 use crate::checks::refuse;
 use crate::error::{CalibrateError, Refusal, Result};
 use crate::files::{LoadedRobot, file_name};
-use crate::joints::{Compensation, RowPoint, Rows, check_same_frame, check_same_layout};
+use crate::joints::{Compensation, Rows, check_same_frame, check_same_layout};
 use crate::request::Check;
 
 /// One compensated target as a controller takes it: the joints to command, or the corrected
@@ -165,24 +165,20 @@ impl Tcp {
         r.set_tool_rotation_rad(self.tool_rotation_deg.map(|d| d.map(f64::to_radians)));
         r
     }
+}
 
-    /// The corrected target of `nominal` at `q_rad` with this TCP: the TCP's position (mm)
-    /// and orientation (`[w, x, y, z]`) in the robot's base frame.
-    pub(crate) fn corrected(&self, nominal: &Robot, q_rad: &[f64]) -> ([f64; 3], [f64; 4]) {
-        let f = nominal
-            .base_frame()
-            .inverse()
-            .compose(&nominal.flange(q_rad));
-        let p = f.transform_point(&Vector3::from(self.tool_mm));
-        ([p.x, p.y, p.z], unit_quaternion(&(f.rot * self.rotation())))
-    }
-
-    /// The TCP's rotation in the flange frame, `Rz·Ry·Rx` (identity without one).
-    fn rotation(&self) -> Matrix3<f64> {
-        self.tool_rotation_deg.map_or_else(Matrix3::identity, |r| {
-            Frame::from_base_pose(r.map(f64::to_radians), [0.0; 3]).rot
-        })
-    }
+/// The corrected target of `nominal` (its tool is the TCP) at the joints `q_deg` (degrees,
+/// as written): the TCP's position (mm) and orientation (`[w, x, y, z]`, `w ≥ 0`) in the
+/// robot's base frame, `T_base⁻¹ · T_flange(q) · (R_tool, tool_mm)` — the forward kinematics
+/// a controller running `nominal` computes.
+pub(crate) fn corrected_pose(nominal: &Robot, q_deg: &[f64]) -> ([f64; 3], [f64; 4]) {
+    let q: Vec<f64> = q_deg.iter().map(|v| v.to_radians()).collect();
+    let f = nominal.base_frame().inverse().compose(&nominal.flange(&q));
+    let p = f.transform_point(&nominal.tool_mm());
+    (
+        [p.x, p.y, p.z],
+        unit_quaternion(&(f.rot * nominal.tool_rotation())),
+    )
 }
 
 /// What [`compensate_cartesian`] needs besides the robots and the targets.
@@ -369,7 +365,7 @@ pub fn compensate_poses(
         |t| (t, t),
     );
     let (cal, nom) = (tcp_cal.on(&calibrated.robot), tcp.on(&nominal.robot));
-    let (r_tool, r_tool_cal) = (tcp.rotation(), tcp_cal.rotation());
+    let (r_tool, r_tool_cal) = (nom.tool_rotation(), cal.tool_rotation());
     let to_measurement = match cartesian.frame {
         TargetFrame::Base => nom.base_frame(),
         TargetFrame::Measurement => Frame::identity(),
@@ -438,12 +434,7 @@ pub fn compensate_poses(
         let nominal_deg: Vec<f64> = q_nom.iter().map(|v| v.to_degrees()).collect();
         match compensate_nearest_to(&cal, &target, &mut q, options) {
             Ok(c) => {
-                let (position_mm, orientation) = tcp.corrected(&nom, &q);
-                let point = RowPoint {
-                    point_mm: position_mm,
-                    orientation: Some(orientation),
-                };
-                rows.record(r, &nominal_deg, &q, &c, point, (position_mm, orientation));
+                rows.record(r, &nominal_deg, &q, &c, None, &nom);
             }
             Err(e) => rows.unreachable(r, "", e),
         }

@@ -9,7 +9,7 @@ use kinematics::rotation::{log_so3, unit_quaternion};
 use measurements::{Measurement, MeasurementSet, quaternion_to_matrix, to_csv_string};
 use nalgebra::{Matrix3, Vector3};
 
-use crate::cartesian::{CorrectedTarget, OrientationSource, Tcp};
+use crate::cartesian::{CorrectedTarget, OrientationSource, corrected_pose};
 use crate::error::{CalibrateError, Refusal, Result};
 use crate::files::{LoadedRobot, file_name, poses_rad};
 
@@ -301,7 +301,6 @@ pub fn compensate_rows(
     let (id_r, nom_r): (&Robot, &Robot) = (&calibrated.robot, &nominal.robot);
     let n = nom_r.n_joints();
     check_same_frame(calibrated, nominal, &poses_rad(&set.rows))?;
-    let tcp = Tcp::of(nom_r);
     let mut rows = Rows::new(&set.source, options);
     let mut q = vec![0.0; n];
     let mut cmd = vec![0.0; n];
@@ -313,11 +312,8 @@ pub fn compensate_rows(
         match compensate_nearest(nom_r, id_r, &mut q, options) {
             Ok(c) => {
                 let target = nom_r.point(&cmd);
-                let point = RowPoint {
-                    point_mm: [target.x, target.y, target.z],
-                    orientation: None,
-                };
-                rows.record(r, &r.q_deg, &q, &c, point, tcp.corrected(nom_r, &q));
+                let point = [target.x, target.y, target.z];
+                rows.record(r, &r.q_deg, &q, &c, Some(point), nom_r);
             }
             Err(e) => rows.unreachable(r, "", e),
         }
@@ -337,13 +333,6 @@ pub fn compensate_rows(
         allow_unreachable,
         OrientationSource::Held,
     )
-}
-
-/// The output columns of a compensated row besides its id and joints: `x, y, z` and the
-/// orientation `qw, qx, qy, qz` if any.
-pub(crate) struct RowPoint {
-    pub(crate) point_mm: [f64; 3],
-    pub(crate) orientation: Option<[f64; 4]>,
 }
 
 /// The rows of a compensation as they are solved, and what is said of them: one per target
@@ -390,17 +379,20 @@ impl<'a> Rows<'a> {
     }
 
     /// Target `r` compensated by `c` at joints `q_rad` from the nominal controller's joints
-    /// `start_deg`; `point` is written with the joints, `corrected` is the corrected target.
+    /// `start_deg`; its corrected target is `nominal`'s ([`corrected_pose`]: the tool of
+    /// `nominal` is the TCP). The row written is the joints and `point` (joint targets: the
+    /// target point), or without one the corrected target (Cartesian targets).
     pub(crate) fn record(
         &mut self,
         r: &Measurement,
         start_deg: &[f64],
         q_rad: &[f64],
         c: &Compensated,
-        point: RowPoint,
-        (position_mm, orientation_wxyz): ([f64; 3], [f64; 4]),
+        point: Option<[f64; 3]>,
+        nominal: &Robot,
     ) {
         let q_deg: Vec<f64> = q_rad.iter().map(|v| v.to_degrees()).collect();
+        let (position_mm, orientation_wxyz) = corrected_pose(nominal, &q_deg);
         for (a, b) in q_deg.iter().zip(start_deg) {
             self.max_dq_deg = self.max_dq_deg.max((a - b).abs());
         }
@@ -441,8 +433,8 @@ impl<'a> Rows<'a> {
             line: 0,
             id: Some(id),
             q_deg,
-            point_mm: Some(point.point_mm),
-            orientation: point.orientation,
+            point_mm: Some(point.unwrap_or(position_mm)),
+            orientation: point.is_none().then_some(orientation_wxyz),
             ..Default::default()
         });
     }

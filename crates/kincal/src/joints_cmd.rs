@@ -317,22 +317,17 @@ fn program_text(
     if format == controller::Format::Csv {
         return Ok(c.csv.clone());
     }
-    let ids = c
-        .csv
-        .lines()
-        .filter(|l| !l.starts_with('#') && !l.trim().is_empty())
-        .skip(1)
-        .map(|l| l.split(',').next().unwrap_or_default().to_owned());
-    let targets: Vec<controller::Target> = ids
-        .zip(&c.joints_deg)
-        .map(|(name, q)| {
-            let (position_mm, orientation) = controller::tcp_pose(&nominal.robot, q);
-            controller::Target {
-                name,
-                joints_deg: q.clone(),
-                position_mm,
-                orientation_wxyz: Some(orientation),
-            }
+    // The rows as `calibrate::CorrectedTarget`s: the joints to command and the corrected
+    // target (the nominal model's TCP pose at them, in its base frame; for Cartesian targets
+    // with the TCP the compensation used).
+    let targets: Vec<controller::Target> = c
+        .corrected
+        .iter()
+        .map(|t| controller::Target {
+            name: t.id.clone(),
+            joints_deg: t.joints_deg.clone(),
+            position_mm: t.position_mm,
+            orientation_wxyz: Some(t.orientation_wxyz),
         })
         .collect();
     let declarations = controller::declare(&nominal.robot, &targets)?;

@@ -67,7 +67,8 @@ pub struct TargetSetProof {
     /// The true robot at the joints a nominal controller's IK gives for the corrected
     /// targets (from its own solution of the original target).
     pub through_controller: PoseErrors,
-    /// Largest difference between those joints and the compensated ones, degrees.
+    /// A bound on the largest difference between those joints and the compensated ones,
+    /// degrees: the smallest power of ten above it.
     pub controller_joint_diff_deg: f64,
 }
 
@@ -286,19 +287,31 @@ impl CartesianProof {
             before: stats(&before),
             after: stats(&after),
             through_controller: stats(&through),
-            controller_joint_diff_deg: joint_diff,
+            controller_joint_diff_deg: decade_above(joint_diff),
         })
     }
 }
 
-/// Mean and max of (position mm, orientation deg) pairs.
+/// Mean and max of (position mm, orientation deg) pairs, rounded to 10⁻⁶ (mm, °): the
+/// committed result holds figures, not the last bits of an IK's convergence.
 fn stats(e: &[(f64, f64)]) -> PoseErrors {
     let n = e.len().max(1) as f64;
+    let r = |v: f64| (v * 1e6).round() / 1e6;
     PoseErrors {
-        position_mean_mm: e.iter().map(|x| x.0).sum::<f64>() / n,
-        position_max_mm: e.iter().map(|x| x.0).fold(0.0, f64::max),
-        orientation_mean_deg: e.iter().map(|x| x.1).sum::<f64>() / n,
-        orientation_max_deg: e.iter().map(|x| x.1).fold(0.0, f64::max),
+        position_mean_mm: r(e.iter().map(|x| x.0).sum::<f64>() / n),
+        position_max_mm: r(e.iter().map(|x| x.0).fold(0.0, f64::max)),
+        orientation_mean_deg: r(e.iter().map(|x| x.1).sum::<f64>() / n),
+        orientation_max_deg: r(e.iter().map(|x| x.1).fold(0.0, f64::max)),
+    }
+}
+
+/// The smallest power of ten at or above `v` (> 0; 0 for 0): a bound that does not depend
+/// on the last bits of `v`.
+fn decade_above(v: f64) -> f64 {
+    if v > 0.0 {
+        10f64.powi(v.log10().ceil() as i32)
+    } else {
+        0.0
     }
 }
 
@@ -329,7 +342,7 @@ impl CartesianProofOutcome {
             let _ = writeln!(
                 s,
                 "| {} | {} of {} | {} | {:.3} / {:.3} → {:.3} / {:.3} | {:.4} / {:.4} → {:.4} / \
-                 {:.4} | {:.3} / {:.3}, {:.4} / {:.4}, {:.1e} |",
+                 {:.4} | {:.3} / {:.3}, {:.4} / {:.4}, < {:.0e} |",
                 t.name,
                 t.compensated,
                 t.targets,
