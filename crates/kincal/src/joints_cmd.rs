@@ -241,6 +241,16 @@ pub fn compensate(args: &CompensateArgs) -> Result<()> {
         CalibrateError::Refused(r @ Refusal::Implausible { .. }) => {
             anyhow::anyhow!(r.in_words(calibrate::Front::Flags))
         }
+        CalibrateError::Refused(Refusal::StartJoints { .. }) => {
+            anyhow::Error::new(e).context("--start-joints")
+        }
+        e @ CalibrateError::Read {
+            source: measurements::MeasurementError::EulerConventionMissing { .. },
+            ..
+        } => anyhow::Error::new(e).context(
+            "the targets give rx,ry,rz: name what they are with --euler (a convention such as \
+             XYZ or zyx, kuka for A,B,C, rotvec for a UR rotation vector in radians)",
+        ),
         e => e.into(),
     })?;
     let cartesian_given = args.euler.is_some()

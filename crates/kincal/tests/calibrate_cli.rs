@@ -1392,4 +1392,22 @@ fn compensate_cartesian_targets_of_the_ur10_6dof_calibration() {
             && msg.contains("--allow length-units"),
         "{msg}"
     );
+    // Euler columns without a convention, and start joints of the wrong count (the
+    // helper's six and three more: a repeated list flag appends).
+    let file = tmp.path().join("euler.csv");
+    std::fs::write(&file, "id,x,y,z,rx,ry,rz\nc1,100,400,800,0,90,0\n").unwrap();
+    let msg = stderr(&compensate(&calibrations[0], &file, &[]));
+    assert!(
+        msg.contains("--euler") && msg.contains("euler.csv:1: column \"rx\""),
+        "{msg}"
+    );
+    let msg = stderr(&compensate(
+        &calibrations[0],
+        &targets,
+        &["--start-joints=1,2,3"],
+    ));
+    assert!(
+        msg.contains("--start-joints") && msg.contains("9 values for 6 joints"),
+        "{msg}"
+    );
 }
