@@ -15,6 +15,10 @@ pub struct RegenerateArgs {
     /// (wall-clock files timing.json and bench.json excepted).
     #[arg(long)]
     pub check: bool,
+    /// Only the outputs of these names (a scenario's or a sweep's `name`, or
+    /// `cartesian-kr1000`), e.g. to write a new one \[all\].
+    #[arg(long, value_name = "NAME")]
+    pub only: Vec<String>,
 }
 
 /// Files in `results/` that hold wall-clock figures, not reproducible bytes.
@@ -37,12 +41,16 @@ pub fn regenerate(args: RegenerateArgs) -> Result<()> {
     } else {
         PathBuf::from("results")
     };
+    let wanted = |name: &str| args.only.is_empty() || args.only.iter().any(|o| o == name);
     let mut names = Vec::new();
     for path in list("scenarios")? {
         let name = Scenario::from_file(&path)
             .with_context(|| format!("loading {}", path.display()))?
             .scenario
             .name;
+        if !wanted(&name) {
+            continue;
+        }
         let mut run = CampaignRun::new(&path);
         run.out = Some(target.join(&name));
         let outcome = run.run(&Progress::new(false))?;
@@ -51,11 +59,17 @@ pub fn regenerate(args: RegenerateArgs) -> Result<()> {
     }
     for path in list("scenarios/sweeps")? {
         let name = SweepSpec::from_file(&path)?.name;
+        if !wanted(&name) {
+            continue;
+        }
         let mut run = SweepRun::new(&path);
         run.out = Some(target.join(&name));
         let outcome = run.run(&Progress::new(false))?;
         print_sweep(&outcome, true);
         names.push(name);
+    }
+    if wanted(CARTESIAN_PROOF) {
+        names.push(cartesian_proof(&target)?);
     }
     if !args.check {
         return Ok(());
@@ -87,4 +101,39 @@ pub fn regenerate(args: RegenerateArgs) -> Result<()> {
         names.len()
     );
     Ok(())
+}
+
+/// The name of the Cartesian compensation proof's output directory.
+const CARTESIAN_PROOF: &str = "cartesian-kr1000";
+
+/// The proof of Cartesian compensation (issue 40, [`campaign::CartesianProof`]) on trial 0
+/// of `scenarios/paper-kr1000.json`, into `<target>/cartesian-kr1000/`: `cartesian.md` and
+/// `cartesian.json`. Returns the directory's name.
+fn cartesian_proof(target: &Path) -> Result<String> {
+    let name = CARTESIAN_PROOF;
+    let outcome = campaign::CartesianProof::new("scenarios/paper-kr1000.json")
+        .run()
+        .context("the Cartesian compensation proof")?;
+    let dir = target.join(name);
+    std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
+    let json = serde_json::to_string_pretty(&outcome)? + "\n";
+    measurements::write_atomically(&dir.join("cartesian.json"), json.as_bytes())?;
+    measurements::write_atomically(&dir.join("cartesian.md"), outcome.markdown().as_bytes())?;
+    eprintln!(
+        "{name}: {}",
+        outcome
+            .sets
+            .iter()
+            .map(|t| format!(
+                "{} position mean {:.3} → {:.3} mm, orientation mean {:.4} → {:.4}°",
+                t.name,
+                t.before.position_mean_mm,
+                t.after.position_mean_mm,
+                t.before.orientation_mean_deg,
+                t.after.orientation_mean_deg
+            ))
+            .collect::<Vec<_>>()
+            .join("; ")
+    );
+    Ok(name.to_string())
 }

@@ -366,6 +366,15 @@ pub enum Refusal {
         /// What does not match.
         reason: String,
     },
+    /// The start joints of the nominal IK of Cartesian targets
+    /// ([`crate::CartesianOptions::start_deg`]) do not fit the robot.
+    #[error("start joints for {}: {reason}; nothing written", robot.display())]
+    StartJoints {
+        /// The nominal robot file.
+        robot: PathBuf,
+        /// What does not fit.
+        reason: String,
+    },
     /// The targets file has no rows: nothing to compensate.
     #[error("{file}: the targets file has no rows (no target to compensate); nothing written")]
     NoTargets {

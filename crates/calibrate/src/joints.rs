@@ -3,12 +3,13 @@
 
 use std::path::Path;
 
-use identify::{CompensationOptions, compensate_nearest, kabsch};
+use identify::{Compensated, CompensationOptions, compensate_nearest, kabsch};
 use kinematics::Robot;
 use kinematics::rotation::{log_so3, unit_quaternion};
 use measurements::{Measurement, MeasurementSet, quaternion_to_matrix, to_csv_string};
 use nalgebra::{Matrix3, Vector3};
 
+use crate::cartesian::{CorrectedTarget, OrientationSource, corrected_pose};
 use crate::error::{CalibrateError, Refusal, Result};
 use crate::files::{LoadedRobot, file_name, poses_rad};
 
@@ -187,11 +188,18 @@ pub const SAME_FRAME_DEG: f64 = 2.0;
 pub struct Compensation {
     /// `id, q1…qN, x, y, z`: the joints to command (degrees) and the target point they
     /// reach on the calibrated model (mm), with a comment header that lists the flagged
-    /// rows. Rows without an id get `L<line>` (their line in the targets file).
+    /// rows. Rows without an id get `L<line>` (their line in the targets file). For Cartesian
+    /// targets (`crate::compensate_poses`) `id, q1…qN, x, y, z, qw, qx, qy, qz`: the joints
+    /// to command and the corrected target ([`CorrectedTarget`]).
     pub csv: String,
     /// The joints to command (degrees), one row per compensated target, in the order of the
     /// targets (the rows of `csv`).
     pub joints_deg: Vec<Vec<f64>>,
+    /// Each compensated target as a controller takes it (the joints to command and the
+    /// corrected Cartesian target), in the order of the rows of `csv`.
+    pub corrected: Vec<CorrectedTarget>,
+    /// Where the orientation of the targets came from.
+    pub orientation: OrientationSource,
     /// Targets compensated.
     pub compensated: usize,
     /// Targets read.
@@ -214,7 +222,7 @@ pub struct Compensation {
 }
 
 /// The size of a robot for [`SAME_FRAME_FRACTION`]: `Σ(|a_i| + |d_i|) + |t|`, mm.
-fn robot_size_mm(robot: &Robot) -> f64 {
+pub(crate) fn robot_size_mm(robot: &Robot) -> f64 {
     let spec = robot.to_spec();
     spec.joints
         .iter()
@@ -232,7 +240,11 @@ fn robot_size_mm(robot: &Robot) -> f64 {
 /// (Base parameters alone cannot tell: with redundant parameters the identified base trades
 /// against θ1 and d1.) Skipped when the targets do not determine a rotation (fewer than
 /// three, or collinear).
-fn check_same_frame(calibrated: &LoadedRobot, nominal: &LoadedRobot, poses: &[f64]) -> Result<()> {
+pub(crate) fn check_same_frame(
+    calibrated: &LoadedRobot,
+    nominal: &LoadedRobot,
+    poses: &[f64],
+) -> Result<()> {
     let (pn, pi) = (nominal.robot.points(poses), calibrated.robot.points(poses));
     let Ok(t) = kabsch(&pn, &pi) else {
         return Ok(());
@@ -287,7 +299,7 @@ pub fn compensate_targets(
 /// `identified.json` read back has one β fewer than `identify`'s own
 /// `registered-nominal.json`. Both still carry every joint's β, which is all compensation
 /// (forward kinematics and IK) uses.
-fn check_same_layout(calibrated: &LoadedRobot, nominal: &LoadedRobot) -> Result<()> {
+pub(crate) fn check_same_layout(calibrated: &LoadedRobot, nominal: &LoadedRobot) -> Result<()> {
     let (id_r, nom_r): (&Robot, &Robot) = (&calibrated.robot, &nominal.robot);
     let without_beta = |r: &Robot| -> Vec<kinematics::ParamKind> {
         r.layout()
@@ -334,81 +346,23 @@ pub fn compensate_rows(
     let (id_r, nom_r): (&Robot, &Robot) = (&calibrated.robot, &nominal.robot);
     let n = nom_r.n_joints();
     check_same_frame(calibrated, nominal, &poses_rad(&set.rows))?;
-    let mut rows = Vec::with_capacity(set.rows.len());
-    let mut unreachable = Vec::new();
-    let mut flagged = Vec::new();
-    let mut flag_reasons: std::collections::BTreeMap<&'static str, usize> = Default::default();
+    let mut rows = Rows::new(&set.source, options);
     let mut q = vec![0.0; n];
     let mut cmd = vec![0.0; n];
-    let (mut max_dq_deg, mut max_err_mm) = (0.0_f64, 0.0_f64);
     for r in &set.rows {
         for (qr, d) in q.iter_mut().zip(&r.q_deg) {
             *qr = d.to_radians();
         }
         cmd.copy_from_slice(&q);
-        let id_label = r.id.as_ref().map_or(String::new(), |id| format!("{id}: "));
         match compensate_nearest(nom_r, id_r, &mut q, options) {
             Ok(c) => {
                 let target = nom_r.point(&cmd);
-                let q_deg: Vec<f64> = q.iter().map(|v| v.to_degrees()).collect();
-                for (a, b) in q_deg.iter().zip(&r.q_deg) {
-                    max_dq_deg = max_dq_deg.max((a - b).abs());
-                }
-                max_err_mm = max_err_mm.max(c.report.pos_err_mm);
-                if let Some(first) = c.flags.first() {
-                    *flag_reasons.entry(first.key()).or_default() += 1;
-                    let changes: Vec<String> = q_deg
-                        .iter()
-                        .zip(&r.q_deg)
-                        .enumerate()
-                        .filter(|(_, (a, b))| (*a - *b).abs() > options.flag_change_deg)
-                        .map(|(i, (a, b))| format!("q{} {:+.2}°", i + 1, a - b))
-                        .collect();
-                    flagged.push(format!(
-                        "{}:{}: {id_label}{}: {}",
-                        set.source,
-                        r.line,
-                        changes.join(", "),
-                        c.flags
-                            .iter()
-                            .map(|f| f.to_string())
-                            .collect::<Vec<_>>()
-                            .join("; ")
-                    ));
-                }
-                rows.push(Measurement {
-                    line: 0,
-                    id: Some(r.id.clone().unwrap_or_else(|| format!("L{}", r.line))),
-                    q_deg,
-                    point_mm: Some([target.x, target.y, target.z]),
-                    ..Default::default()
-                });
+                let point = [target.x, target.y, target.z];
+                rows.record(r, &r.q_deg, &q, &c, Some(point), nom_r);
             }
-            Err(e) => unreachable.push(format!(
-                "{}:{}: {id_label}unreachable: {e}",
-                set.source, r.line
-            )),
+            Err(e) => rows.unreachable(r, "", e),
         }
     }
-    if !unreachable.is_empty() && !allow_unreachable {
-        return Err(Refusal::Unreachable {
-            unreachable,
-            targets: set.rows.len(),
-            file: set.source.clone(),
-            robot: id_r.name().to_string(),
-        }
-        .into());
-    }
-    if rows.is_empty() {
-        return Err(Refusal::NoneReachable {
-            unreachable,
-            file: set.source.clone(),
-        }
-        .into());
-    }
-    let compensated = rows.len();
-    let joints_deg = rows.iter().map(|r| r.q_deg.clone()).collect();
-    let out_set = MeasurementSet::new(out_label, n, rows);
     let mut header = format!(
         "kincal compensate: joints (degrees) to command so that {} ({}) reaches the points of \
          {} ({}) at the commanded joints of {}\nx y z: that target point, mm",
@@ -418,33 +372,177 @@ pub fn compensate_rows(
         file_name(&nominal.path),
         file_name(Path::new(&set.source))
     );
-    if !flagged.is_empty() {
-        header.push_str(&format!(
-            "\nflagged: {} rows move a joint by more than {}° (the nearest exact solution):",
-            flagged.len(),
-            options.flag_change_deg
-        ));
-        for f in &flagged {
-            header.push_str(&format!("\n  {f}"));
+    rows.finish(
+        &mut header,
+        (calibrated, &set, out_label),
+        allow_unreachable,
+        OrientationSource::Held,
+    )
+}
+
+/// The rows of a compensation as they are solved, and what is said of them: one per target
+/// of either kind (joint or Cartesian), so that both are flagged, listed and summed alike.
+pub(crate) struct Rows<'a> {
+    source: &'a str,
+    options: &'a CompensationOptions,
+    rows: Vec<Measurement>,
+    corrected: Vec<CorrectedTarget>,
+    unreachable: Vec<String>,
+    flagged: Vec<String>,
+    flag_reasons: std::collections::BTreeMap<&'static str, usize>,
+    max_dq_deg: f64,
+    max_err_mm: f64,
+}
+
+impl<'a> Rows<'a> {
+    pub(crate) fn new(source: &'a str, options: &'a CompensationOptions) -> Self {
+        Rows {
+            source,
+            options,
+            rows: Vec::new(),
+            corrected: Vec::new(),
+            unreachable: Vec::new(),
+            flagged: Vec::new(),
+            flag_reasons: Default::default(),
+            max_dq_deg: 0.0,
+            max_err_mm: 0.0,
         }
     }
-    let csv = to_csv_string(&out_set, Some(&header)).map_err(|source| CalibrateError::Read {
-        context: "formatting the joints".into(),
-        source,
-    })?;
-    Ok(Compensation {
-        csv,
-        joints_deg,
-        compensated,
-        targets: set.rows.len(),
-        unreachable,
-        flagged,
-        flag_change_deg: options.flag_change_deg,
-        flag_reasons: flag_reasons.into_iter().collect(),
-        max_joint_change_deg: max_dq_deg,
-        max_ik_error_mm: max_err_mm,
-        notices: set.notices,
-    })
+
+    fn id_label(r: &Measurement) -> String {
+        r.id.as_ref().map_or(String::new(), |id| format!("{id}: "))
+    }
+
+    /// Target `r` left out: `file:line: id: unreachable{what}: why`.
+    pub(crate) fn unreachable(&mut self, r: &Measurement, what: &str, e: impl std::fmt::Display) {
+        self.unreachable.push(format!(
+            "{}:{}: {}unreachable{what}: {e}",
+            self.source,
+            r.line,
+            Self::id_label(r)
+        ));
+    }
+
+    /// Target `r` compensated by `c` at joints `q_rad` from the nominal controller's joints
+    /// `start_deg`; its corrected target is `nominal`'s ([`corrected_pose`]: the tool of
+    /// `nominal` is the TCP). The row written is the joints and `point` (joint targets: the
+    /// target point), or without one the corrected target (Cartesian targets).
+    pub(crate) fn record(
+        &mut self,
+        r: &Measurement,
+        start_deg: &[f64],
+        q_rad: &[f64],
+        c: &Compensated,
+        point: Option<[f64; 3]>,
+        nominal: &Robot,
+    ) {
+        let q_deg: Vec<f64> = q_rad.iter().map(|v| v.to_degrees()).collect();
+        let (position_mm, orientation_wxyz) = corrected_pose(nominal, &q_deg);
+        for (a, b) in q_deg.iter().zip(start_deg) {
+            self.max_dq_deg = self.max_dq_deg.max((a - b).abs());
+        }
+        self.max_err_mm = self.max_err_mm.max(c.report.pos_err_mm);
+        if let Some(first) = c.flags.first() {
+            *self.flag_reasons.entry(first.key()).or_default() += 1;
+            let changes: Vec<String> = q_deg
+                .iter()
+                .zip(start_deg)
+                .enumerate()
+                .filter(|(_, (a, b))| (*a - *b).abs() > self.options.flag_change_deg)
+                .map(|(i, (a, b))| format!("q{} {:+.2}°", i + 1, a - b))
+                .collect();
+            self.flagged.push(format!(
+                "{}:{}: {}{}: {}",
+                self.source,
+                r.line,
+                Self::id_label(r),
+                changes.join(", "),
+                c.flags
+                    .iter()
+                    .map(|f| f.to_string())
+                    .collect::<Vec<_>>()
+                    .join("; ")
+            ));
+        }
+        let id = r.id.clone().unwrap_or_else(|| format!("L{}", r.line));
+        self.corrected.push(CorrectedTarget {
+            id: id.clone(),
+            joints_deg: q_deg.clone(),
+            nominal_joints_deg: start_deg.to_vec(),
+            position_mm,
+            orientation_wxyz,
+            max_change_deg: c.max_change_deg,
+            flags: c.flags.clone(),
+        });
+        self.rows.push(Measurement {
+            line: 0,
+            id: Some(id),
+            q_deg,
+            point_mm: Some(point.unwrap_or(position_mm)),
+            orientation: point.is_none().then_some(orientation_wxyz),
+            ..Default::default()
+        });
+    }
+
+    /// The [`Compensation`] of the rows recorded for the targets `set` of `calibrated`, with
+    /// the output's comment `header` (the flagged rows are appended to it), or the refusal
+    /// of unreachable targets (unless allowed) or of none reachable.
+    pub(crate) fn finish(
+        self,
+        header: &mut String,
+        (calibrated, set, out_label): (&LoadedRobot, &MeasurementSet, &str),
+        allow_unreachable: bool,
+        orientation: OrientationSource,
+    ) -> Result<Compensation> {
+        if !self.unreachable.is_empty() && !allow_unreachable {
+            return Err(Refusal::Unreachable {
+                unreachable: self.unreachable,
+                targets: set.rows.len(),
+                file: set.source.clone(),
+                robot: calibrated.robot.name().to_string(),
+            }
+            .into());
+        }
+        if self.rows.is_empty() {
+            return Err(Refusal::NoneReachable {
+                unreachable: self.unreachable,
+                file: set.source.clone(),
+            }
+            .into());
+        }
+        let compensated = self.rows.len();
+        let joints_deg = self.rows.iter().map(|r| r.q_deg.clone()).collect();
+        let out_set = MeasurementSet::new(out_label, calibrated.robot.n_joints(), self.rows);
+        if !self.flagged.is_empty() {
+            header.push_str(&format!(
+                "\nflagged: {} rows move a joint by more than {}° (the nearest exact solution):",
+                self.flagged.len(),
+                self.options.flag_change_deg
+            ));
+            for f in &self.flagged {
+                header.push_str(&format!("\n  {f}"));
+            }
+        }
+        let csv = to_csv_string(&out_set, Some(header)).map_err(|source| CalibrateError::Read {
+            context: "formatting the joints".into(),
+            source,
+        })?;
+        Ok(Compensation {
+            csv,
+            joints_deg,
+            corrected: self.corrected,
+            orientation,
+            compensated,
+            targets: set.rows.len(),
+            unreachable: self.unreachable,
+            flagged: self.flagged,
+            flag_change_deg: self.options.flag_change_deg,
+            flag_reasons: self.flag_reasons.into_iter().collect(),
+            max_joint_change_deg: self.max_dq_deg,
+            max_ik_error_mm: self.max_err_mm,
+            notices: set.notices.clone(),
+        })
+    }
 }
 
 #[cfg(test)]

@@ -7,6 +7,8 @@
 //!        pipeline for points, 6-DoF and multi-target data, MeasurementKind)
 //! identified.json + joints.csv ─► predict                                  (joints)
 //! identified.json + registered-nominal.json + targets.csv ─► compensate   (joints)
+//! identified.json + registered-nominal.json + poses.csv ─► compensate     (cartesian:
+//!     the nominal controller's IK, then the calibrated model's; CorrectedTarget)
 //! ```
 //!
 //! Every function returns values; nothing is printed, rendered or written. A [`Calibration`]
@@ -15,6 +17,7 @@
 //! and the front ends write the files. Errors are [`CalibrateError`]s naming the file, line,
 //! column or request field at fault. The formats are those of `docs/model.md`.
 
+mod cartesian;
 pub mod checks;
 pub mod contamination;
 mod error;
@@ -33,6 +36,11 @@ pub mod tool_frame;
 mod tool_offset;
 mod workflow;
 
+pub use cartesian::{
+    CartesianOptions, CorrectedTarget, METRES_FRACTION, OrientationColumns, OrientationSource,
+    TargetFrame, Tcp, compensate_cartesian, compensate_file, compensate_poses, has_joint_columns,
+    read_cartesian,
+};
 pub use error::{CalibrateError, Refusal, Result};
 pub use files::{
     LoadedRobot, file_name, points_mm, poses_rad, radians_evidence, radians_notice, row_label,

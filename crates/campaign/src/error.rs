@@ -65,6 +65,24 @@ pub enum CampaignError {
         #[source]
         source: kinematics::ModelError,
     },
+    /// The calibration of a proof ([`crate::CartesianProof`]) failed.
+    #[error("{what}: {source}")]
+    Calibrate {
+        /// What was being done.
+        what: String,
+        /// Cause (boxed: a calibration error would set the size of every `Result` of this
+        /// crate).
+        #[source]
+        source: Box<calibrate::CalibrateError>,
+    },
+    /// A step of a proof ([`crate::CartesianProof`]) failed.
+    #[error("{what}: {reason}")]
+    Proof {
+        /// What was being done.
+        what: String,
+        /// Why.
+        reason: String,
+    },
     /// The ISO 9283 test could not be set up: the tracker of the scenario is unusable.
     #[error("ISO 9283 setup: {source}")]
     IsoTracker {

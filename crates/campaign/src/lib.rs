@@ -39,6 +39,7 @@ pub use requests::campaign::{
     CampaignOutcome, CampaignRun, Checkpointing, MAX_THREADS_PER_CORE, MergeOutcome, MergeRun,
     SimulateRun, cap_threads, default_out,
 };
+pub use requests::cartesian::{CartesianProof, CartesianProofOutcome, PoseErrors, TargetSetProof};
 pub use requests::check::{
     Baseline, CheckFile, CheckSpec, Comparison, Figures, RecoveryFigures, Tolerances, compare,
     run_check,

@@ -3,6 +3,7 @@
 
 mod budget;
 mod campaign;
+mod cartesian;
 mod common;
 mod extended;
 mod files;

@@ -232,6 +232,21 @@ pub fn compensate_nearest(
     options: &CompensationOptions,
 ) -> Result<Compensated, IkUnreachable> {
     let target = compensation_target(nominal, identified, q_rad);
+    compensate_nearest_to(identified, &target, q_rad, options)
+}
+
+/// [`compensate_nearest`] of any target: the exact solution of `identified` for `target`
+/// nearest the start `q_rad` (the nominal controller's joints; overwritten with the
+/// solution), flagged with its reasons when it moves a joint by more than
+/// [`CompensationOptions::flag_change_deg`] from them. On failure `q_rad` is restored.
+/// Cartesian targets use it with the nominal model's IK solution as the start.
+pub fn compensate_nearest_to(
+    identified: &Robot,
+    target: &IkTarget,
+    q_rad: &mut [f64],
+    options: &CompensationOptions,
+) -> Result<Compensated, IkUnreachable> {
+    let target = *target;
     let mut q_cmd = [0.0; kinematics::MAX_JOINTS];
     let n = q_rad.len().min(kinematics::MAX_JOINTS);
     q_cmd[..n].copy_from_slice(&q_rad[..n]);

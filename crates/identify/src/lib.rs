@@ -78,7 +78,8 @@ pub mod tool_registration;
 
 pub use compensation::{
     Compensated, CompensationOptions, DEFAULT_FLAG_CHANGE_DEG, FlagReason, compensate,
-    compensate_nearest, compensation_target, compensation_target_trig, singularity_reasons,
+    compensate_nearest, compensate_nearest_to, compensation_target, compensation_target_trig,
+    singularity_reasons,
 };
 pub use covariance::{
     CorrelatedPair, Covariance, NormalCovariance, covariance, covariance_at_solution,

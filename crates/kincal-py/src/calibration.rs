@@ -3,14 +3,14 @@
 
 use std::path::PathBuf;
 
-use numpy::{IntoPyArray, PyArray1, PyArray2, PyArrayDyn, PyArrayMethods};
+use numpy::{IntoPyArray, PyArray1, PyArray2, PyArrayDyn, PyArrayMethods, PyUntypedArrayMethods};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
 use crate::arrays::{
     ArrayArg, fk_array, joint_rows, joints_arg, memory_set, point_rows, rows_array, vec_rows_array,
 };
-use crate::errors::{kincal_error, save_outputs};
+use crate::errors::{kincal_error, refuse, save_outputs};
 use crate::options::{Shared, identify_request};
 use crate::robot::PyRobot;
 
@@ -19,6 +19,7 @@ pub(crate) fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<PyCalibration>()?;
     m.add_function(wrap_pyfunction!(py_identify, m)?)?;
     m.add_function(wrap_pyfunction!(py_compensate, m)?)?;
+    m.add_function(wrap_pyfunction!(py_compensate_cartesian, m)?)?;
     Ok(())
 }
 
@@ -378,16 +379,35 @@ pub(crate) fn calibrate_abandonable<T: Send + 'static>(
     })
 }
 
+/// The calibrated robot and the registered nominal one of a `Calibration` or a
+/// `FrameCalibration`.
+fn pair(
+    calibration: &Bound<'_, PyAny>,
+) -> PyResult<(calibrate::LoadedRobot, calibrate::LoadedRobot)> {
+    if let Ok(c) = calibration.cast::<PyCalibration>() {
+        let c = c.get();
+        return Ok((c.identified.clone(), c.registered.clone()));
+    }
+    if let Ok(c) = calibration.cast::<crate::frame_calibration::PyFrameCalibration>() {
+        let (identified, registered) = c.get().pair();
+        return Ok((identified.clone(), registered.clone()));
+    }
+    Err(pyo3::exceptions::PyTypeError::new_err(
+        "calibration: expected a Calibration (kincal.identify) or a FrameCalibration \
+         (kincal.identify_frames)",
+    ))
+}
+
 /// The joints `(n, N)` (degrees) to command so that the calibrated robot reaches the points
 /// the nominal robot (in the data's frame) reaches at `q_deg`, as `kincal compensate` with
 /// the calibration's `identified.json` and `registered-nominal.json`.
 #[pyfunction(name = "compensate")]
 fn py_compensate<'py>(
     py: Python<'py>,
-    calibration: &PyCalibration,
+    calibration: &Bound<'py, PyAny>,
     q_deg: ArrayArg<'py>,
 ) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
-    let nominal = &calibration.registered;
+    let (identified, nominal) = pair(calibration)?;
     let n = nominal.robot.n_joints();
     let (_, single) = joints_arg(&q_deg, n, "q_deg")?;
     let set = memory_set("q_deg", n, joint_rows(&q_deg, n, "q_deg")?, None);
@@ -395,8 +415,7 @@ fn py_compensate<'py>(
         let set = nominal
             .check_set(set, false, "target joints")
             .map_err(|e| kincal_error(&e))?;
-        calibrate::compensate_set(&calibration.identified, nominal, &set)
-            .map_err(|e| kincal_error(&e))
+        calibrate::compensate_set(&identified, &nominal, &set).map_err(|e| kincal_error(&e))
     })?;
     let out = vec_rows_array(py, &rows, n);
     Ok(if single {
@@ -406,4 +425,93 @@ fn py_compensate<'py>(
     } else {
         out.into_any().cast_into::<PyArrayDyn<f64>>()?
     })
+}
+
+/// Cartesian targets: the joints `(n, N)` (degrees) to command, and the corrected targets
+/// (positions `(n, 3)` mm and orientations `(n, 4)` wxyz, in the robot's base frame) for a
+/// controller running the nominal model, as `kincal compensate` with a targets file without
+/// joint columns.
+#[pyfunction(name = "compensate_cartesian")]
+#[pyo3(signature = (calibration, positions_mm, orientations_wxyz=None, *, frame="base", start_q_deg=None))]
+#[allow(clippy::type_complexity)]
+fn py_compensate_cartesian<'py>(
+    py: Python<'py>,
+    calibration: &Bound<'py, PyAny>,
+    positions_mm: ArrayArg<'py>,
+    orientations_wxyz: Option<ArrayArg<'py>>,
+    frame: &str,
+    start_q_deg: Option<Vec<f64>>,
+) -> PyResult<(
+    Bound<'py, PyArrayDyn<f64>>,
+    Bound<'py, PyArrayDyn<f64>>,
+    Bound<'py, PyArrayDyn<f64>>,
+)> {
+    let (identified, nominal) = pair(calibration)?;
+    let n = nominal.robot.n_joints();
+    let frame: calibrate::TargetFrame = frame
+        .parse()
+        .map_err(|e: String| refuse(format!("frame: {e}")))?;
+    let rows = positions_mm.shape().first().copied().unwrap_or(0);
+    let points = crate::arrays::point_rows(&positions_mm, rows, "positions_mm", "the targets")?;
+    let orientations = orientations_wxyz
+        .as_ref()
+        .map(|o| {
+            crate::arrays::fixed_rows::<4>(
+                o,
+                rows,
+                "orientations_wxyz",
+                "quaternion",
+                "positions_mm",
+            )
+        })
+        .transpose()?;
+    let targets = points
+        .iter()
+        .enumerate()
+        .map(|(k, p)| {
+            if let Some(v) = p.iter().find(|v| !v.is_finite()) {
+                return Err(refuse(format!(
+                    "positions_mm: row {k}: {v} is not a finite number"
+                )));
+            }
+            Ok(measurements::Measurement {
+                line: k + 1,
+                id: Some(format!("{k}")),
+                point_mm: Some(*p),
+                orientation: orientations.as_ref().map(|o| o[k]),
+                ..Default::default()
+            })
+        })
+        .collect::<PyResult<Vec<_>>>()?;
+    let set = measurements::MeasurementSet::new("target arrays", 0, targets);
+    set.check_rows().map_err(|e| refuse(e.to_string()))?;
+    let cartesian = calibrate::CartesianOptions {
+        frame,
+        start_deg: start_q_deg,
+        ..Default::default()
+    };
+    let c = py.detach(|| {
+        calibrate::compensate_poses(
+            &identified,
+            &nominal,
+            set,
+            false,
+            (&identify::CompensationOptions::default(), &cartesian),
+            "compensate_cartesian",
+        )
+        .map_err(|e| kincal_error(&e))
+    })?;
+    let q: Vec<Vec<f64>> = c.corrected.iter().map(|t| t.joints_deg.clone()).collect();
+    let p: Vec<Vec<f64>> = c.corrected.iter().map(|t| t.position_mm.to_vec()).collect();
+    let o: Vec<Vec<f64>> = c
+        .corrected
+        .iter()
+        .map(|t| t.orientation_wxyz.to_vec())
+        .collect();
+    let arr = |rows: &[Vec<f64>], k: usize| -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
+        Ok(vec_rows_array(py, rows, k)
+            .into_any()
+            .cast_into::<PyArrayDyn<f64>>()?)
+    };
+    Ok((arr(&q, n)?, arr(&p, 3)?, arr(&o, 4)?))
 }

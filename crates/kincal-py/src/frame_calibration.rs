@@ -219,9 +219,16 @@ fn py_identify_frames<'py>(
                 "robot",
             )
             .map_err(|e| kincal_error(&e))?;
+            let registered = calibrate::LoadedRobot::from_spec(
+                cal.registered_robot().to_spec(),
+                "registered-nominal.json",
+                "robot",
+            )
+            .map_err(|e| kincal_error(&e))?;
             Ok(PyFrameCalibration {
                 cal,
                 identified,
+                registered,
                 library_ms,
             })
         },
@@ -251,11 +258,18 @@ pub(crate) struct PyFrameCalibration {
     cal: calibrate::Calibration,
     /// The calibrated robot as written to `identified.json`.
     identified: calibrate::LoadedRobot,
+    /// The nominal robot in the data's frame, as `registered-nominal.json`.
+    registered: calibrate::LoadedRobot,
     /// Wall time of the library call `calibrate::calibrate`, ms.
     library_ms: f64,
 }
 
 impl PyFrameCalibration {
+    /// The calibrated robot and the registered nominal one: the pair `compensate` takes.
+    pub(crate) fn pair(&self) -> (&calibrate::LoadedRobot, &calibrate::LoadedRobot) {
+        (&self.identified, &self.registered)
+    }
+
     /// The calibration from 6-DoF or multi-target data (checked by `identify_frames`).
     fn tool(&self) -> &calibrate::ToolFrameCalibration {
         self.cal.tool_frame().expect("checked by identify_frames")
@@ -292,6 +306,15 @@ impl PyFrameCalibration {
             fk_array(py, robot, &q_deg)?,
             orientation_array(py, robot, &q_deg)?,
         ))
+    }
+
+    /// The nominal robot in the data's measurement frame, as `registered-nominal.json`
+    /// holds it: the nominal controller's model of compensation.
+    #[getter]
+    fn registered_nominal(&self) -> PyRobot {
+        PyRobot {
+            loaded: self.registered.clone(),
+        }
     }
 
     /// The unknowns of the fit as records `{"name", "unit", "start", "identified",

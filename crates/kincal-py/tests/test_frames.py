@@ -205,3 +205,31 @@ def test_predict_returns_the_orientation_of_kincal_predict(tmp_path):
     val = cal.validation["identified"]["orientation_mean_deg"]
     assert abs(angle.mean() - (100 * fit + 1395 * val) / 1495) < 1e-9
     assert 0.01 < angle.mean() < 0.05
+
+
+def test_compensate_cartesian_targets_of_a_frame_calibration():
+    """Cartesian targets with orientation on the UR10's 6-DoF calibration (issue 40): the
+    calibrated robot's TCP at the joints to command is on the targets (given again in the
+    measurement frame they give back the same joints); a FrameCalibration compensates joint
+    targets too; a quaternion that is not of unit norm names its row."""
+    q, p, o = six_dof()
+    robot = kincal.Robot.load(ROBOTS / "ur10.json")
+    cal = kincal.identify_frames(robot, q, p, orientations_wxyz=o, every=15)
+    rows = read_csv(REPO / "data" / "ur10-ipa" / "cartesian-targets.csv")
+    tp = np.array([[float(r[c]) for c in "xyz"] for r in rows])
+    to = np.array([[float(r[c]) for c in ("qw", "qx", "qy", "qz")] for r in rows])
+    start = [-166, -129, 121, -172, -4, 0]
+    qc, cp, co = kincal.compensate_cartesian(cal, tp, to, start_q_deg=start)
+    assert qc.shape == (15, 6) and cp.shape == (15, 3) and co.shape == (15, 4)
+    assert np.allclose(np.linalg.norm(co, axis=1), 1.0)
+    # The corrected targets are near the targets (the calibration moves by millimetres).
+    assert np.max(np.linalg.norm(cp - tp, axis=1)) < 10.0
+    # The calibrated TCP at the joints, in the measurement frame, as targets: the same joints.
+    mp, mo = cal.robot.fk(qc), cal.robot.fk_orientation(qc)
+    again, _, _ = kincal.compensate_cartesian(cal, mp, mo, frame="measurement", start_q_deg=start)
+    assert np.max(np.abs(again - qc)) < 1e-6
+    assert kincal.compensate(cal, q[::100]).shape == (15, 6)
+    bad = to.copy()
+    bad[4] *= 1.01
+    with pytest.raises(kincal.KincalError, match='target arrays:5: column "qw"'):
+        kincal.compensate_cartesian(cal, tp, bad, start_q_deg=start)

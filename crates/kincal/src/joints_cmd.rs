@@ -133,15 +133,52 @@ pub struct CompensateArgs {
     /// were in a tracker frame), use the `registered-nominal.json` it wrote.
     #[arg(long)]
     nominal: PathBuf,
-    /// Commanded joints (docs/model.md §5 joints-only CSV; other columns ignored).
+    /// Commanded joints (docs/model.md §5 joints-only CSV; other columns ignored), or
+    /// Cartesian targets: a file without joint columns, `x, y, z` (mm, the TCP's position)
+    /// and optionally `id` and an orientation (`qw, qx, qy, qz`, or `rx, ry, rz` read as
+    /// `--euler` says).
     #[arg(long)]
     targets: PathBuf,
     /// Output file [stdout; `-` is stdout too]: `id, q1…qN, x, y, z`: the joints to command (degrees) and the
     /// target point they reach on the calibrated model (mm; compare a re-measurement with
     /// it, e.g. `predict --joints` on this file). Rows without an id get `L<line>` (their
-    /// line in the targets file).
+    /// line in the targets file). For Cartesian targets `id, q1…qN, x, y, z, qw, qx, qy,
+    /// qz`: the joints to command and the corrected target for a controller that runs the
+    /// nominal model (its forward kinematics at those joints, in the robot's base frame).
     #[arg(long)]
     out: Option<PathBuf>,
+    /// Cartesian targets: how columns `rx, ry, rz` are read: Euler angles in degrees in a
+    /// convention of three axis letters (`XYZ` intrinsic … `xyz` extrinsic, as SciPy's
+    /// `from_euler`), `kuka` (KUKA's A, B, C = intrinsic ZYX), or `rotvec` (a UR rotation
+    /// vector, radians).
+    #[arg(long, value_name = "CONVENTION")]
+    euler: Option<calibrate::OrientationColumns>,
+    /// Cartesian targets: the frame they are given in, `base` (the robot's base frame: the
+    /// nominal robot file's `base`, the controller's frame) or `measurement` (the
+    /// calibration's measurement frame) [base].
+    #[arg(long, value_name = "FRAME", default_value = "base")]
+    frame: calibrate::TargetFrame,
+    /// Cartesian targets: the TCP in the flange frame, `x,y,z` mm or `x,y,z,rx,ry,rz` with
+    /// its rotation in degrees (R = Rz·Ry·Rx, the robot file's `tool_rotation_deg`)
+    /// [the calibrated robot's `tool_mm` and `tool_rotation_deg`]; the nominal model gets the
+    /// same TCP.
+    #[arg(
+        long,
+        value_name = "X,Y,Z[,RX,RY,RZ]",
+        value_delimiter = ',',
+        allow_negative_numbers = true
+    )]
+    tcp: Option<Vec<f64>>,
+    /// Cartesian targets: the joints (degrees) the nominal controller starts from: the first
+    /// target's nominal IK solution is the one nearest them, each next one the one nearest
+    /// the previous target's [each joint's 0 clamped to its limits].
+    #[arg(
+        long,
+        value_name = "Q1,…,QN",
+        value_delimiter = ',',
+        allow_negative_numbers = true
+    )]
+    start_joints: Option<Vec<f64>>,
     /// Write the reachable rows and list the unreachable ones instead of failing.
     #[arg(long)]
     allow_unreachable: bool,
@@ -154,7 +191,9 @@ pub struct CompensateArgs {
     /// Skip a check of the pair: `provenance` takes an `identified.json` and a
     /// `registered-nominal.json` that do not come from one identify run (or are swapped)
     /// as given.
-    #[arg(long, value_name = "CHECK", value_parser = ["provenance"])]
+    /// `length-units` takes Cartesian targets that all lie near the robot's base origin
+    /// (within 1 % of its size: metres, by the look of them) as millimetres.
+    #[arg(long, value_name = "CHECK", value_parser = ["provenance", "length-units"])]
     allow: Vec<String>,
     /// Output format [csv]: `kuka-krl` (a .dat of E6POS and E6AXIS), `abb-rapid` (a module of
     /// robtarget and jointtarget), `urscript` (poses p[…] and joints): per row the joints to
@@ -180,7 +219,7 @@ pub fn compensate(args: &CompensateArgs) -> Result<()> {
     }
     let calibrated = LoadedRobot::load(&args.robot, "calibrated robot")?;
     let nominal = LoadedRobot::load(&args.nominal, "nominal robot")?;
-    if args.allow.is_empty() {
+    if !args.allow.iter().any(|a| a == "provenance") {
         calibrate::provenance::check_pair(&calibrated, &nominal).map_err(|e| {
             anyhow::Error::new(e)
                 .context("refused by the provenance check (override: --allow provenance)")
@@ -196,19 +235,75 @@ pub fn compensate(args: &CompensateArgs) -> Result<()> {
         flag_change_deg: args.flag_change_deg,
         ..identify::CompensationOptions::default()
     };
-    let c = calibrate::compensate_targets(
+    let tcp = match args.tcp.as_deref() {
+        None => None,
+        Some(&[x, y, z]) => Some(calibrate::Tcp {
+            tool_mm: [x, y, z],
+            tool_rotation_deg: None,
+        }),
+        Some(&[x, y, z, rx, ry, rz]) => Some(calibrate::Tcp {
+            tool_mm: [x, y, z],
+            tool_rotation_deg: Some([rx, ry, rz]),
+        }),
+        Some(v) => anyhow::bail!(
+            "--tcp takes 3 or 6 numbers (x,y,z[,rx,ry,rz]), not {}",
+            v.len()
+        ),
+    };
+    if let Some(v) = args.tcp.iter().flatten().find(|v| !v.is_finite()) {
+        anyhow::bail!("--tcp: {v} is not a finite number");
+    }
+    let cartesian = calibrate::CartesianOptions {
+        frame: args.frame,
+        orientation_columns: args.euler,
+        tcp,
+        start_deg: args.start_joints.clone(),
+        allow_length_units: args.allow.iter().any(|a| a == "length-units"),
+    };
+    let c = calibrate::compensate_file(
         &calibrated,
         &nominal,
         &args.targets,
         args.allow_unreachable,
-        &options,
+        (&options, &cartesian),
         &out_label(args.out.as_deref()),
     )
     .map_err(|e| match e {
         CalibrateError::Refused(Refusal::Unreachable { .. }) => anyhow::Error::new(e)
             .context("some targets are unreachable; --allow-unreachable writes the others"),
+        CalibrateError::Refused(r @ Refusal::Implausible { .. }) => {
+            anyhow::anyhow!(r.in_words(calibrate::Front::Flags))
+        }
+        CalibrateError::Refused(Refusal::StartJoints { .. }) => {
+            anyhow::Error::new(e).context("--start-joints")
+        }
+        e @ CalibrateError::Read {
+            source: measurements::MeasurementError::EulerConventionMissing { .. },
+            ..
+        } => anyhow::Error::new(e).context(
+            "the targets give rx,ry,rz: name what they are with --euler (a convention such as \
+             XYZ or zyx, kuka for A,B,C, rotvec for a UR rotation vector in radians)",
+        ),
         e => e.into(),
     })?;
+    let cartesian_given = args.euler.is_some()
+        || args.tcp.is_some()
+        || args.start_joints.is_some()
+        || args.frame != calibrate::TargetFrame::Base;
+    if c.orientation == calibrate::OrientationSource::Held && cartesian_given {
+        crate::errln!(
+            "note: --euler, --frame, --tcp and --start-joints apply to Cartesian targets; {} \
+             has joint columns",
+            args.targets.display()
+        );
+    }
+    if c.orientation == calibrate::OrientationSource::LeftToNominal {
+        crate::errln!(
+            "orientation: left to the nominal model ({} has no tool orientation: a calibration \
+             of points; the calibrated solve holds the nominal solution's flange orientation)",
+            args.robot.display()
+        );
+    }
     for notice in &c.notices {
         crate::errln!("note: {notice}");
     }
@@ -265,22 +360,17 @@ fn program_text(
     if format == controller::Format::Csv {
         return Ok(c.csv.clone());
     }
-    let ids = c
-        .csv
-        .lines()
-        .filter(|l| !l.starts_with('#') && !l.trim().is_empty())
-        .skip(1)
-        .map(|l| l.split(',').next().unwrap_or_default().to_owned());
-    let targets: Vec<controller::Target> = ids
-        .zip(&c.joints_deg)
-        .map(|(name, q)| {
-            let (position_mm, orientation) = controller::tcp_pose(&nominal.robot, q);
-            controller::Target {
-                name,
-                joints_deg: q.clone(),
-                position_mm,
-                orientation_wxyz: Some(orientation),
-            }
+    // The rows as `calibrate::CorrectedTarget`s: the joints to command and the corrected
+    // target (the nominal model's TCP pose at them, in its base frame; for Cartesian targets
+    // with the TCP the compensation used).
+    let targets: Vec<controller::Target> = c
+        .corrected
+        .iter()
+        .map(|t| controller::Target {
+            name: t.id.clone(),
+            joints_deg: t.joints_deg.clone(),
+            position_mm: t.position_mm,
+            orientation_wxyz: Some(t.orientation_wxyz),
         })
         .collect();
     let declarations = controller::declare(&nominal.robot, &targets)?;

@@ -1308,3 +1308,106 @@ fn a_row_with_a_wrong_joint_neither_drags_the_registration_nor_passes() {
     );
     assert!(number_after(&stdout, "calibrated mean ") < 0.05, "{stdout}");
 }
+
+/// `compensate` of Cartesian targets (a file without joint columns, issue 40) on the UR10's
+/// 6-DoF calibration: every target compensated with its orientation, the output the joints
+/// and the corrected targets (`x, y, z, qw, qx, qy, qz`); a nominal robot moved far off is
+/// still refused, and on a calibration of points the output says the orientation was left
+/// to the nominal model. The same targets in metres are refused, naming the override.
+#[test]
+fn compensate_cartesian_targets_of_the_ur10_6dof_calibration() {
+    let tmp = tempfile::tempdir().unwrap();
+    let root = root();
+    let targets = root.join("data/ur10-ipa/cartesian-targets.csv");
+    let ur10 = root.join("scenarios/robots/ur10.json");
+    let mut calibrations = Vec::new();
+    for (data, name) in [
+        ("series-b-6dof.csv", "six"),
+        ("series-b-joint-configurations.csv", "pts"),
+    ] {
+        let dir = tmp.path().join(name);
+        ok(&kincal(&[
+            "identify",
+            "--robot",
+            s(&ur10),
+            "--data",
+            s(&root.join("data/ur10-ipa").join(data)),
+            "--every",
+            "15",
+            "--out",
+            s(&dir),
+        ]));
+        calibrations.push(dir);
+    }
+    let compensate = |dir: &Path, targets: &Path, extra: &[&str]| {
+        let mut args: Vec<String> = vec![
+            "compensate".to_string(),
+            "--robot".to_string(),
+            s(&dir.join("identified.json")).to_string(),
+            "--nominal".to_string(),
+            s(&dir.join("registered-nominal.json")).to_string(),
+            "--targets".to_string(),
+            s(targets).to_string(),
+            "--start-joints=-166,-129,121,-172,-4,0".to_string(),
+        ];
+        args.extend(extra.iter().map(|a| a.to_string()));
+        let args: Vec<&str> = args.iter().map(String::as_str).collect();
+        kincal(&args)
+    };
+    let out = compensate(&calibrations[0], &targets, &[]);
+    let csv = ok(&out);
+    let msg = stderr(&out);
+    assert!(msg.contains("compensated 15 of 15 targets"), "{msg}");
+    assert!(!msg.contains("orientation: left"), "{msg}");
+    assert!(
+        csv.contains("\nid,q1,q2,q3,q4,q5,q6,x,y,z,qw,qx,qy,qz\nc01,"),
+        "{csv}"
+    );
+    let out = compensate(&calibrations[1], &targets, &[]);
+    let csv = ok(&out);
+    assert!(
+        csv.contains("# orientation: left to the nominal model"),
+        "{csv}"
+    );
+    assert!(stderr(&out).contains("orientation: left to the nominal model"));
+    // Metres.
+    let text = std::fs::read_to_string(&targets).unwrap();
+    let metres: String = text
+        .lines()
+        .map(|l| match l.split(',').collect::<Vec<_>>()[..] {
+            [id, x, y, z, ref q @ ..] if id.starts_with('c') => {
+                let m = |v: &str| (v.parse::<f64>().unwrap() / 1000.0).to_string();
+                format!("{id},{},{},{},{}\n", m(x), m(y), m(z), q.join(","))
+            }
+            _ => format!("{l}\n"),
+        })
+        .collect();
+    let file = tmp.path().join("metres.csv");
+    std::fs::write(&file, metres).unwrap();
+    let out = compensate(&calibrations[0], &file, &[]);
+    assert_eq!(out.status.code(), Some(1));
+    let msg = stderr(&out);
+    assert!(
+        msg.contains("metres.csv: every target lies within")
+            && msg.contains("--allow length-units"),
+        "{msg}"
+    );
+    // Euler columns without a convention, and start joints of the wrong count (the
+    // helper's six and three more: a repeated list flag appends).
+    let file = tmp.path().join("euler.csv");
+    std::fs::write(&file, "id,x,y,z,rx,ry,rz\nc1,100,400,800,0,90,0\n").unwrap();
+    let msg = stderr(&compensate(&calibrations[0], &file, &[]));
+    assert!(
+        msg.contains("--euler") && msg.contains("euler.csv:1: column \"rx\""),
+        "{msg}"
+    );
+    let msg = stderr(&compensate(
+        &calibrations[0],
+        &targets,
+        &["--start-joints=1,2,3"],
+    ));
+    assert!(
+        msg.contains("--start-joints") && msg.contains("9 values for 6 joints"),
+        "{msg}"
+    );
+}

@@ -369,7 +369,9 @@ impl MeasurementSet {
 /// What the caller expects of a measurement file.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ReadOptions {
-    /// Number of joints N: the header must have exactly the joint columns `q1…qN`.
+    /// Number of joints N: the header must have exactly the joint columns `q1…qN`. 0 reads a
+    /// file of poses without joints (Cartesian targets: `x, y, z` required, an orientation
+    /// optional, any `q<k>` column refused); it needs [`ReadOptions::require_points`].
     pub n_joints: usize,
     /// Optional joint limits in degrees, one `[min, max]` per joint (inclusive). A value
     /// outside its limits is an error ([`MeasurementError::JointOutOfLimits`]).
@@ -391,6 +393,12 @@ pub struct ReadOptions {
     /// are the angles about x, y and z; for other sequences they are not (with `ZYX`, `rx` is
     /// the angle about z).
     pub euler: Option<EulerConvention>,
+    /// `true`: the columns `rx, ry, rz` hold a rotation vector (axis times angle, **radians**,
+    /// as a UR controller writes a pose's orientation), not Euler angles; a row's orientation
+    /// is [`rotvec_to_quaternion`]`([rx, ry, rz])`. A vector longer than one turn (2π) is
+    /// refused as degrees ([`MeasurementError::InvalidField`]). Takes the place of
+    /// [`ReadOptions::euler`].
+    pub rotation_vector: bool,
 }
 
 impl ReadOptions {
@@ -402,6 +410,7 @@ impl ReadOptions {
             require_points: true,
             min_rows: 0,
             euler: None,
+            rotation_vector: false,
         }
     }
 
@@ -427,6 +436,14 @@ impl ReadOptions {
     /// `"XYZ".parse()?` (intrinsic) or `"xyz".parse()?` (extrinsic).
     pub fn with_euler(mut self, convention: EulerConvention) -> Self {
         self.euler = Some(convention);
+        self
+    }
+
+    /// Read the columns `rx,ry,rz` as a rotation vector in radians
+    /// ([`ReadOptions::rotation_vector`]).
+    pub fn with_rotation_vector(mut self) -> Self {
+        self.rotation_vector = true;
+        self.euler = None;
         self
     }
 }

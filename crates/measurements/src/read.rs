@@ -101,8 +101,11 @@ fn check_options(source: &str, opts: &ReadOptions) -> Result<(), MeasurementErro
         file: source.to_owned(),
         reason,
     };
-    if opts.n_joints == 0 {
-        return Err(invalid("n_joints is 0".to_owned()));
+    // No joint columns: a file of poses (Cartesian targets), whose points are required.
+    if opts.n_joints == 0 && !opts.require_points {
+        return Err(invalid(
+            "n_joints is 0 and the points are not required (a file of nothing)".to_owned(),
+        ));
     }
     if let Some(limits) = &opts.limits_deg {
         if limits.len() != opts.n_joints {
@@ -295,7 +298,7 @@ fn parse_header(
              (rx,ry,rz); give one of the two",
         ));
     }
-    if has_euler && opts.euler.is_none() {
+    if has_euler && opts.euler.is_none() && !opts.rotation_vector {
         return Err(MeasurementError::EulerConventionMissing {
             file: source.to_owned(),
             line,
@@ -580,6 +583,19 @@ fn parse_row(
     }
     let orientation = if header.has_quat {
         Some(quat)
+    } else if header.has_euler && opts.rotation_vector {
+        let angle = euler.iter().map(|v| v * v).sum::<f64>().sqrt();
+        if angle > std::f64::consts::TAU {
+            return Err(invalid(
+                "rx",
+                format!(
+                    "the rotation vector (rx,ry,rz) has length {}, beyond one turn (2π = \
+                     6.2832): rotation vectors are read in radians (degrees? multiply by π/180)",
+                    short(angle)
+                ),
+            ));
+        }
+        Some(crate::rotvec_to_quaternion(euler))
     } else if header.has_euler {
         // The header check guarantees a convention.
         opts.euler.map(|c| c.to_quaternion(euler))
@@ -919,5 +935,48 @@ mod tests {
         assert_eq!(s.len(), MAX_QUOTED_CHARS + 3);
         assert!(s.ends_with("..."));
         assert_eq!(shorten("abc"), "abc");
+    }
+}
+
+#[cfg(test)]
+mod pose_file_tests {
+    use super::*;
+
+    /// A file of poses without joints (Cartesian targets, `n_joints` 0): points required, an
+    /// orientation by quaternion or Euler angles, a joint column refused with the count.
+    #[test]
+    fn a_file_of_poses_without_joints_reads_with_n_joints_0() {
+        let opts = ReadOptions::new(0);
+        let set = read_str(
+            "# targets\nid,x,y,z,qw,qx,qy,qz\nt1,1,2,3,1,0,0,0\n,4,5,6,0,0,0,1\n",
+            "t.csv",
+            &opts,
+        )
+        .unwrap();
+        assert_eq!(set.rows.len(), 2);
+        assert!(set.rows[0].q_deg.is_empty());
+        assert_eq!(set.rows[1].point_mm, Some([4.0, 5.0, 6.0]));
+        assert_eq!(set.rows[1].orientation, Some([0.0, 0.0, 0.0, 1.0]));
+        assert_eq!(set.rows[1].line, 4);
+        let euler = opts.clone().with_euler("ZYX".parse().unwrap());
+        let set = read_str("x,y,z,rx,ry,rz\n1,2,3,90,0,0\n", "t.csv", &euler).unwrap();
+        let q = set.rows[0].orientation.unwrap();
+        assert!((q[0] - q[3]).abs() < 1e-15 && q[1] == 0.0, "{q:?}");
+        let e = read_str("id,x,y\nt1,1,2\n", "t.csv", &opts).unwrap_err();
+        assert!(
+            e.to_string().contains("missing required column \"z\""),
+            "{e}"
+        );
+        let e = read_str("q1,x,y,z\n1,1,2,3\n", "t.csv", &opts).unwrap_err();
+        assert!(e.to_string().contains("0 joints are expected"), "{e}");
+        let rotvec = opts.clone().with_rotation_vector();
+        let set = read_str("x,y,z,rx,ry,rz\n1,2,3,0,0,1.5\n", "t.csv", &rotvec).unwrap();
+        let q = set.rows[0].orientation.unwrap();
+        assert!((q[0] - 0.75f64.cos()).abs() < 1e-15 && (q[3] - 0.75f64.sin()).abs() < 1e-15);
+        let e = read_str("x,y,z,rx,ry,rz\n1,2,3,0,0,90\n", "t.csv", &rotvec).unwrap_err();
+        assert!(e.to_string().contains("t.csv:2: column \"rx\""), "{e}");
+        assert!(e.to_string().contains("radians"), "{e}");
+        let e = read_str("x,y,z\n1,2,3\n", "t.csv", &opts.joints_only()).unwrap_err();
+        assert!(e.to_string().contains("n_joints is 0"), "{e}");
     }
 }

@@ -339,7 +339,9 @@ fn invalid_utf8_names_the_line() {
 fn invalid_options_are_reported() {
     let text = format!("{HEADER6}\n{ROW6}\n");
     for opts in [
-        ReadOptions::new(0),
+        // No joints and no points required: a file of nothing (no joints with points
+        // required is a file of poses, Cartesian targets).
+        ReadOptions::new(0).joints_only(),
         opts6().with_limits_deg(vec![[-1.0, 1.0]; 5]),
         opts6().with_limits_deg(vec![[1.0, -1.0]; 6]),
     ] {

@@ -522,6 +522,35 @@ impl World {
         })
     }
 
+    /// Where the true robot puts its tool frame at commanded joints `q_cmd_rad`, in the
+    /// measurement frame: the tool point and the frame's orientation (flange rotation times
+    /// the true tool rotation, what a 6-DoF probe reads), without scatter, drift or tracker
+    /// noise (with compliance, gears and the base-frame residual, as [`World::true_point`]):
+    /// the reference for evaluating the accuracy of a pose. Errors only for a wrong joint
+    /// count.
+    pub fn true_pose(
+        &self,
+        q_cmd_rad: &[f64],
+    ) -> Result<(Vector3<f64>, Matrix3<f64>), NotMeasurable> {
+        let n = self.nominal.n_joints();
+        if q_cmd_rad.len() != n {
+            return Err(NotMeasurable::JointCount {
+                expected: n,
+                found: q_cmd_rad.len(),
+            });
+        }
+        let mut q = [0.0; MAX_JOINTS];
+        self.unmodelled
+            .actual_joints(&self.true_robot, q_cmd_rad, &mut q[..n]);
+        let flange = self.true_robot.flange(&q[..n]);
+        let p = flange.transform_point(&self.true_robot.tool_mm());
+        let rot = flange.rot * self.true_robot.tool_rotation();
+        Ok(match self.tracker.residual_frame() {
+            Some(f) => (f.transform_point(&p), f.rot * rot),
+            None => (p, rot),
+        })
+    }
+
     /// The point of a sampled pose whose joints are `q`, bit for bit (see [`PointCache`]).
     fn cached_point(&mut self, q: &[f64]) -> Option<Vector3<f64>> {
         let n = q.len();

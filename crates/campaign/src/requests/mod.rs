@@ -3,6 +3,7 @@
 //! memory for bindings ([`in_memory`]) and the identifiability checks ([`check`]).
 
 pub(crate) mod campaign;
+pub(crate) mod cartesian;
 pub(crate) mod check;
 pub(crate) mod in_memory;
 pub(crate) mod sweep;

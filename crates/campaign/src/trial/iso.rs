@@ -23,7 +23,7 @@ pub struct IsoPlan {
 
 /// Finds the largest cube in the reachable, tracker-visible workspace around the ISO
 /// reference pose, and the nominal joints of P1…P5.
-pub(super) fn iso_plan(
+pub(crate) fn iso_plan(
     loaded: &LoadedScenario,
     tracker_cfg: &virtual_robot::TrackerConfig,
 ) -> Result<IsoPlan, CampaignError> {

@@ -10,6 +10,7 @@
 mod context;
 mod frames;
 mod iso;
+pub(crate) use iso::iso_plan;
 mod points;
 mod result;
 

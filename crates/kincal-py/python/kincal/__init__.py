@@ -8,7 +8,7 @@ overrides it.
 
 :class:`Robot` (load, from_urdf, save, to_urdf, fk, parameters), :func:`identify` →
 :class:`Calibration`, :func:`identify_frames` (6-DoF, several targets) →
-:class:`FrameCalibration`, :func:`compensate`, :func:`design`, :func:`campaign`,
+:class:`FrameCalibration`, :func:`compensate`, :func:`compensate_cartesian`, :func:`design`, :func:`campaign`,
 :func:`simulate`. See docs/python.md.
 """
 
@@ -21,6 +21,7 @@ from ._kincal import (
     __version__,
     campaign,
     compensate,
+    compensate_cartesian,
     design,
     identify,
     identify_frames,
@@ -36,6 +37,7 @@ __all__ = [
     "__version__",
     "campaign",
     "compensate",
+    "compensate_cartesian",
     "design",
     "identify",
     "identify_frames",

@@ -3,7 +3,7 @@
 Units everywhere: angles in degrees, lengths in millimetres; arrays are numpy float64.
 
 This stub is the contract of the package's API (issue 32): ``Robot``, ``identify`` →
-``Calibration``, ``compensate``, ``design``, ``campaign``, ``simulate``, ``KincalError``,
+``Calibration``, ``compensate``, ``compensate_cartesian``, ``design``, ``campaign``, ``simulate``, ``KincalError``,
 ``Refused``.
 mypy's stubtest checks it against the compiled module.
 """
@@ -26,6 +26,7 @@ __all__ = [
     "__version__",
     "campaign",
     "compensate",
+    "compensate_cartesian",
     "design",
     "identify",
     "identify_frames",
@@ -396,6 +397,11 @@ class FrameCalibration:
     def robot(self) -> Robot:
         """The calibrated robot with its tool frame (``identified.json``)."""
 
+    @property
+    def registered_nominal(self) -> Robot:
+        """The nominal robot in the data's measurement frame (``registered-nominal.json``):
+        the nominal controller's model of compensation."""
+
     def predict(
         self, q_deg: ArrayLike
     ) -> tuple[NDArray[np.float64], NDArray[np.float64] | None]:
@@ -482,11 +488,33 @@ def identify_frames(
     other options, the checks (:class:`Refused`) and ``allow`` are :func:`identify`'s.
     Raises KincalError with the library's message. The GIL is released during the work."""
 
-def compensate(calibration: Calibration, q_deg: ArrayLike) -> NDArray[np.float64]:
+def compensate(
+    calibration: Calibration | FrameCalibration, q_deg: ArrayLike
+) -> NDArray[np.float64]:
     """The joints ``(n, N)`` (degrees) that make the calibrated robot reach the points the
     registered nominal robot reaches at ``q_deg``, as ``kincal compensate`` with the
     calibration's ``identified.json`` and ``registered-nominal.json``; ``(N,)`` → ``(N,)``.
     Raises KincalError listing the unreachable rows."""
+
+def compensate_cartesian(
+    calibration: Calibration | FrameCalibration,
+    positions_mm: ArrayLike,
+    orientations_wxyz: ArrayLike | None = None,
+    *,
+    frame: Literal["base", "measurement"] = "base",
+    start_q_deg: Sequence[float] | None = None,
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """Cartesian targets, as ``kincal compensate`` with a targets file without joint columns:
+    TCP positions ``(n, 3)`` (mm) and optionally orientations ``(n, 4)`` (unit quaternions,
+    scalar first), in the robot's base frame (``frame="base"``, the registered nominal's
+    base: the controller's) or the measurement frame. Each target is solved on the nominal
+    model from the previous one's solution (the first from ``start_q_deg``, default each
+    joint's 0 within its limits), then on the calibrated model from there (with the
+    orientation when the calibration has one; else the orientation is left to the nominal
+    model). Returns ``(q_deg, positions_mm, orientations_wxyz)``: the joints to command
+    ``(n, N)`` and the corrected targets ``(n, 3)``, ``(n, 4)`` — the nominal model's
+    forward kinematics at those joints in the base frame, for a controller that runs the
+    nominal model. Raises KincalError listing the unreachable rows."""
 
 def design(
     robot: Robot,
