@@ -269,6 +269,38 @@ fn compensation_lands_closer(
             (p - target).norm()
         );
     }
+    // Cartesian targets (the nominal TCP poses in the measurement frame, each solved from
+    // its commanded joints): the same fixed point, the same joints.
+    for t in hybrid.corrected.iter().take(20) {
+        let f = nominal.robot.flange(&rad(&t.nominal_joints_deg));
+        let p = f.transform_point(&nominal.robot.tool_mm());
+        let row = Measurement {
+            line: 2,
+            id: Some(t.id.clone()),
+            point_mm: Some([p.x, p.y, p.z]),
+            orientation: Some(kinematics::rotation::unit_quaternion(&f.rot)),
+            ..Default::default()
+        };
+        let cartesian = calibrate::CartesianOptions {
+            frame: calibrate::TargetFrame::Measurement,
+            start_deg: Some(t.nominal_joints_deg.clone()),
+            ..Default::default()
+        };
+        let c = calibrate::compensate_poses_with(
+            (robot, Some(model)),
+            nominal,
+            MeasurementSet::new("poses.csv", 0, vec![row]),
+            false,
+            (&opts, &cartesian),
+            "out",
+        )
+        .unwrap();
+        assert!(c.csv.contains("residual model: applied"), "{}", c.csv);
+        for (a, b) in c.joints_deg[0].iter().zip(&t.joints_deg) {
+            assert!((a - b).abs() < 1e-6, "{}: {a} vs {b}", t.id);
+        }
+    }
+
     let (g, h) = (landed(&geometric), landed(&hybrid));
     eprintln!(
         "true robot at the compensated joints of {} of {} targets: geometry only mean {:.4} mm, max \
