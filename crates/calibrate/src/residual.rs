@@ -216,11 +216,13 @@ pub fn load_model(robot: &LoadedRobot) -> Result<Option<ResidualModel>> {
 /// between two steps, mm [1e-7: a tenth of the IK's position tolerance (1e-6 mm), so that
 /// `FK_geom(q) + r(q)` meets the target to the IK's tolerance; the mean is smooth and its
 /// slope against the point is ~1e-4 (tenths of a mm over a metre), so each step shrinks the
-/// change ~10⁴-fold and two or three steps reach it].
+/// change ~10⁴-fold and two or three steps reach it away from singularities (on the UR10
+/// recording at most four, and six at its first pose, singular three ways at once)].
 pub const FIXED_POINT_TOL_MM: f64 = 1e-7;
 
 /// Most steps of the fixed point of [`compensate_to`] after the geometric solution [10: it
-/// takes two or three; a target that needs more is refused, naming it].
+/// takes two or three, six at a pose singular three ways; a target that needs more is
+/// refused, naming it].
 pub const FIXED_POINT_MAX_STEPS: usize = 10;
 
 /// What the fixed point of [`compensate_to`] did for one target.
