@@ -273,7 +273,7 @@ pub(crate) fn check_same_frame(
 /// `nominal`'s (flange orientation held), by IK of the calibrated model. Unreachable targets
 /// are an error listing them ([`Refusal::Unreachable`]) unless `allow_unreachable`, which
 /// leaves them out; `out_label` names the output. Each row is the exact solution nearest the
-/// commanded joints ([`compensate_nearest`]); rows moving a joint by more than
+/// commanded joints ([`identify::compensate_nearest`]); rows moving a joint by more than
 /// `options.flag_change_deg` are written, and listed with their reason
 /// ([`Compensation::flagged`], and in the output's comment header).
 pub fn compensate_targets(

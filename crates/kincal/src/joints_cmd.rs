@@ -1,5 +1,5 @@
-//! `kincal predict | compensate`: parse, call [`calibrate::predict`] /
-//! [`calibrate::compensate_targets`], write or print.
+//! `kincal predict | compensate`: parse, load the residual model the robot names, call
+//! [`calibrate::predict_with`] / [`calibrate::compensate_file`], write or print.
 
 use std::path::{Path, PathBuf};
 
