@@ -407,7 +407,8 @@ fn fixed_point(
     }
     Err(format!(
         "the residual model's fixed point did not converge in {FIXED_POINT_MAX_STEPS} steps \
-         (the model's mean still moved by {change:.3e} mm in the last, tolerance \
-         {FIXED_POINT_TOL_MM:e} mm): compensate it with --geometry-only or leave it out"
+         (the model's mean still moved by {} mm in the last, tolerance {FIXED_POINT_TOL_MM:e} \
+         mm): compensate it with the geometry alone (--geometry-only) or leave it out",
+        measurements::number(change, 4)
     ))
 }

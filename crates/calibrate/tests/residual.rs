@@ -185,6 +185,13 @@ fn structure_is_kept_written_read_back_and_checked() {
     std::fs::write(&nominal_path, registered.to_json_string()).unwrap();
     let nominal = LoadedRobot::load(&nominal_path, "nominal").unwrap();
     compensation_lands_closer(&robot, &nominal, &model, &truth, &fresh[..120]);
+    let trained: Vec<Vec<f64>> = rows
+        .iter()
+        .skip(1)
+        .step_by(19)
+        .map(|r| r.q_deg.clone())
+        .collect();
+    fixed_point_that_does_not_converge_is_refused(&robot, &nominal, &model_text, &trained);
 
     // A model file changed after the fact is refused, naming both files.
     std::fs::write(&model_path, model_text.replacen("0.", "1.", 1)).unwrap();
@@ -316,6 +323,77 @@ fn compensation_lands_closer(
         h.0 < 0.5 * g.0 && h.1 < g.1,
         "hybrid {h:?} vs geometry {g:?}"
     );
+}
+
+/// A model whose mean moves faster with the joints than the point does (the kept model's
+/// residuals ×200, ~50 mm, over length scales of 0.02 rad
+/// around its training poses, where the UR10's point moves ~1 mm per milliradian) has no
+/// fixed point to converge to at those poses (`targets`):
+/// compensation refuses the targets, naming each and why; `--allow-unreachable` (here
+/// `allow_unreachable`) leaves them out.
+fn fixed_point_that_does_not_converge_is_refused(
+    robot: &LoadedRobot,
+    nominal: &LoadedRobot,
+    model_text: &str,
+    targets: &[Vec<f64>],
+) {
+    let mut json: serde_json::Value = serde_json::from_str(model_text).unwrap();
+    json["hyperparameters"]["length_scales_rad"] = serde_json::json!(vec![0.02; 6]);
+    for key in [
+        "residual_mean_mm",
+        "residual_scale_mm",
+        "training_residuals_mm",
+    ] {
+        scale(&mut json[key], 200.0);
+    }
+    let wild =
+        calibrate::residual::ResidualModel::from_json_str(&json.to_string(), "wild").unwrap();
+    let rows = targets
+        .iter()
+        .enumerate()
+        .map(|(k, q)| Measurement::new(q.clone(), None).with_id(format!("t{k}")))
+        .collect();
+    let set = MeasurementSet::new("targets.csv", 6, rows);
+    let opts = identify::CompensationOptions::default();
+    let run = |allow| {
+        calibrate::compensate_rows_with(
+            (robot, Some(&wild)),
+            nominal,
+            set.clone(),
+            allow,
+            &opts,
+            "o",
+        )
+    };
+    let e = run(false).unwrap_err().to_string();
+    assert!(e.contains("targets.csv:0: t0: unreachable: "), "{e}");
+    assert!(
+        e.contains("the residual model's fixed point did not converge in 10 steps"),
+        "{e}"
+    );
+    match run(true) {
+        Ok(c) => {
+            assert!(
+                c.unreachable.iter().all(|u| u.contains("residual model")),
+                "{c:?}"
+            );
+            assert!(c.compensated < targets.len() / 2, "{:?}", c.unreachable);
+        }
+        Err(e) => {
+            let e = e.to_string();
+            assert!(e.contains("no target in targets.csv is reachable"), "{e}");
+            assert_eq!(e.matches("did not converge").count(), targets.len(), "{e}");
+        }
+    }
+}
+
+/// Every number in `v` times `factor`.
+fn scale(v: &mut serde_json::Value, factor: f64) {
+    match v {
+        serde_json::Value::Number(n) => *v = serde_json::json!(n.as_f64().unwrap() * factor),
+        serde_json::Value::Array(a) => a.iter_mut().for_each(|x| scale(x, factor)),
+        _ => {}
+    }
 }
 
 /// Orientation residuals are not modelled: a 6-DoF calibration is refused, with the way to
