@@ -220,12 +220,7 @@ fn compensation_lands_closer(
     truth: &Robot,
     targets: &[Vec<f64>],
 ) {
-    let rows = targets
-        .iter()
-        .enumerate()
-        .map(|(k, q)| Measurement::new(q.clone(), None).with_id(format!("t{k}")))
-        .collect();
-    let set = MeasurementSet::new("targets.csv", 6, rows);
+    let set = joint_targets(targets);
     let opts = identify::CompensationOptions::default();
     let run = |m: Option<&calibrate::residual::ResidualModel>| {
         calibrate::compensate_rows_with((robot, m), nominal, set.clone(), true, &opts, "out")
@@ -348,12 +343,7 @@ fn fixed_point_that_does_not_converge_is_refused(
     }
     let wild =
         calibrate::residual::ResidualModel::from_json_str(&json.to_string(), "wild").unwrap();
-    let rows = targets
-        .iter()
-        .enumerate()
-        .map(|(k, q)| Measurement::new(q.clone(), None).with_id(format!("t{k}")))
-        .collect();
-    let set = MeasurementSet::new("targets.csv", 6, rows);
+    let set = joint_targets(targets);
     let opts = identify::CompensationOptions::default();
     let run = |allow| {
         calibrate::compensate_rows_with(
@@ -364,8 +354,9 @@ fn fixed_point_that_does_not_converge_is_refused(
             &opts,
             "o",
         )
+        .map_err(|e| e.to_string())
     };
-    let e = run(false).unwrap_err().to_string();
+    let e = run(false).unwrap_err();
     assert!(e.contains("targets.csv:0: t0: unreachable: "), "{e}");
     assert!(
         e.contains("the residual model's fixed point did not converge in 10 steps"),
@@ -380,11 +371,20 @@ fn fixed_point_that_does_not_converge_is_refused(
             assert!(c.compensated < targets.len() / 2, "{:?}", c.unreachable);
         }
         Err(e) => {
-            let e = e.to_string();
             assert!(e.contains("no target in targets.csv is reachable"), "{e}");
             assert_eq!(e.matches("did not converge").count(), targets.len(), "{e}");
         }
     }
+}
+
+/// The joint targets `q` (degrees) as a targets file read, ids `t0`, `t1`, ….
+fn joint_targets(q: &[Vec<f64>]) -> MeasurementSet {
+    let rows = q
+        .iter()
+        .enumerate()
+        .map(|(k, q)| Measurement::new(q.clone(), None).with_id(format!("t{k}")))
+        .collect();
+    MeasurementSet::new("targets.csv", 6, rows)
 }
 
 /// Every number in `v` times `factor`.
