@@ -402,6 +402,12 @@ fn program_text(
         c.compensated,
         nominal.path.display()
     )];
+    if let Some(m) = &c.residual_model {
+        header.push(format!(
+            "residual model applied: the joints include the mean of {} (docs/residual-model.md)",
+            m.file
+        ));
+    }
     header.extend(c.flagged.iter().map(|f| format!("flagged: {f}")));
     let stem = out
         .filter(|p| !crate::is_stdout(p))

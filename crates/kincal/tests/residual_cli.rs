@@ -155,6 +155,12 @@ fn compensate_applies_the_model(dir: &std::path::Path, a: &std::path::Path) {
         &hybrid[..hybrid.len().min(1500)]
     );
     assert_eq!(compensate(&robot, &dir.join("h2.csv"), &[]).1, hybrid);
+    let (_, krl) = compensate(&robot, &dir.join("h.dat"), &["--format", "kuka-krl"]);
+    assert!(
+        krl.contains("residual model applied: the joints include the mean of residual-model.json"),
+        "{}",
+        &krl[..krl.len().min(800)]
+    );
     let (console, geometric) = compensate(&robot, &dir.join("g.csv"), &["--geometry-only"]);
     assert!(console.contains("--geometry-only"), "{console}");
     assert!(!geometric.contains("residual model") && geometric != hybrid);
