@@ -17,7 +17,7 @@ use std::fmt;
 use std::path::Path;
 use std::str::FromStr;
 
-use identify::{CompensationOptions, FlagReason, compensate_nearest_to, compensation_target};
+use identify::{CompensationOptions, FlagReason, compensation_target};
 use kinematics::rotation::unit_quaternion;
 use kinematics::{Frame, IkTarget, Robot};
 use measurements::{EulerConvention, MeasurementSet, ReadOptions, quaternion_to_matrix, read_str};
@@ -349,6 +349,33 @@ pub fn compensate_poses(
     (options, cartesian): (&CompensationOptions, &CartesianOptions),
     out_label: &str,
 ) -> Result<Compensation> {
+    compensate_poses_with(
+        (calibrated, None),
+        nominal,
+        set,
+        allow_unreachable,
+        (options, cartesian),
+        out_label,
+    )
+}
+
+/// [`compensate_poses`] with the learned residual model of `calibrated`, if given, as
+/// [`crate::compensate_rows_with`] applies it: the calibrated solve brings `FK(q) + r(q)`
+/// onto each target's position (its orientation as without the model: the model is
+/// position-only). With a TCP other than the calibrated robot's (`--tcp`), the model's
+/// correction of the measured point is applied to it as is. Without a model the result is
+/// [`compensate_poses`]'s.
+///
+/// # Errors
+/// As [`compensate_poses`].
+pub fn compensate_poses_with(
+    (calibrated, model): (&LoadedRobot, Option<&residual::ResidualModel>),
+    nominal: &LoadedRobot,
+    set: MeasurementSet,
+    allow_unreachable: bool,
+    (options, cartesian): (&CompensationOptions, &CartesianOptions),
+    out_label: &str,
+) -> Result<Compensation> {
     check_same_layout(calibrated, nominal)?;
     if set.rows.is_empty() {
         return Err(Refusal::NoTargets {
@@ -356,6 +383,7 @@ pub fn compensate_poses(
         }
         .into());
     }
+    crate::residual::check_joints(calibrated, model)?;
     let (tcp_cal, tcp) = cartesian.tcp.map_or_else(
         || {
             let (cal, mut nom) = (Tcp::of(&calibrated.robot), Tcp::of(&nominal.robot));
@@ -412,7 +440,7 @@ pub fn compensate_poses(
         .flat_map(|(_, q)| q.iter().copied())
         .collect();
     check_same_frame(calibrated, nominal, &solved_poses)?;
-    let mut rows = Rows::new(&set.source, options);
+    let mut rows = Rows::new(&set.source, options, model);
     for (r, solution) in set.rows.iter().zip(solutions) {
         let (target, q_nom) = match solution {
             Ok(s) => s,
@@ -432,12 +460,7 @@ pub fn compensate_poses(
         };
         let mut q = q_nom.clone();
         let nominal_deg: Vec<f64> = q_nom.iter().map(|v| v.to_degrees()).collect();
-        match compensate_nearest_to(&cal, &target, &mut q, options) {
-            Ok(c) => {
-                rows.record(r, &nominal_deg, &q, &c, None, &nom);
-            }
-            Err(e) => rows.unreachable(r, "", e),
-        }
+        rows.compensate(r, (&cal, &target), (&nominal_deg, &mut q), None, &nom);
     }
     let mut header = format!(
         "kincal compensate: joints (degrees) to command so that {} ({}; TCP {}) reaches the \
@@ -476,9 +499,12 @@ pub fn compensate_poses(
 /// either kind: joint targets when its header has joint columns (as
 /// [`crate::compensate_targets`]; `cartesian` is not used), Cartesian targets otherwise (as
 /// [`compensate_cartesian`]). [`Compensation::orientation`] tells which
-/// ([`OrientationSource::Held`] for joint targets).
+/// ([`OrientationSource::Held`] for joint targets). With a residual model `model` (that of
+/// `calibrated`, [`crate::residual::load_model`]) both kinds apply it
+/// ([`crate::compensate_rows_with`], [`compensate_poses_with`]); with `None` the geometry
+/// alone.
 pub fn compensate_file(
-    calibrated: &LoadedRobot,
+    (calibrated, model): (&LoadedRobot, Option<&residual::ResidualModel>),
     nominal: &LoadedRobot,
     targets: &Path,
     allow_unreachable: bool,
@@ -492,8 +518,8 @@ pub fn compensate_file(
         let what = "target joint file";
         let set =
             nominal.read_text_with(&text, &source, false, (0, None), what, (1.0, 1.0), None)?;
-        crate::compensate_rows(
-            calibrated,
+        crate::compensate_rows_with(
+            (calibrated, model),
             nominal,
             set,
             allow_unreachable,
@@ -502,8 +528,8 @@ pub fn compensate_file(
         )
     } else {
         let set = read_cartesian(&text, &source, cartesian.orientation_columns)?;
-        compensate_poses(
-            calibrated,
+        compensate_poses_with(
+            (calibrated, model),
             nominal,
             set,
             allow_unreachable,

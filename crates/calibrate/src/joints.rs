@@ -3,15 +3,16 @@
 
 use std::path::Path;
 
-use identify::{Compensated, CompensationOptions, compensate_nearest, kabsch};
-use kinematics::Robot;
+use identify::{Compensated, CompensationOptions, compensation_target, kabsch};
 use kinematics::rotation::{log_so3, unit_quaternion};
+use kinematics::{IkTarget, Robot};
 use measurements::{Measurement, MeasurementSet, quaternion_to_matrix, to_csv_string};
 use nalgebra::{Matrix3, Vector3};
 
 use crate::cartesian::{CorrectedTarget, OrientationSource, corrected_pose};
 use crate::error::{CalibrateError, Refusal, Result};
 use crate::files::{LoadedRobot, file_name, poses_rad};
+use crate::residual::{FixedPoint, ResidualApplied, compensate_to};
 
 /// The predicted points of a robot at the rows of a joint file.
 #[derive(Clone, Debug)]
@@ -219,6 +220,9 @@ pub struct Compensation {
     pub max_ik_error_mm: f64,
     /// Reader notices (ignored columns).
     pub notices: Vec<String>,
+    /// When a learned residual model was applied (`compensate_rows_with`, …): its file and
+    /// what its fixed point did; `None` with the geometry alone.
+    pub residual_model: Option<ResidualApplied>,
 }
 
 /// The size of a robot for [`SAME_FRAME_FRACTION`]: `Σ(|a_i| + |d_i|) + |t|`, mm.
@@ -269,7 +273,7 @@ pub(crate) fn check_same_frame(
 /// `nominal`'s (flange orientation held), by IK of the calibrated model. Unreachable targets
 /// are an error listing them ([`Refusal::Unreachable`]) unless `allow_unreachable`, which
 /// leaves them out; `out_label` names the output. Each row is the exact solution nearest the
-/// commanded joints ([`compensate_nearest`]); rows moving a joint by more than
+/// commanded joints ([`identify::compensate_nearest`]); rows moving a joint by more than
 /// `options.flag_change_deg` are written, and listed with their reason
 /// ([`Compensation::flagged`], and in the output's comment header).
 pub fn compensate_targets(
@@ -336,6 +340,33 @@ pub fn compensate_rows(
     options: &CompensationOptions,
     out_label: &str,
 ) -> Result<Compensation> {
+    compensate_rows_with(
+        (calibrated, None),
+        nominal,
+        set,
+        allow_unreachable,
+        options,
+        out_label,
+    )
+}
+
+/// [`compensate_rows`] with the learned residual model of `calibrated`, if given
+/// ([`crate::residual::load_model`]): the joints bring the calibrated robot's point with the
+/// model's mean, `FK(q) + r(q)`, onto each target ([`crate::residual::FIXED_POINT_TOL_MM`];
+/// a target whose fixed point does not converge is left out as unreachable, naming it), and
+/// the output's header says so ([`Compensation::residual_model`]). Without a model the
+/// result is [`compensate_rows`]'s.
+///
+/// # Errors
+/// As [`compensate_rows`].
+pub fn compensate_rows_with(
+    (calibrated, model): (&LoadedRobot, Option<&residual::ResidualModel>),
+    nominal: &LoadedRobot,
+    set: MeasurementSet,
+    allow_unreachable: bool,
+    options: &CompensationOptions,
+    out_label: &str,
+) -> Result<Compensation> {
     check_same_layout(calibrated, nominal)?;
     if set.rows.is_empty() {
         return Err(Refusal::NoTargets {
@@ -343,25 +374,25 @@ pub fn compensate_rows(
         }
         .into());
     }
+    crate::residual::check_joints(calibrated, model)?;
     let (id_r, nom_r): (&Robot, &Robot) = (&calibrated.robot, &nominal.robot);
     let n = nom_r.n_joints();
     check_same_frame(calibrated, nominal, &poses_rad(&set.rows))?;
-    let mut rows = Rows::new(&set.source, options);
+    let mut rows = Rows::new(&set.source, options, model);
     let mut q = vec![0.0; n];
-    let mut cmd = vec![0.0; n];
     for r in &set.rows {
         for (qr, d) in q.iter_mut().zip(&r.q_deg) {
             *qr = d.to_radians();
         }
-        cmd.copy_from_slice(&q);
-        match compensate_nearest(nom_r, id_r, &mut q, options) {
-            Ok(c) => {
-                let target = nom_r.point(&cmd);
-                let point = [target.x, target.y, target.z];
-                rows.record(r, &r.q_deg, &q, &c, Some(point), nom_r);
-            }
-            Err(e) => rows.unreachable(r, "", e),
-        }
+        let p = nom_r.point(&q);
+        let target = compensation_target(nom_r, id_r, &q);
+        rows.compensate(
+            r,
+            (id_r, &target),
+            (&r.q_deg, &mut q),
+            Some([p.x, p.y, p.z]),
+            nom_r,
+        );
     }
     let mut header = format!(
         "kincal compensate: joints (degrees) to command so that {} ({}) reaches the points of \
@@ -385,6 +416,8 @@ pub fn compensate_rows(
 pub(crate) struct Rows<'a> {
     source: &'a str,
     options: &'a CompensationOptions,
+    model: Option<&'a residual::ResidualModel>,
+    fixed: Vec<FixedPoint>,
     rows: Vec<Measurement>,
     corrected: Vec<CorrectedTarget>,
     unreachable: Vec<String>,
@@ -395,10 +428,16 @@ pub(crate) struct Rows<'a> {
 }
 
 impl<'a> Rows<'a> {
-    pub(crate) fn new(source: &'a str, options: &'a CompensationOptions) -> Self {
+    pub(crate) fn new(
+        source: &'a str,
+        options: &'a CompensationOptions,
+        model: Option<&'a residual::ResidualModel>,
+    ) -> Self {
         Rows {
             source,
             options,
+            model,
+            fixed: Vec::new(),
             rows: Vec::new(),
             corrected: Vec::new(),
             unreachable: Vec::new(),
@@ -423,11 +462,32 @@ impl<'a> Rows<'a> {
         ));
     }
 
+    /// Target `r` solved for `target` on `identified` ([`compensate_to`], with the residual
+    /// model if there is one) from the joints `q_rad` (the nominal controller's, `start_deg`
+    /// in degrees; overwritten with the solution) and recorded ([`Rows::record`]), or left out
+    /// with the reason.
+    pub(crate) fn compensate(
+        &mut self,
+        r: &Measurement,
+        (identified, target): (&Robot, &IkTarget),
+        (start_deg, q_rad): (&[f64], &mut [f64]),
+        point: Option<[f64; 3]>,
+        nominal: &Robot,
+    ) {
+        match compensate_to(identified, target, q_rad, self.options, self.model) {
+            Ok((c, fixed)) => {
+                self.record(r, start_deg, q_rad, &c, point, nominal);
+                self.fixed.extend(fixed);
+            }
+            Err(e) => self.unreachable(r, "", e),
+        }
+    }
+
     /// Target `r` compensated by `c` at joints `q_rad` from the nominal controller's joints
     /// `start_deg`; its corrected target is `nominal`'s ([`corrected_pose`]: the tool of
     /// `nominal` is the TCP). The row written is the joints and `point` (joint targets: the
     /// target point), or without one the corrected target (Cartesian targets).
-    pub(crate) fn record(
+    fn record(
         &mut self,
         r: &Measurement,
         start_deg: &[f64],
@@ -513,6 +573,12 @@ impl<'a> Rows<'a> {
         let compensated = self.rows.len();
         let joints_deg = self.rows.iter().map(|r| r.q_deg.clone()).collect();
         let out_set = MeasurementSet::new(out_label, calibrated.robot.n_joints(), self.rows);
+        let residual_model = self
+            .model
+            .map(|_| ResidualApplied::of(calibrated, &self.fixed));
+        if let Some(applied) = &residual_model {
+            header.push_str(&applied.header_line());
+        }
         if !self.flagged.is_empty() {
             header.push_str(&format!(
                 "\nflagged: {} rows move a joint by more than {}° (the nearest exact solution):",
@@ -541,6 +607,7 @@ impl<'a> Rows<'a> {
             max_joint_change_deg: self.max_dq_deg,
             max_ik_error_mm: self.max_err_mm,
             notices: set.notices.clone(),
+            residual_model,
         })
     }
 }

@@ -38,8 +38,8 @@ mod workflow;
 
 pub use cartesian::{
     CartesianOptions, CorrectedTarget, METRES_FRACTION, OrientationColumns, OrientationSource,
-    TargetFrame, Tcp, compensate_cartesian, compensate_file, compensate_poses, has_joint_columns,
-    read_cartesian,
+    TargetFrame, Tcp, compensate_cartesian, compensate_file, compensate_poses,
+    compensate_poses_with, has_joint_columns, read_cartesian,
 };
 pub use error::{CalibrateError, Refusal, Result};
 pub use files::{
@@ -47,7 +47,7 @@ pub use files::{
 };
 pub use joints::{
     Compensation, Prediction, SAME_FRAME_DEG, SAME_FRAME_FRACTION, SAME_FRAME_MM, compensate_rows,
-    compensate_targets, orientation_wxyz, predict, predict_with,
+    compensate_rows_with, compensate_targets, orientation_wxyz, predict, predict_with,
 };
 pub use memory::compensate_set;
 pub use pipeline::{MAX_CONCENTRATION_STEPS, MAX_REJECTION_PASSES, MeasurementKind, RobustScreen};

@@ -14,6 +14,10 @@
 //! (`fitted_for`, the provenance's `run`). [`load_model`] reads it back for `predict`,
 //! refusing a file whose digest or run differs.
 //!
+//! [`compensate_to`] is what `compensate` solves with a model: the joints `q` with
+//! `FK_geom(q) + r(q) = target` (`r` the model's mean), by a fixed point around the
+//! geometric IK.
+//!
 //! Point data only: a 6-DoF or multi-target calibration is refused (its orientation
 //! residuals are not modelled; calibrate its points with `points_only` for a model of the
 //! position residuals).
@@ -21,7 +25,9 @@
 use std::path::Path;
 use std::time::Instant;
 
-use kinematics::Robot;
+use identify::{Compensated, CompensationOptions, assess_solution, compensate_nearest_to};
+use kinematics::{IkTarget, Robot};
+use nalgebra::Vector3;
 use residual::ResidualError;
 
 use crate::error::{CalibrateError, Result};
@@ -204,4 +210,205 @@ pub fn load_model(robot: &LoadedRobot) -> Result<Option<ResidualModel>> {
         )));
     }
     Ok(Some(model))
+}
+
+/// The fixed point of [`compensate_to`] stops when the model's mean moves by less than this
+/// between two steps, mm [1e-7: a tenth of the IK's position tolerance (1e-6 mm), so that
+/// `FK_geom(q) + r(q)` meets the target to the IK's tolerance; the mean is smooth and its
+/// slope against the point is ~1e-4 (tenths of a mm over a metre), so each step shrinks the
+/// change ~10⁴-fold and two or three steps reach it away from singularities (on the UR10
+/// recording at most four, and six at its first pose, singular three ways at once)].
+pub const FIXED_POINT_TOL_MM: f64 = 1e-7;
+
+/// Most steps of the fixed point of [`compensate_to`] after the geometric solution [10: it
+/// takes two or three, six at a pose singular three ways; a target that needs more is
+/// refused, naming it].
+pub const FIXED_POINT_MAX_STEPS: usize = 10;
+
+/// What the fixed point of [`compensate_to`] did for one target.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FixedPoint {
+    /// Steps after the geometric solution (each one IK solve).
+    pub steps: usize,
+    /// The model's mean at the joints found, `r(q)`, mm: the geometric model reaches
+    /// `target − r(q)` there.
+    pub correction_mm: Vector3<f64>,
+    /// The change of `r` in the last step, mm (below [`FIXED_POINT_TOL_MM`]).
+    pub last_change_mm: f64,
+}
+
+/// What a compensation with a residual model did ([`crate::Compensation::residual_model`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct ResidualApplied {
+    /// The model's file as the calibrated robot names it (beside it; `(given)` for a model
+    /// passed to a robot that names none).
+    pub file: String,
+    /// Most fixed-point steps a target took.
+    pub max_steps: usize,
+    /// Mean over the compensated targets of `|r(q)|`, the model's correction, mm.
+    pub mean_correction_mm: f64,
+    /// Largest `|r(q)|`, mm.
+    pub max_correction_mm: f64,
+}
+
+impl ResidualApplied {
+    /// The summary of the fixed points of the compensated targets of `robot`.
+    pub(crate) fn of(robot: &LoadedRobot, fixed: &[FixedPoint]) -> ResidualApplied {
+        let file = robot
+            .spec
+            .provenance
+            .as_ref()
+            .and_then(|p| p.residual_model.as_ref())
+            .map_or_else(|| "(given)".to_string(), |r| r.file.clone());
+        let norms = fixed.iter().map(|f| f.correction_mm.norm());
+        ResidualApplied {
+            file,
+            max_steps: fixed.iter().map(|f| f.steps).max().unwrap_or(0),
+            mean_correction_mm: norms.clone().sum::<f64>() / fixed.len().max(1) as f64,
+            max_correction_mm: norms.fold(0.0, f64::max),
+        }
+    }
+
+    /// The output header's line: that the model was applied, its file, how, and the size of
+    /// its correction.
+    pub(crate) fn header_line(&self) -> String {
+        format!(
+            "\nresidual model: applied ({}, docs/residual-model.md): the joints solve \
+             FK(q) + r(q) = target, r(q) the model's mean (what predict adds), by a fixed point \
+             around the IK (until r changes by < {FIXED_POINT_TOL_MM:e} mm; at most {} steps \
+             here); |r| mean {} mm, max {} mm",
+            self.file,
+            self.max_steps,
+            measurements::number(self.mean_correction_mm, 4),
+            measurements::number(self.max_correction_mm, 4)
+        )
+    }
+}
+
+/// Refuses a residual model trained on another number of joints than `robot` has.
+///
+/// # Errors
+/// [`CalibrateError::ResidualMismatch`], naming the robot.
+pub(crate) fn check_joints(robot: &LoadedRobot, model: Option<&ResidualModel>) -> Result<()> {
+    match model {
+        Some(m) if m.n_joints() != robot.robot.n_joints() => {
+            Err(CalibrateError::ResidualMismatch(format!(
+                "the residual model has {} joints, {} has {}",
+                m.n_joints(),
+                robot.path.display(),
+                robot.robot.n_joints()
+            )))
+        }
+        _ => Ok(()),
+    }
+}
+
+/// The model's mean at the joints `q_rad` (radians), mm.
+fn mean_at(model: &ResidualModel, q_rad: &[f64]) -> std::result::Result<Vector3<f64>, String> {
+    let q: Vec<f64> = q_rad.iter().map(|v| v.to_degrees()).collect();
+    model
+        .predict(&[q])
+        .map(|p| Vector3::from(p[0].mean_mm))
+        .map_err(|e| format!("the residual model cannot be evaluated there: {e}"))
+}
+
+/// The joints of `identified` for `target`, nearest the start `q_rad` (the nominal
+/// controller's joints; overwritten with the solution): without a model the geometric
+/// solution ([`compensate_nearest_to`], as it is); with one, the joints at which the
+/// calibrated robot's point `FK_geom(q) + r(q)` (`r` the model's mean, as `predict` adds it)
+/// is the target. From the geometric solution `q₀`, each step solves
+/// `q_{k+1} = IK_geom(target − r(q_k))` by damped Newton from `q_k` (the orientation of
+/// `target` held: the model is position-only), until `r` changes by less than
+/// [`FIXED_POINT_TOL_MM`], in at most [`FIXED_POINT_MAX_STEPS`] steps; the solution is
+/// flagged as the geometric one is ([`assess_solution`], from the start). The same for joint
+/// and Cartesian targets.
+///
+/// # Errors
+/// Why the target is left out, in words (unreachable, or a fixed point that does not
+/// converge, with its last change); `q_rad` is restored.
+pub fn compensate_to(
+    identified: &Robot,
+    target: &IkTarget,
+    q_rad: &mut [f64],
+    options: &CompensationOptions,
+    model: Option<&ResidualModel>,
+) -> std::result::Result<(Compensated, Option<FixedPoint>), String> {
+    let start = q_rad.to_vec();
+    let geometric =
+        compensate_nearest_to(identified, target, q_rad, options).map_err(|e| e.to_string())?;
+    let Some(model) = model else {
+        return Ok((geometric, None));
+    };
+    let result = fixed_point(identified, target, q_rad, options, model);
+    match result {
+        Ok((shifted, report, fixed)) => {
+            let (max_change_rad, joint) =
+                q_rad
+                    .iter()
+                    .zip(&start)
+                    .enumerate()
+                    .fold((0.0, 0), |(m, k), (i, (a, b))| {
+                        let d = (a - b).abs();
+                        if d > m { (d, i) } else { (m, k) }
+                    });
+            let c = assess_solution(
+                identified,
+                &shifted,
+                &start,
+                (report, max_change_rad, joint),
+                options,
+            );
+            Ok((c, Some(fixed)))
+        }
+        Err(e) => {
+            q_rad.copy_from_slice(&start);
+            Err(e)
+        }
+    }
+}
+
+/// The fixed point of [`compensate_to`] from the geometric solution `q_rad` (overwritten
+/// with the result on success): the last target solved, its IK report, and the steps.
+fn fixed_point(
+    identified: &Robot,
+    target: &IkTarget,
+    q_rad: &mut [f64],
+    options: &CompensationOptions,
+    model: &ResidualModel,
+) -> std::result::Result<(IkTarget, kinematics::IkReport, FixedPoint), String> {
+    let mut q = q_rad.to_vec();
+    let mut r = mean_at(model, &q)?;
+    let mut change = f64::INFINITY;
+    for step in 1..=FIXED_POINT_MAX_STEPS {
+        let shifted = IkTarget {
+            position_mm: target.position_mm - r,
+            ..*target
+        };
+        let report = identified
+            .solve_ik(&shifted, &mut q, &options.ik)
+            .map_err(|e| {
+                format!(
+                    "with the residual model's correction ({} mm) at step {step}: {e}",
+                    measurements::number(r.norm(), 4)
+                )
+            })?;
+        let next = mean_at(model, &q)?;
+        change = (next - r).norm();
+        r = next;
+        if change < FIXED_POINT_TOL_MM {
+            q_rad.copy_from_slice(&q);
+            let fixed = FixedPoint {
+                steps: step,
+                correction_mm: r,
+                last_change_mm: change,
+            };
+            return Ok((shifted, report, fixed));
+        }
+    }
+    Err(format!(
+        "the residual model's fixed point did not converge in {FIXED_POINT_MAX_STEPS} steps \
+         (the model's mean still moved by {} mm in the last, tolerance {FIXED_POINT_TOL_MM:e} \
+         mm): compensate it with the geometry alone (--geometry-only) or leave it out",
+        measurements::number(change, 4)
+    ))
 }

@@ -255,13 +255,37 @@ pub fn compensate_nearest_to(
         ..options.search
     };
     let sol = identified.solve_ik_nearest(&target, q_rad, &options.ik, &search)?;
-    let max_change_deg = sol.max_change_rad.to_degrees();
+    Ok(assess_solution(
+        identified,
+        &target,
+        &q_cmd[..n],
+        (sol.report, sol.max_change_rad, sol.joint),
+        options,
+    ))
+}
+
+/// The [`Compensated`] of a solution of `identified` for `target` reached from the
+/// commanded joints `q_cmd` (radians) by the solve `report`, whose largest joint change is
+/// `max_change_rad`, at joint `joint` (0-based): flagged with its reasons when that change
+/// exceeds [`CompensationOptions::flag_change_deg`] ([`compensate_nearest_to`]'s flags, for
+/// a solution found another way — e.g. a fixed point on its target).
+pub fn assess_solution(
+    identified: &Robot,
+    target: &IkTarget,
+    q_cmd: &[f64],
+    (report, max_change_rad, joint): (IkReport, f64, usize),
+    options: &CompensationOptions,
+) -> Compensated {
+    let target = *target;
+    let n = q_cmd.len().min(kinematics::MAX_JOINTS);
+    let max_change_deg = max_change_rad.to_degrees();
     let mut flags = Vec::new();
     if max_change_deg > options.flag_change_deg {
         flags = singularity_reasons(identified, &q_cmd[..n]);
         if flags.is_empty() {
             // Does the commanded branch itself end beyond a limit?
-            let mut q = q_cmd;
+            let mut q = [0.0; kinematics::MAX_JOINTS];
+            q[..n].copy_from_slice(&q_cmd[..n]);
             let unlimited = identified.solve_ik_unlimited(&target, &mut q[..n], &options.ik);
             let beyond = unlimited.is_ok().then(|| {
                 (0..n).find(|&i| {
@@ -275,12 +299,12 @@ pub fn compensate_nearest_to(
             });
         }
     }
-    Ok(Compensated {
-        report: sol.report,
+    Compensated {
+        report,
         max_change_deg,
-        joint: sol.joint,
+        joint,
         flags,
-    })
+    }
 }
 
 #[cfg(test)]

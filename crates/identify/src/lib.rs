@@ -77,9 +77,9 @@ pub mod simd;
 pub mod tool_registration;
 
 pub use compensation::{
-    Compensated, CompensationOptions, DEFAULT_FLAG_CHANGE_DEG, FlagReason, compensate,
-    compensate_nearest, compensate_nearest_to, compensation_target, compensation_target_trig,
-    singularity_reasons,
+    Compensated, CompensationOptions, DEFAULT_FLAG_CHANGE_DEG, FlagReason, assess_solution,
+    compensate, compensate_nearest, compensate_nearest_to, compensation_target,
+    compensation_target_trig, singularity_reasons,
 };
 pub use covariance::{
     CorrelatedPair, Covariance, NormalCovariance, covariance, covariance_at_solution,

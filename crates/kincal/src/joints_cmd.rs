@@ -1,5 +1,5 @@
-//! `kincal predict | compensate`: parse, call [`calibrate::predict`] /
-//! [`calibrate::compensate_targets`], write or print.
+//! `kincal predict | compensate`: parse, load the residual model the robot names, call
+//! [`calibrate::predict_with`] / [`calibrate::compensate_file`], write or print.
 
 use std::path::{Path, PathBuf};
 
@@ -201,6 +201,11 @@ pub struct CompensateArgs {
     /// kinematics of those joints as the Cartesian target (docs/controller.md).
     #[arg(long, default_value = "csv", value_name = "FORMAT")]
     format: controller::Format,
+    /// Compensate with the geometry alone, ignoring the residual model the calibrated robot
+    /// file names [off: a residual model named in it is applied: the joints bring the
+    /// geometry plus the model's mean onto each target (docs/residual-model.md)].
+    #[arg(long)]
+    geometry_only: bool,
 }
 
 /// `kincal compensate`.
@@ -219,6 +224,11 @@ pub fn compensate(args: &CompensateArgs) -> Result<()> {
     }
     let calibrated = LoadedRobot::load(&args.robot, "calibrated robot")?;
     let nominal = LoadedRobot::load(&args.nominal, "nominal robot")?;
+    let model = if args.geometry_only {
+        None
+    } else {
+        anyhow::Context::context(calibrate::residual::load_model(&calibrated), "--robot")?
+    };
     if !args.allow.iter().any(|a| a == "provenance") {
         calibrate::provenance::check_pair(&calibrated, &nominal).map_err(|e| {
             anyhow::Error::new(e)
@@ -261,7 +271,7 @@ pub fn compensate(args: &CompensateArgs) -> Result<()> {
         allow_length_units: args.allow.iter().any(|a| a == "length-units"),
     };
     let c = calibrate::compensate_file(
-        &calibrated,
+        (&calibrated, model.as_ref()),
         &nominal,
         &args.targets,
         args.allow_unreachable,
@@ -303,6 +313,19 @@ pub fn compensate(args: &CompensateArgs) -> Result<()> {
              of points; the calibrated solve holds the nominal solution's flange orientation)",
             args.robot.display()
         );
+    }
+    if let Some(m) = &c.residual_model {
+        crate::errln!(
+            "note: the joints include the learned residual model named in {} ({}; |r| mean {} \
+             mm, max {} mm; at most {} fixed-point steps; --geometry-only to leave it out)",
+            args.robot.display(),
+            m.file,
+            report::fmt::mm(m.mean_correction_mm),
+            report::fmt::mm(m.max_correction_mm),
+            m.max_steps
+        );
+    } else if args.geometry_only {
+        crate::errln!("note: the geometry alone (--geometry-only): no residual model applied");
     }
     for notice in &c.notices {
         crate::errln!("note: {notice}");
@@ -379,6 +402,12 @@ fn program_text(
         c.compensated,
         nominal.path.display()
     )];
+    if let Some(m) = &c.residual_model {
+        header.push(format!(
+            "residual model applied: the joints include the mean of {} (docs/residual-model.md)",
+            m.file
+        ));
+    }
     header.extend(c.flagged.iter().map(|f| format!("flagged: {f}")));
     let stem = out
         .filter(|p| !crate::is_stdout(p))

@@ -85,6 +85,8 @@ fn identify_keeps_the_model_and_predict_applies_it() {
     assert!(stderr(&hybrid).contains("include the learned residual model"));
     assert!(h < 0.85 * g, "hybrid {h} mm, geometry {g} mm");
 
+    compensate_applies_the_model(dir.path(), &a);
+
     // urdf export says what it cannot carry.
     let urdf = kincal(&[
         "urdf",
@@ -108,6 +110,108 @@ fn identify_keeps_the_model_and_predict_applies_it() {
         "{}",
         stderr(&bad)
     );
+}
+
+/// `compensate` of the identify output in `a` (150 of the recording's poses as joint
+/// targets): the model is applied and the header and console say so; `predict` with the model
+/// at the joints to command gives back the targets (the fixed point: `FK(q) + r(q) =
+/// target`), where the geometry-only joints miss them by the model's correction;
+/// `--geometry-only` gives the bytes of the same robot naming no model (the geometric path,
+/// as before the model was applied); the same run, the same bytes; a model file missing is
+/// refused, as `predict` refuses it.
+fn compensate_applies_the_model(dir: &std::path::Path, a: &std::path::Path) {
+    let text = std::fs::read_to_string(crate::common::root().join(DATA)).unwrap();
+    let targets = dir.join("targets.csv");
+    let lines: Vec<&str> = text.lines().collect();
+    std::fs::write(&targets, lines[..151].join("\n") + "\n").unwrap();
+    let (robot, nominal) = (a.join("identified.json"), a.join("registered-nominal.json"));
+    let compensate = |robot: &std::path::Path, out: &std::path::Path, extra: &[&str]| {
+        let mut args = vec![
+            "compensate",
+            "--robot",
+            s(robot),
+            "--nominal",
+            s(&nominal),
+            "--targets",
+            s(&targets),
+            "--allow-unreachable",
+            "--out",
+            s(out),
+        ];
+        args.extend_from_slice(extra);
+        let o = kincal(&args);
+        ok(&o);
+        (stderr(&o), std::fs::read_to_string(out).unwrap())
+    };
+    let (console, hybrid) = compensate(&robot, &dir.join("h.csv"), &[]);
+    assert!(
+        console.contains("include the learned residual model named in")
+            && console.contains("--geometry-only to leave it out"),
+        "{console}"
+    );
+    assert!(
+        hybrid.contains("# residual model: applied (residual-model.json, docs/residual-model.md)"),
+        "{}",
+        &hybrid[..hybrid.len().min(1500)]
+    );
+    assert_eq!(compensate(&robot, &dir.join("h2.csv"), &[]).1, hybrid);
+    let (_, krl) = compensate(&robot, &dir.join("h.dat"), &["--format", "kuka-krl"]);
+    assert!(
+        krl.contains("residual model applied: the joints include the mean of residual-model.json"),
+        "{}",
+        &krl[..krl.len().min(800)]
+    );
+    let (console, geometric) = compensate(&robot, &dir.join("g.csv"), &["--geometry-only"]);
+    assert!(console.contains("--geometry-only"), "{console}");
+    assert!(!geometric.contains("residual model") && geometric != hybrid);
+    // The same robot naming no model (its provenance without `residual_model`): the bytes
+    // of the geometric path.
+    let plain = dir.join("plain");
+    std::fs::create_dir(&plain).unwrap();
+    let json = std::fs::read_to_string(&robot).unwrap();
+    let stripped = regex::Regex::new(r#",\s*"residual_model"\s*:\s*\{[^}]*\}"#)
+        .unwrap()
+        .replace(&json, "");
+    assert_ne!(stripped, json);
+    std::fs::write(plain.join("identified.json"), stripped.as_bytes()).unwrap();
+    let (_, old) = compensate(
+        &plain.join("identified.json"),
+        &dir.join("g.csv"),
+        &["--allow", "provenance"],
+    );
+    assert_eq!(old, geometric);
+
+    // The hybrid model at the joints to command: the targets (to the fixed point's
+    // tolerance); at the geometry-only joints, off by the model's correction.
+    let at = |joints: &str| {
+        let f = dir.join("j.csv");
+        std::fs::write(&f, joints).unwrap();
+        let o = kincal(&["predict", "--robot", s(&robot), "--joints", s(&f)]);
+        mean_error(&stderr(&o))
+    };
+    let (h, g) = (at(&hybrid), at(&geometric));
+    assert!(h < 1e-5 && g > 0.02, "hybrid {h} mm, geometry-only {g} mm");
+
+    // A model file missing is refused, naming it.
+    let model = a.join("residual-model.json");
+    let bytes = std::fs::read(&model).unwrap();
+    std::fs::remove_file(&model).unwrap();
+    let bad = kincal(&[
+        "compensate",
+        "--robot",
+        s(&robot),
+        "--nominal",
+        s(&nominal),
+        "--targets",
+        s(&targets),
+    ]);
+    assert!(!bad.status.success());
+    assert!(
+        stderr(&bad).contains("--robot") && stderr(&bad).contains("cannot be read"),
+        "{}",
+        stderr(&bad)
+    );
+    std::fs::write(&model, bytes).unwrap();
 }
 
 #[test]
