@@ -149,6 +149,50 @@ pub(crate) fn fk_array<'py>(
     })
 }
 
+/// The learned residual model of a calibration on `q_deg` (`(n, N)` or `(N,)`, degrees, as
+/// given: the model reads degrees, so they are not converted): with `points`, the calibrated
+/// robot's points plus the model's mean (mm), as `kincal predict` computes them; otherwise
+/// the model's predictive standard deviation per axis (mm), as `--with-sd` writes it.
+pub(crate) fn residual_array<'py>(
+    py: Python<'py>,
+    robot: &kinematics::Robot,
+    model: &calibrate::residual::ResidualModel,
+    q_deg: &ArrayArg<'py>,
+    points: bool,
+) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
+    let n = robot.n_joints();
+    let (flat_deg, single) = joints_arg(q_deg, n, "q_deg")?;
+    if flat_deg.iter().any(|v| !v.is_finite()) {
+        return Err(refuse("q_deg: joint angles must be finite"));
+    }
+    let joints: Vec<Vec<f64>> = flat_deg.chunks_exact(n).map(<[f64]>::to_vec).collect();
+    let predictions = py
+        .detach(|| model.predict(&joints))
+        .map_err(|e| refuse(format!("q_deg: {e}")))?;
+    let mut flat = Vec::with_capacity(3 * joints.len());
+    let mut q_rad = vec![0.0; n];
+    for (q, c) in joints.iter().zip(&predictions) {
+        if points {
+            for (r, d) in q_rad.iter_mut().zip(q) {
+                *r = d.to_radians();
+            }
+            let p = robot.point(&q_rad);
+            let m = c.mean_mm;
+            flat.extend([p.x + m[0], p.y + m[1], p.z + m[2]]);
+        } else {
+            flat.extend(c.sd_mm);
+        }
+    }
+    let out = if single {
+        Array1::from(flat).into_dyn()
+    } else {
+        Array2::from_shape_vec((flat.len() / 3, 3), flat)
+            .expect("3 values per pose")
+            .into_dyn()
+    };
+    Ok(out.into_pyarray(py))
+}
+
 /// The measured frame's orientation of `robot` on `q_deg` as a numpy array of unit
 /// quaternions `w, x, y, z` (see `Robot.fk_orientation`); `None` for a robot without a tool
 /// orientation.

@@ -8,7 +8,8 @@ use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
 use crate::arrays::{
-    ArrayArg, fk_array, joint_rows, joints_arg, memory_set, point_rows, rows_array, vec_rows_array,
+    ArrayArg, fk_array, joint_rows, joints_arg, memory_set, point_rows, residual_array, rows_array,
+    vec_rows_array,
 };
 use crate::errors::{kincal_error, refuse, save_outputs};
 use crate::options::{Shared, identify_request};
@@ -44,6 +45,11 @@ impl PyCalibration {
             .points()
             .expect("identify calibrates points: its arrays have no orientations or targets")
     }
+
+    /// The learned residual model, when one was asked for and the gate kept it.
+    fn kept_model(&self) -> Option<&calibrate::residual::ResidualModel> {
+        self.cal.residual().and_then(|o| o.model.as_ref())
+    }
 }
 
 #[pymethods]
@@ -67,13 +73,71 @@ impl PyCalibration {
     }
 
     /// Points `(n, 3)` (mm, the measurement frame) of the calibrated robot at `q_deg`
-    /// (`(n, N)`, or `(N,)` → `(3,)`): `calibration.robot.fk(q_deg)`.
+    /// (`(n, N)`, or `(N,)` → `(3,)`): `calibration.robot.fk(q_deg)`, plus the learned
+    /// residual model's mean when `identify(..., residual_model="gp")` kept one, as `kincal
+    /// predict` adds it; `geometry_only=True` leaves the model out.
+    #[pyo3(signature = (q_deg, *, geometry_only = false))]
     fn predict<'py>(
         &self,
         py: Python<'py>,
         q_deg: ArrayArg<'py>,
+        geometry_only: bool,
     ) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
-        fk_array(py, &self.identified.robot, &q_deg)
+        match self.kept_model().filter(|_| !geometry_only) {
+            Some(model) => residual_array(py, &self.identified.robot, model, &q_deg, true),
+            None => fk_array(py, &self.identified.robot, &q_deg),
+        }
+    }
+
+    /// The learned residual model's predictive standard deviation `(n, 3)` (mm, per axis;
+    /// `(N,)` → `(3,)`) at `q_deg`, as `kincal predict --with-sd` writes it; `None` when the
+    /// calibration has no model (not asked for, or declined by the gate).
+    fn predict_sd<'py>(
+        &self,
+        py: Python<'py>,
+        q_deg: ArrayArg<'py>,
+    ) -> PyResult<Option<Bound<'py, PyArrayDyn<f64>>>> {
+        self.kept_model()
+            .map(|model| residual_array(py, &self.identified.robot, model, &q_deg, false))
+            .transpose()
+    }
+
+    /// The residual model's cross-validation and decision (`identify(...,
+    /// residual_model="gp")`; `docs/residual-model.md`): `used` (the gate kept the model),
+    /// `folds` (per fold: `fold`, `train_poses`, `held_out_poses`, and the geometry's and
+    /// the hybrid's held-out `*_mean_mm`, `*_p95_mm`, `*_max_mm`), `mean_gain_mm` and
+    /// `p95_gain_mm` (mean over the folds, fold-to-fold scatter), `coverage_1sd`,
+    /// `coverage_2sd`; `None` when no model was asked for.
+    #[getter]
+    fn residual_model<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyDict>>> {
+        let Some(outcome) = self.cal.residual() else {
+            return Ok(None);
+        };
+        let cv = &outcome.cv;
+        let d = PyDict::new(py);
+        d.set_item("used", outcome.model.is_some())?;
+        let mut folds = Vec::with_capacity(cv.folds.len());
+        for f in &cv.folds {
+            let row = PyDict::new(py);
+            row.set_item("fold", f.fold)?;
+            row.set_item("train_poses", f.train_poses)?;
+            row.set_item("held_out_poses", f.held_out_poses)?;
+            for (name, stats) in [("geometry", &f.geometry), ("hybrid", &f.hybrid)] {
+                row.set_item(format!("{name}_mean_mm"), stats.mean_mm)?;
+                row.set_item(format!("{name}_p95_mm"), stats.p95_mm)?;
+                row.set_item(format!("{name}_max_mm"), stats.max_mm)?;
+            }
+            folds.push(row);
+        }
+        d.set_item("folds", folds)?;
+        d.set_item(
+            "mean_gain_mm",
+            (cv.mean_gain.mean_mm, cv.mean_gain.scatter_mm),
+        )?;
+        d.set_item("p95_gain_mm", (cv.p95_gain.mean_mm, cv.p95_gain.scatter_mm))?;
+        d.set_item("coverage_1sd", cv.coverage.within_1sd)?;
+        d.set_item("coverage_2sd", cv.coverage.within_2sd)?;
+        Ok(Some(d))
     }
 
     /// Residuals `measured − calibrated` `(n, 3)` (mm) on the identification rows (all of
@@ -263,6 +327,10 @@ impl PyCalibration {
     }
 }
 
+// `residual_folds = 5` in `identify`'s signature below is the library's default (a literal,
+// so that Python shows it and the stub can say it).
+const _: () = assert!(calibrate::residual::DEFAULT_FOLDS == 5);
+
 /// Identifies the robot's parameters from measured points `(n, 3)` (mm) at joints `(n, N)`
 /// (degrees), as `kincal identify` does on a file with the same rows. `joint_units` ("deg",
 /// "rad") and `length_units` ("mm", "m", "cm", "in") declare other units. The plausibility checks
@@ -275,7 +343,7 @@ impl PyCalibration {
     keep_outliers = false, every = None, offset = 0, select = None, criterion = "d", schedule = "levenberg",
     redundant = "hold", registration = "auto", outlier_k = 3.0, worst = 10,
     joint_units = "deg", length_units = "mm", allow = None, prior = "auto",
-    fit_scale = false
+    fit_scale = false, residual_model = "none", residual_folds = 5
 ))]
 #[allow(clippy::too_many_arguments)]
 fn py_identify<'py>(
@@ -301,7 +369,22 @@ fn py_identify<'py>(
     allow: Option<Bound<'py, PyAny>>,
     prior: &str,
     fit_scale: bool,
+    residual_model: &str,
+    residual_folds: usize,
 ) -> PyResult<PyCalibration> {
+    let residual = match residual_model {
+        "none" => None,
+        "gp" => Some(calibrate::residual::CvOptions {
+            folds: residual_folds,
+            ..Default::default()
+        }),
+        other => {
+            return Err(pyo3::exceptions::PyValueError::new_err(format!(
+                "residual_model: {other:?} is not a residual model (\"none\" or \"gp\", as \
+                 --residual-model takes)"
+            )));
+        }
+    };
     let nominal = robot.loaded.clone();
     let n = nominal.robot.n_joints();
     let q = joint_rows(&q_deg, n, "q_deg")?;
@@ -338,20 +421,28 @@ fn py_identify<'py>(
             fit_scale,
         },
     )?;
-    calibrate_abandonable(py, request, (nominal, data, validate), |cal, library_ms| {
-        let err = |e: calibrate::CalibrateError| kincal_error(&e);
-        let written = |r: kinematics::Robot, label: &str| {
-            calibrate::LoadedRobot::from_spec(r.to_spec(), label, "robot").map_err(err)
-        };
-        let identified = written(cal.identified_robot(), "identified.json")?;
-        let registered = written(cal.registered_robot(), "registered-nominal.json")?;
-        Ok(PyCalibration {
-            cal,
-            identified,
-            registered,
-            library_ms,
-        })
-    })
+    calibrate_abandonable(
+        py,
+        request,
+        (nominal, data, validate),
+        move |mut cal, library_ms| {
+            let err = |e: calibrate::CalibrateError| kincal_error(&e);
+            if let Some(options) = &residual {
+                cal.fit_residual_model(options).map_err(err)?;
+            }
+            let written = |r: kinematics::Robot, label: &str| {
+                calibrate::LoadedRobot::from_spec(r.to_spec(), label, "robot").map_err(err)
+            };
+            let identified = written(cal.identified_robot(), "identified.json")?;
+            let registered = written(cal.registered_robot(), "registered-nominal.json")?;
+            Ok(PyCalibration {
+                cal,
+                identified,
+                registered,
+                library_ms,
+            })
+        },
+    )
 }
 
 /// Calibrates the in-memory sets of `request` on a detached worker

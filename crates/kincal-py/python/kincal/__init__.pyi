@@ -184,6 +184,31 @@ class CalibrationParameter(TypedDict):
     identifiable: bool
     """In the identifiable (minimal) subset at the solution."""
 
+class ResidualFold(TypedDict):
+    """One fold of :attr:`ResidualModelSummary.folds`: held-out 3-D errors, mm."""
+
+    fold: int
+    train_poses: int
+    held_out_poses: int
+    geometry_mean_mm: float
+    geometry_p95_mm: float
+    geometry_max_mm: float
+    hybrid_mean_mm: float
+    hybrid_p95_mm: float
+    hybrid_max_mm: float
+
+class ResidualModelSummary(TypedDict):
+    """:attr:`Calibration.residual_model`: the k-fold cross-validation of the learned
+    residual model on the identification rows and the gate's decision (``used``: the mean
+    and the p95 gains both exceed their fold-to-fold scatter)."""
+
+    used: bool
+    folds: list[ResidualFold]
+    mean_gain_mm: tuple[float, float]
+    p95_gain_mm: tuple[float, float]
+    coverage_1sd: float
+    coverage_2sd: float
+
 class ValidationSummary(TypedDict):
     """:attr:`Calibration.validation`: 3-D errors on the validation poses, mm; before = the
     nominal after registration, after = the calibrated robot."""
@@ -213,9 +238,24 @@ class Calibration:
         """The nominal robot in the data's frame (``registered-nominal.json``): the targets
         of compensation."""
 
-    def predict(self, q_deg: ArrayLike) -> NDArray[np.float64]:
+    def predict(
+        self, q_deg: ArrayLike, *, geometry_only: bool = False
+    ) -> NDArray[np.float64]:
         """Points ``(n, 3)`` (mm, the measurement frame) of the calibrated robot at joints
-        ``(n, N)`` in degrees (``(N,)`` → ``(3,)``): ``calibration.robot.fk(q_deg)``."""
+        ``(n, N)`` in degrees (``(N,)`` → ``(3,)``): ``calibration.robot.fk(q_deg)``, plus
+        the learned residual model's mean when ``identify(..., residual_model="gp")`` kept
+        one, as ``kincal predict`` adds it; ``geometry_only=True`` leaves the model out."""
+
+    def predict_sd(self, q_deg: ArrayLike) -> NDArray[np.float64] | None:
+        """The learned residual model's predictive standard deviation ``(n, 3)`` (mm, per
+        axis; ``(N,)`` → ``(3,)``) at joints in degrees, as ``kincal predict --with-sd``
+        writes it; ``None`` without a model (not asked for, or declined by the gate)."""
+
+    @property
+    def residual_model(self) -> ResidualModelSummary | None:
+        """The residual model's cross-validation and the gate's decision
+        (``identify(..., residual_model="gp")``, ``docs/residual-model.md``); ``None`` when
+        no model was asked for."""
 
     @property
     def residuals_mm(self) -> NDArray[np.float64]:
@@ -317,6 +357,8 @@ def identify(
     allow: str | Sequence[str] | None = None,
     prior: str = "auto",
     fit_scale: bool = False,
+    residual_model: Literal["none", "gp"] = "none",
+    residual_folds: int = 5,
 ) -> Calibration:
     """Identifies the robot's parameters from measured points ``(n, 3)`` (mm) at joints
     ``(n, N)`` (degrees), as ``kincal identify`` does on a file with the same rows; the
@@ -330,7 +372,10 @@ def identify(
     screen drops the gross errors alone), ``keep_outliers`` (keep every row), ``outlier_k``, ``worst``, ``prior`` (``--prior``:
     ``"auto"``, ``"none"``, ``"tolerance"`` or ``"tolerance,NAME=SD,..."``), ``fit_scale``
     (``--fit-scale``: identify the measurements' scale factor instead of refusing a scaled
-    tracker; ``Calibration.measurement_scale`` gives it).
+    tracker; ``Calibration.measurement_scale`` gives it), ``residual_model`` and
+    ``residual_folds`` (``--residual-model gp``, ``--residual-folds``: the learned residual
+    model, kept only when cross-validation says it helps; ``Calibration.residual_model``,
+    ``predict`` and ``predict_sd`` use it).
 
     ``joint_units`` and ``length_units`` declare the arrays' units (``--joint-units``,
     ``--length-units``: converted to degrees and millimetres, the joint limits checked in
