@@ -26,7 +26,9 @@ use nalgebra::{Matrix3, Vector3};
 use crate::checks::refuse;
 use crate::error::{CalibrateError, Refusal, Result};
 use crate::files::{LoadedRobot, file_name};
-use crate::joints::{Compensation, Rows, check_same_frame, check_same_layout};
+use crate::joints::{
+    Compensation, Rows, check_compensation_inputs, check_same_frame, check_same_layout,
+};
 use crate::request::Check;
 
 /// One compensated target as a controller takes it: the joints to command, or the corrected
@@ -376,14 +378,7 @@ pub fn compensate_poses_with(
     (options, cartesian): (&CompensationOptions, &CartesianOptions),
     out_label: &str,
 ) -> Result<Compensation> {
-    check_same_layout(calibrated, nominal)?;
-    if set.rows.is_empty() {
-        return Err(Refusal::NoTargets {
-            file: set.source.clone(),
-        }
-        .into());
-    }
-    crate::residual::check_joints(calibrated, model)?;
+    check_compensation_inputs((calibrated, model), nominal, &set)?;
     let (tcp_cal, tcp) = cartesian.tcp.map_or_else(
         || {
             let (cal, mut nom) = (Tcp::of(&calibrated.robot), Tcp::of(&nominal.robot));

@@ -297,6 +297,25 @@ pub fn compensate_targets(
     )
 }
 
+/// The checks every compensation makes before solving, for joint and Cartesian targets
+/// alike: the same parameter layout ([`check_same_layout`]), at least one target
+/// ([`Refusal::NoTargets`]) and a residual model for the calibrated robot's joints.
+pub(crate) fn check_compensation_inputs(
+    (calibrated, model): (&LoadedRobot, Option<&residual::ResidualModel>),
+    nominal: &LoadedRobot,
+    set: &MeasurementSet,
+) -> Result<()> {
+    check_same_layout(calibrated, nominal)?;
+    if set.rows.is_empty() {
+        return Err(Refusal::NoTargets {
+            file: set.source.clone(),
+        }
+        .into());
+    }
+    crate::residual::check_joints(calibrated, model)?;
+    Ok(())
+}
+
 /// Refuses two robots with different parameter layouts, up to the Hayati β parameters:
 /// those follow the twists (β_i is a parameter where |α_i| < 1°, `docs/model.md` §3), and a
 /// calibration may move a nominal α = 0 past 1° (the `parameters` check allows 5°), so that
@@ -367,14 +386,7 @@ pub fn compensate_rows_with(
     options: &CompensationOptions,
     out_label: &str,
 ) -> Result<Compensation> {
-    check_same_layout(calibrated, nominal)?;
-    if set.rows.is_empty() {
-        return Err(Refusal::NoTargets {
-            file: set.source.clone(),
-        }
-        .into());
-    }
-    crate::residual::check_joints(calibrated, model)?;
+    check_compensation_inputs((calibrated, model), nominal, &set)?;
     let (id_r, nom_r): (&Robot, &Robot) = (&calibrated.robot, &nominal.robot);
     let n = nom_r.n_joints();
     check_same_frame(calibrated, nominal, &poses_rad(&set.rows))?;
