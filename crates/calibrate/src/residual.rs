@@ -28,7 +28,6 @@ use std::time::Instant;
 use identify::{Compensated, CompensationOptions, assess_solution, compensate_nearest_to};
 use kinematics::{IkTarget, Robot};
 use nalgebra::Vector3;
-use residual::ResidualError;
 
 use crate::error::{CalibrateError, Result};
 use crate::files::{LoadedRobot, points_mm, poses_rad};
@@ -36,8 +35,9 @@ use crate::workflow::{Calibration, PointCalibration, as_written, fit_points, res
 
 pub use residual::{
     Coverage, CrossValidation, CvOptions, DEFAULT_FOLDS, FoldResult, Gain, GpOptions, HeldOut,
-    Hyperparameters, MODEL_FILE, Prediction, ResidualModel, cross_validate, evenly_spaced, folds,
-    held_out,
+    Hyperparameters, MIN_TRAIN_POSES, MODEL_FILE, Prediction, ResidualError, ResidualModel,
+    cross_validate,
+    evenly_spaced, folds, held_out,
 };
 
 /// What `identify --residual-model gp` found.
@@ -339,7 +339,7 @@ pub fn compensate_to(
     let Some(model) = model else {
         return Ok((geometric, None));
     };
-    let result = fixed_point(identified, target, q_rad, options, model);
+    let result = fixed_point(identified, target, q_rad, &options.ik, model);
     match result {
         Ok((shifted, report, fixed)) => {
             let (max_change_rad, joint) =
@@ -368,12 +368,21 @@ pub fn compensate_to(
 }
 
 /// The fixed point of [`compensate_to`] from the geometric solution `q_rad` (overwritten
-/// with the result on success): the last target solved, its IK report, and the steps.
-fn fixed_point(
+/// with the result on success): `q_{k+1} = IK_geom(target − r(q_k))` by the damped Newton
+/// solve `ik` from `q_k`, until `r` changes by less than [`FIXED_POINT_TOL_MM`], in at most
+/// [`FIXED_POINT_MAX_STEPS`] steps. Returns the last target solved, its IK report, and the
+/// steps. Campaign trials call it from their own geometric solution (the compensation of a
+/// simulated trial is a plain IK from the commanded joints, not the nearest-solution search
+/// of [`compensate_to`]).
+///
+/// # Errors
+/// Why there is no solution, in words (an IK failure at a step, a model that cannot be
+/// evaluated, or no convergence); `q_rad` is then left as it was.
+pub fn fixed_point(
     identified: &Robot,
     target: &IkTarget,
     q_rad: &mut [f64],
-    options: &CompensationOptions,
+    ik: &kinematics::IkOptions,
     model: &ResidualModel,
 ) -> std::result::Result<(IkTarget, kinematics::IkReport, FixedPoint), String> {
     let mut q = q_rad.to_vec();
@@ -385,7 +394,7 @@ fn fixed_point(
             ..*target
         };
         let report = identified
-            .solve_ik(&shifted, &mut q, &options.ik)
+            .solve_ik(&shifted, &mut q, ik)
             .map_err(|e| {
                 format!(
                     "with the residual model's correction ({} mm) at step {step}: {e}",

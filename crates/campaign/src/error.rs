@@ -31,6 +31,16 @@ pub enum CampaignError {
         #[source]
         source: identify::IdentifyError,
     },
+    /// The learned residual model (scenario `residual_model`) could not be cross-validated
+    /// or fitted.
+    #[error("trial {trial}: residual model: {source}")]
+    Residual {
+        /// Trial index.
+        trial: u64,
+        /// Cause.
+        #[source]
+        source: calibrate::residual::ResidualError,
+    },
     /// The design of the identification poses failed.
     #[error("trial {trial}: design: {source}")]
     Design {

@@ -60,9 +60,13 @@ pub use run::shard::{Shard, ShardFile, ShardManifest, merge_shards, shard_budget
 pub use scenario::{
     BYTES_PER_POSE, BudgetConfig, CompensationConfig, DEFAULT_BUDGET_TRIALS, IdentificationConfig,
     IsoConfig, LoadedScenario, MAX_POSES, MAX_REACH_MM, MIN_REACH_MM, MeasurementConfig,
-    PoseSelection, RecoveryConfig, Scenario, ScenarioError, SelectionMethod, check_poses,
+    PoseSelection, RecoveryConfig, ResidualModelConfig, Scenario, ScenarioError, SelectionMethod,
+    check_poses,
 };
 pub use sweep::spec::{
     Axis, Curve, PlotSpec, SweepPoint, SweepResult, SweepSpec, run_sweep, run_sweep_checkpointed,
 };
-pub use trial::{Context, FitSummary, IsoPlan, STALL_GRADIENT_COSINE, TrialResult, run_trial};
+pub use trial::{
+    Context, FitSummary, Gain, IsoPlan, ResidualTrial, STALL_GRADIENT_COSINE, TrialResult,
+    run_trial,
+};

@@ -434,6 +434,9 @@ pub struct Scenario {
     /// several reflectors ([`MeasurementConfig`]).
     #[serde(default, skip_serializing_if = "MeasurementConfig::is_default")]
     pub measurement: MeasurementConfig,
+    /// The learned residual model in each trial ([`ResidualModelConfig`]) \[off\].
+    #[serde(default, skip_serializing_if = "ResidualModelConfig::is_default")]
+    pub residual_model: ResidualModelConfig,
 }
 
 /// A parsed scenario with its robot loaded and everything validated.
@@ -621,6 +624,9 @@ impl Scenario {
                 ));
             }
         }
+        self.residual_model
+            .validate(&self)
+            .map_err(|(field, message)| invalid(field, message))?;
         if self.measurement.kind == design::Measure::Targets {
             let offs = &self.measurement.reflector_offsets_mm;
             if offs.is_empty() {
@@ -800,5 +806,99 @@ impl BudgetConfig {
     /// give the same bytes as before it existed.
     pub fn is_default(&self) -> bool {
         *self == BudgetConfig::default()
+    }
+}
+
+/// The scenario's `residual_model` section: each trial fits the learned residual model
+/// (`docs/residual-model.md`, "In campaigns") on its identification poses as `kincal
+/// identify --residual-model gp` does — a k-fold cross-validation whose gate decides
+/// whether the hybrid is used — and compensates its validation poses (and the ISO test's)
+/// with the hybrid when the gate keeps it. The trial reports both compensations, so a sweep
+/// shows what the hybrid gives at every pose count, kept or not.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct ResidualModelConfig {
+    /// Fit the model in each trial \[false: it costs k + 1 Gaussian-process fits a trial,
+    /// O(n³) each in the n identification poses — about a second a trial at 400 poses\].
+    pub enabled: bool,
+    /// Folds of the cross-validation \[5, `calibrate::residual::DEFAULT_FOLDS`, the CLI's
+    /// default\]; at least 3.
+    pub folds: usize,
+    /// Most poses the Gaussian process trains on \[600, `GpOptions::max_train_poses`,
+    /// the CLI's\].
+    pub max_train_poses: usize,
+}
+
+impl Default for ResidualModelConfig {
+    fn default() -> Self {
+        let cv = calibrate::residual::CvOptions::default();
+        ResidualModelConfig {
+            enabled: false,
+            folds: cv.folds,
+            max_train_poses: cv.gp.max_train_poses,
+        }
+    }
+}
+
+impl ResidualModelConfig {
+    /// The default (off): not written into summaries, so that scenarios without the field
+    /// give the same bytes as before it existed.
+    pub fn is_default(&self) -> bool {
+        *self == ResidualModelConfig::default()
+    }
+
+    /// The cross-validation's options (the GP's as the CLI's, but for the pose cap).
+    pub fn cv_options(&self) -> calibrate::residual::CvOptions {
+        let mut cv = calibrate::residual::CvOptions {
+            folds: self.folds,
+            ..Default::default()
+        };
+        cv.gp.max_train_poses = self.max_train_poses;
+        cv
+    }
+
+    /// Checks the section against the rest of `scenario`: the field at fault and why.
+    fn validate(&self, scenario: &Scenario) -> Result<(), (&'static str, String)> {
+        if !self.enabled {
+            return Ok(());
+        }
+        let min = calibrate::residual::MIN_TRAIN_POSES;
+        if self.folds < 3 {
+            return Err((
+                "residual_model.folds",
+                format!(
+                    "{}: at least 3 folds are needed (the gate compares each gain with its \
+                     fold-to-fold scatter)",
+                    self.folds
+                ),
+            ));
+        }
+        if self.max_train_poses < min {
+            return Err((
+                "residual_model.max_train_poses",
+                format!("{}: at least {min}", self.max_train_poses),
+            ));
+        }
+        if scenario.measurement.kind != design::Measure::Point {
+            return Err((
+                "residual_model.enabled",
+                "the residual model is fitted on point measurements (orientation residuals are \
+                 not modelled); measurement.type must be \"point\""
+                    .into(),
+            ));
+        }
+        let n = scenario.poses.identification.len();
+        if n < self.folds || n - n.div_ceil(self.folds) < min {
+            return Err((
+                "poses.identification",
+                format!(
+                    "{n} poses in {} folds: each fold of the residual model's cross-validation \
+                     must train on at least {min} poses; measure more or switch \
+                     residual_model.enabled off",
+                    self.folds
+                ),
+            ));
+        }
+        Ok(())
     }
 }

@@ -10,3 +10,4 @@ mod files;
 mod fuzz;
 #[path = "../../measurements/tests/mutate/mod.rs"]
 mod mutate;
+mod residual;

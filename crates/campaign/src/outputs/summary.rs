@@ -344,6 +344,54 @@ impl CampaignSummary {
             }
             o.push('\n');
         }
+        if let Some(kept) = self.metric("residual_used") {
+            o.push_str(&format!(
+                "## Learned residual model (docs/residual-model.md)\n\nEach trial cross-validates \
+                 a Gaussian process on the geometry's residuals ({}-fold) and keeps the hybrid \
+                 when its mean and p95 gains exceed their fold-to-fold scatter; the table above \
+                 is what the gate chose. Kept in {} % of the trials.\n\n| metric | kincal |\n|---|---:|\n",
+                self.scenario.residual_model.folds,
+                Quantity::Percent.format(100.0 * kept.mean)
+            ));
+            for (label, key, q) in [
+                (
+                    "mean 3-D after, geometry (mm)",
+                    "geometry_after_mean_mm",
+                    MM,
+                ),
+                ("mean 3-D after, hybrid (mm)", "hybrid_after_mean_mm", MM),
+                ("max 3-D after, geometry (mm)", "geometry_after_max_mm", MM),
+                ("max 3-D after, hybrid (mm)", "hybrid_after_max_mm", MM),
+                (
+                    "cross-validated gain of the mean (mm)",
+                    "residual_cv_mean_gain_mm",
+                    MM,
+                ),
+                (
+                    "cross-validated gain of the p95 (mm)",
+                    "residual_cv_p95_gain_mm",
+                    MM,
+                ),
+                (
+                    "share of validation values within 1 sd (0.683 if calibrated)",
+                    "residual_coverage_1sd",
+                    Quantity::Index,
+                ),
+                (
+                    "share of validation values within 2 sd (0.954 if calibrated)",
+                    "residual_coverage_2sd",
+                    Quantity::Index,
+                ),
+                (
+                    "validation targets the hybrid could not reach",
+                    "hybrid_compensation_failures",
+                    Quantity::MeanCount,
+                ),
+            ] {
+                o.push_str(&format!("| {label} | {} |\n", fmt(self.metric(key), q)));
+            }
+            o.push('\n');
+        }
         if let Some(b) = &self.residual_budget {
             o.push_str(&b.to_markdown());
         }

@@ -37,7 +37,8 @@ pub struct RecoveryStat {
 /// The name of every scalar metric a campaign records (the keys of
 /// [`Aggregate::metrics`], of `summary.json`'s `metrics` and of a sweep point's): what a
 /// sweep plot's `y` may name. The ISO and observability ones exist only when the scenario
-/// computes them.
+/// computes them, the residual model's (`residual_*`, `geometry_after_*`, `hybrid_*`) only
+/// with the scenario's `residual_model`.
 pub const METRICS: &[&str] = &[
     "before_mean_mm",
     "after_mean_mm",
@@ -73,6 +74,18 @@ pub const METRICS: &[&str] = &[
     "iso_rp_before_mm",
     "iso_rp_after_mm",
     "iso_compensation_failures",
+    "residual_used",
+    "residual_cv_mean_gain_mm",
+    "residual_cv_p95_gain_mm",
+    "geometry_after_mean_mm",
+    "geometry_after_max_mm",
+    "geometry_after_p95_mm",
+    "hybrid_after_mean_mm",
+    "hybrid_after_max_mm",
+    "hybrid_after_p95_mm",
+    "hybrid_compensation_failures",
+    "residual_coverage_1sd",
+    "residual_coverage_2sd",
 ];
 
 /// Everything a campaign (or a shard of it) accumulates; merging is exact.
@@ -200,6 +213,25 @@ impl Aggregate {
                 "iso_compensation_failures",
                 r.iso_compensation_failures as f64,
             );
+        }
+        if let Some(h) = &r.residual {
+            self.metric("residual_used", f64::from(u8::from(h.used)));
+            self.metric("residual_cv_mean_gain_mm", h.cv_mean_gain.mean_mm);
+            self.metric("residual_cv_p95_gain_mm", h.cv_p95_gain.mean_mm);
+            self.metric("geometry_after_mean_mm", h.geometry_after.mean_mm);
+            self.metric("geometry_after_max_mm", h.geometry_after.max_mm);
+            self.metric("geometry_after_p95_mm", h.geometry_after.p95_mm);
+            if let Some(a) = &h.hybrid_after {
+                self.metric("hybrid_after_mean_mm", a.mean_mm);
+                self.metric("hybrid_after_max_mm", a.max_mm);
+                self.metric("hybrid_after_p95_mm", a.p95_mm);
+            }
+            self.metric(
+                "hybrid_compensation_failures",
+                h.hybrid_compensation_failures as f64,
+            );
+            self.metric("residual_coverage_1sd", h.coverage_1sd);
+            self.metric("residual_coverage_2sd", h.coverage_2sd);
         }
         if self.typical.as_ref().is_none_or(|t| r.trial < t.trial) {
             self.typical = Some(r.clone());

@@ -59,6 +59,9 @@ pub fn metric_in_words(metric: &str) -> String {
         "fit_rms_mm" => "RMS residual of the fit (mm)".into(),
         "lm_iterations" => "Levenberg–Marquardt iterations".into(),
         "compensation_failures" => "unreachable validation targets per trial".into(),
+        "geometry_after_mean_mm" => "validation error, geometry alone (mm)".into(),
+        "hybrid_after_mean_mm" => "validation error, geometry + residual model (mm)".into(),
+        "residual_used" => "share of trials whose gate kept the residual model".into(),
         other => other.into(),
     }
 }

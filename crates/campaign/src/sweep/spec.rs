@@ -550,9 +550,33 @@ impl SweepPoint {
     }
 }
 
+/// The residual model's columns of a sweep's table and CSV (scenario `residual_model`):
+/// metric, Markdown header, decimals. Present only when a point recorded them, so that
+/// sweeps without the model keep their bytes.
+const RESIDUAL_COLUMNS: [(&str, &str, usize); 5] = [
+    ("residual_used", "gate kept (share of trials)", 2),
+    ("geometry_after_mean_mm", "geometry after (mm)", 3),
+    ("hybrid_after_mean_mm", "hybrid after (mm)", 3),
+    ("geometry_after_max_mm", "geometry after max (mm)", 3),
+    ("hybrid_after_max_mm", "hybrid after max (mm)", 3),
+];
+
 impl SweepResult {
     fn metric_mean(p: &SweepPoint, key: &str) -> Option<f64> {
         p.metrics.get(key).and_then(|m| m.as_ref()).map(|m| m.mean)
+    }
+
+    /// The residual model's columns, when any point has them.
+    fn residual_columns(&self) -> &'static [(&'static str, &'static str, usize)] {
+        if self
+            .points
+            .iter()
+            .any(|p| p.metrics.contains_key(RESIDUAL_COLUMNS[0].0))
+        {
+            &RESIDUAL_COLUMNS
+        } else {
+            &[]
+        }
     }
 
     /// One CSV row per point: axis values, trials, failed, and the main metrics' means.
@@ -566,6 +590,7 @@ impl SweepResult {
             "lm_iterations",
             "compensation_failures",
         ];
+        let extra = self.residual_columns();
         let mut o = String::new();
         let head: Vec<String> = self
             .spec
@@ -574,6 +599,7 @@ impl SweepResult {
             .map(|a| a.label().to_string())
             .chain(["trials", "failed", "not_converged"].map(String::from))
             .chain(keys.iter().map(|k| k.to_string()))
+            .chain(extra.iter().map(|(k, _, _)| k.to_string()))
             .collect();
         o.push_str(&head.join(","));
         o.push('\n');
@@ -587,7 +613,7 @@ impl SweepResult {
             row.push(p.trials.to_string());
             row.push(p.failed.to_string());
             row.push(not_conv.to_string());
-            for k in keys {
+            for k in keys.iter().chain(extra.iter().map(|(k, _, _)| k)) {
                 row.push(Self::metric_mean(p, k).map_or_else(String::new, |v| format!("{v:.6}")));
             }
             o.push_str(&row.join(","));
@@ -609,15 +635,17 @@ impl SweepResult {
             self.spec.trials
         ));
         let labels: Vec<&str> = self.spec.axes.iter().map(|a| a.label()).collect();
+        let extra = self.residual_columns();
+        let extra_head: String = extra.iter().map(|(_, h, _)| format!(" {h} |")).collect();
         o.push_str(&format!(
-            "| {} | failed | not converged | before (mm) | after (mm) | after max (mm) | improvement (%) | LM iterations |\n",
+            "| {} | failed | not converged | before (mm) | after (mm) | after max (mm) | improvement (%) | LM iterations |{extra_head}\n",
             labels.join(" | ")
         ));
         // Axis values left-aligned, figures right-aligned.
         o.push_str(&format!(
             "|{}{}\n",
             "---|".repeat(labels.len()),
-            "---:|".repeat(7)
+            "---:|".repeat(7 + extra.len())
         ));
         for p in &self.points {
             let vals: Vec<String> = p
@@ -629,8 +657,12 @@ impl SweepResult {
             let f = |k: &str, d: usize| {
                 Self::metric_mean(p, k).map_or("–".into(), |v| format!("{v:.d$}"))
             };
+            let extra_cells: String = extra
+                .iter()
+                .map(|(k, _, d)| format!(" {} |", f(k, *d)))
+                .collect();
             o.push_str(&format!(
-                "| {} | {}/{} | {} | {} | {} | {} | {} | {} |\n",
+                "| {} | {}/{} | {} | {} | {} | {} | {} | {} |{extra_cells}\n",
                 vals.join(" | "),
                 p.failed,
                 p.trials,

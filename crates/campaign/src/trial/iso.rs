@@ -98,7 +98,7 @@ pub(crate) fn iso_plan(
 /// model could not reach (commanded uncompensated instead, and counted).
 pub(super) fn iso_trial(
     plan: &IsoPlan,
-    identified: &Robot,
+    (identified, model): (&Robot, Option<&calibrate::residual::ResidualModel>),
     world: &mut World,
     scenario: &crate::scenario::Scenario,
     trial: u64,
@@ -114,7 +114,12 @@ pub(super) fn iso_trial(
             point_in_flange_mm: identified.tool_mm(),
             ..*t
         };
-        if scenario.compensation.enabled && identified.solve_ik(&target, &mut qc, &ik).is_err() {
+        let reached = match model {
+            None => identified.solve_ik(&target, &mut qc, &ik).is_ok(),
+            // The hybrid the gate kept (scenario `residual_model`).
+            Some(m) => super::hybrid::compensate(identified, m, &target, &mut qc, &ik),
+        };
+        if scenario.compensation.enabled && !reached {
             failures += 1;
             qc.clone_from(q);
         }

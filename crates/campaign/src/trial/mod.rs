@@ -9,6 +9,7 @@
 
 mod context;
 mod frames;
+mod hybrid;
 mod iso;
 pub(crate) use iso::iso_plan;
 mod points;
@@ -16,7 +17,7 @@ mod result;
 
 pub use context::Context;
 pub use iso::IsoPlan;
-pub use result::{FitSummary, STALL_GRADIENT_COSINE, TrialResult};
+pub use result::{FitSummary, Gain, ResidualTrial, STALL_GRADIENT_COSINE, TrialResult};
 
 use evaluate::Table4;
 use kinematics::{PoseTrig, Robot};
@@ -123,6 +124,12 @@ pub fn run_trial(ctx: &Context, trial: u64) -> Result<TrialResult, CampaignError
     };
     let mut unmeasurable = fit.unmeasurable();
     let fit_robot = fit.robot();
+    // The learned residual model (scenario `residual_model`; point fits only, as the
+    // scenario's check requires).
+    let hybrid = match &fit {
+        TrialFit::Points(p) if scenario.residual_model.enabled => Some(hybrid::fit(ctx, p, trial)?),
+        _ => None,
+    };
 
     // Validation before compensation, then after.
     let val: Vec<f64> = world.validation_poses_rad().to_vec();
@@ -159,6 +166,27 @@ pub fn run_trial(ctx: &Context, trial: u64) -> Result<TrialResult, CampaignError
             after.push(to_arr(p_meas - fit_robot.point_trig(val_trig.pose(j))));
         }
     }
+    // With a residual model, the hybrid's compensation too; the trial's `after` is the one
+    // the gate chose.
+    let residual = match &hybrid {
+        Some(h) => {
+            let v = h.validate(
+                ctx,
+                &mut world,
+                (fit_robot, &val_trig),
+                &measured_val,
+                &after,
+                trial,
+            )?;
+            unmeasurable += v.unmeasurable;
+            if h.used() {
+                after = v.after_mm;
+                compensation_failures = v.outcome.hybrid_compensation_failures;
+            }
+            Some(v.outcome)
+        }
+        None => None,
+    };
     let table4 = Table4::from_errors(&before, &after).map_err(eval)?;
 
     // Geometry recovery: identified vs true geometry on the validation poses.
@@ -198,7 +226,9 @@ pub fn run_trial(ctx: &Context, trial: u64) -> Result<TrialResult, CampaignError
     let pose_rejection_rate = world.sampling_report().rejection_rate();
     let (iso, iso_compensation_failures) = match &ctx.iso {
         Some(plan) => {
-            let (report, failures) = iso::iso_trial(plan, fit_robot, &mut world, scenario, trial)?;
+            let model = hybrid.as_ref().filter(|h| h.used()).map(|h| &h.model);
+            let (report, failures) =
+                iso::iso_trial(plan, (fit_robot, model), &mut world, scenario, trial)?;
             (Some(report), failures)
         }
         None => (None, 0),
@@ -218,6 +248,7 @@ pub fn run_trial(ctx: &Context, trial: u64) -> Result<TrialResult, CampaignError
         recovery,
         observability,
         iso,
+        residual,
     })
 }
 

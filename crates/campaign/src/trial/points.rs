@@ -23,6 +23,8 @@ pub(super) struct PointIdentification {
     pub points_mm: Vec<Vector3<f64>>,
     /// Identification poses that could not be measured.
     pub unmeasurable: usize,
+    /// The free set the fit solved (parameter indices).
+    pub free: Vec<usize>,
 }
 
 /// Measures `poses_rad` (flat) one point per pose and identifies.
@@ -57,13 +59,15 @@ pub(super) fn identify_points(
             &scenario.identification.identifiability,
         )
         .map_err(ident)?;
-    let problem = Problem::new(&ctx.id_nominal, &id_poses, &id_points, free).map_err(ident)?;
+    let problem =
+        Problem::new(&ctx.id_nominal, &id_poses, &id_points, free.clone()).map_err(ident)?;
     let fit = identify::identify(&problem, &ctx.id_options).map_err(ident)?;
     Ok(PointIdentification {
         fit,
         poses_rad: id_poses,
         points_mm: id_points,
         unmeasurable,
+        free,
     })
 }
 

@@ -1,7 +1,7 @@
 //! What one trial produces ([`TrialResult`]) and the identification's figures in brief
 //! ([`FitSummary`]), whichever measurement identified it.
 
-use evaluate::{IsoReport, ParameterRecovery, Table4};
+use evaluate::{AxisStats, IsoReport, ParameterRecovery, Table4};
 use identify::{Observability, StopReason};
 use serde::{Deserialize, Serialize};
 
@@ -79,4 +79,53 @@ pub struct TrialResult {
     pub observability: Option<Observability>,
     /// ISO 9283 results (when enabled).
     pub iso: Option<IsoReport>,
+    /// The learned residual model's outcome (scenario `residual_model`; absent without it).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub residual: Option<ResidualTrial>,
+}
+
+/// What the learned residual model did in one trial (scenario `residual_model`,
+/// `docs/residual-model.md`, "In campaigns"). The trial's `after_mm` and Table 4 are the
+/// compensation the gate chose: the hybrid's when [`ResidualTrial::used`], the geometry's
+/// otherwise; both are here.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ResidualTrial {
+    /// The gate kept the model: the cross-validation's mean and p95 gains both exceed their
+    /// fold-to-fold scatter.
+    pub used: bool,
+    /// The cross-validation's gain of the mean held-out error (geometry − hybrid), mm.
+    pub cv_mean_gain: Gain,
+    /// The cross-validation's gain of the held-out 95th percentile, mm.
+    pub cv_p95_gain: Gain,
+    /// The validation poses compensated by the geometry alone: 3-D errors, mm.
+    pub geometry_after: AxisStats,
+    /// The same poses compensated by the hybrid of the model fitted on every
+    /// identification pose (whether the gate kept it or not): 3-D errors, mm; `None` when
+    /// no pose could be compensated.
+    pub hybrid_after: Option<AxisStats>,
+    /// Validation targets the hybrid could not reach (its fixed point failed).
+    pub hybrid_compensation_failures: usize,
+    /// The coverage of the model's predictive sd on the validation poses (predicted −
+    /// measured, before compensation): fractions within 1 and 2 sd over every axis value.
+    pub coverage_1sd: f64,
+    /// See [`ResidualTrial::coverage_1sd`].
+    pub coverage_2sd: f64,
+}
+
+/// An improvement over the folds of a cross-validation (`calibrate::residual::Gain`), mm.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Gain {
+    /// Mean over the folds of geometry − hybrid, mm.
+    pub mean_mm: f64,
+    /// Its fold-to-fold sample standard deviation, mm.
+    pub scatter_mm: f64,
+}
+
+impl From<calibrate::residual::Gain> for Gain {
+    fn from(g: calibrate::residual::Gain) -> Self {
+        Gain {
+            mean_mm: g.mean_mm,
+            scatter_mm: g.scatter_mm,
+        }
+    }
 }
