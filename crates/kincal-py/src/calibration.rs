@@ -470,18 +470,26 @@ pub(crate) fn calibrate_abandonable<T: Send + 'static>(
     })
 }
 
-/// The calibrated robot and the registered nominal one of a `Calibration` or a
-/// `FrameCalibration`.
-fn pair(
-    calibration: &Bound<'_, PyAny>,
-) -> PyResult<(calibrate::LoadedRobot, calibrate::LoadedRobot)> {
+/// The calibrated robot, the registered nominal one and, unless `geometry_only`, the kept
+/// residual model of a `Calibration` (a `FrameCalibration` has none).
+type Pair = (
+    calibrate::LoadedRobot,
+    calibrate::LoadedRobot,
+    Option<calibrate::residual::ResidualModel>,
+);
+
+/// The calibrated robot, the registered nominal one and the residual model to apply (the
+/// kept one of a `Calibration`, none with `geometry_only`, as `kincal compensate
+/// --geometry-only`) of a `Calibration` or a `FrameCalibration`.
+fn pair(calibration: &Bound<'_, PyAny>, geometry_only: bool) -> PyResult<Pair> {
     if let Ok(c) = calibration.cast::<PyCalibration>() {
         let c = c.get();
-        return Ok((c.identified.clone(), c.registered.clone()));
+        let model = c.kept_model().filter(|_| !geometry_only).cloned();
+        return Ok((c.identified.clone(), c.registered.clone(), model));
     }
     if let Ok(c) = calibration.cast::<crate::frame_calibration::PyFrameCalibration>() {
         let (identified, registered) = c.get().pair();
-        return Ok((identified.clone(), registered.clone()));
+        return Ok((identified.clone(), registered.clone(), None));
     }
     Err(pyo3::exceptions::PyTypeError::new_err(
         "calibration: expected a Calibration (kincal.identify) or a FrameCalibration \
@@ -491,14 +499,19 @@ fn pair(
 
 /// The joints `(n, N)` (degrees) to command so that the calibrated robot reaches the points
 /// the nominal robot (in the data's frame) reaches at `q_deg`, as `kincal compensate` with
-/// the calibration's `identified.json` and `registered-nominal.json`.
+/// the calibration's `identified.json` and `registered-nominal.json`. With a residual model
+/// that `identify(..., residual_model="gp")` kept, the joints bring the geometry plus the
+/// model's mean onto each target (`predict(q)` reaches it; docs/residual-model.md);
+/// `geometry_only=True` leaves the model out, as `--geometry-only`.
 #[pyfunction(name = "compensate")]
+#[pyo3(signature = (calibration, q_deg, *, geometry_only = false))]
 fn py_compensate<'py>(
     py: Python<'py>,
     calibration: &Bound<'py, PyAny>,
     q_deg: ArrayArg<'py>,
+    geometry_only: bool,
 ) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
-    let (identified, nominal) = pair(calibration)?;
+    let (identified, nominal, model) = pair(calibration, geometry_only)?;
     let n = nominal.robot.n_joints();
     let (_, single) = joints_arg(&q_deg, n, "q_deg")?;
     let set = memory_set("q_deg", n, joint_rows(&q_deg, n, "q_deg")?, None);
@@ -506,7 +519,8 @@ fn py_compensate<'py>(
         let set = nominal
             .check_set(set, false, "target joints")
             .map_err(|e| kincal_error(&e))?;
-        calibrate::compensate_set(&identified, &nominal, &set).map_err(|e| kincal_error(&e))
+        calibrate::compensate_set_with((&identified, model.as_ref()), &nominal, &set)
+            .map_err(|e| kincal_error(&e))
     })?;
     let out = vec_rows_array(py, &rows, n);
     Ok(if single {
@@ -521,9 +535,11 @@ fn py_compensate<'py>(
 /// Cartesian targets: the joints `(n, N)` (degrees) to command, and the corrected targets
 /// (positions `(n, 3)` mm and orientations `(n, 4)` wxyz, in the robot's base frame) for a
 /// controller running the nominal model, as `kincal compensate` with a targets file without
-/// joint columns.
+/// joint columns. With a residual model that `identify(..., residual_model="gp")` kept, the
+/// joints bring the geometry plus the model's mean onto each target position (the model is
+/// position-only); `geometry_only=True` leaves it out, as `--geometry-only`.
 #[pyfunction(name = "compensate_cartesian")]
-#[pyo3(signature = (calibration, positions_mm, orientations_wxyz=None, *, frame="base", start_q_deg=None))]
+#[pyo3(signature = (calibration, positions_mm, orientations_wxyz=None, *, frame="base", start_q_deg=None, geometry_only=false))]
 #[allow(clippy::type_complexity)]
 fn py_compensate_cartesian<'py>(
     py: Python<'py>,
@@ -532,12 +548,13 @@ fn py_compensate_cartesian<'py>(
     orientations_wxyz: Option<ArrayArg<'py>>,
     frame: &str,
     start_q_deg: Option<Vec<f64>>,
+    geometry_only: bool,
 ) -> PyResult<(
     Bound<'py, PyArrayDyn<f64>>,
     Bound<'py, PyArrayDyn<f64>>,
     Bound<'py, PyArrayDyn<f64>>,
 )> {
-    let (identified, nominal) = pair(calibration)?;
+    let (identified, nominal, model) = pair(calibration, geometry_only)?;
     let n = nominal.robot.n_joints();
     let frame: calibrate::TargetFrame = frame
         .parse()
@@ -582,8 +599,8 @@ fn py_compensate_cartesian<'py>(
         ..Default::default()
     };
     let c = py.detach(|| {
-        calibrate::compensate_poses(
-            &identified,
+        calibrate::compensate_poses_with(
+            (&identified, model.as_ref()),
             &nominal,
             set,
             false,

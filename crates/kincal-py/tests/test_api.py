@@ -618,15 +618,26 @@ def test_ctrl_c_interrupts_an_identification_on_large_data_within_a_second():
     assert latency <= 1.0, f"KeyboardInterrupt {latency:.2f} s after the signal"
 
 
-def test_the_residual_model_is_kept_by_the_gate_and_predicts_held_out_poses_better():
+@pytest.fixture(scope="module")
+def gp_calibration():
+    """The UR10 recording's ``every=5`` split with ``residual_model="gp"`` (the GP's
+    cross-validation costs seconds: fitted once for the module), and without it."""
+    robot = kincal.Robot.load(ROBOTS / "ur10.json")
+    q, p = ur10_data()
+    cal = kincal.identify(robot, q, p, every=5, residual_model="gp")
+    plain = kincal.identify(robot, q, p, every=5)
+    return robot, q, p, cal, plain
+
+
+def test_the_residual_model_is_kept_by_the_gate_and_predicts_held_out_poses_better(
+    gp_calibration,
+):
     """Issue 41: ``residual_model="gp"`` runs ``--residual-model gp``'s cross-validation and
     gate; on the UR10's 299 identification rows (``every=5``) the gate keeps the model, and
     ``predict`` with it is closer to the 1,196 held-out measurements than the geometry
     (``docs/residual-model.md``: 0.426 → 0.334 mm), with ``predict_sd`` covering them near
     the Gaussian 68 % / 95 %. Without the option nothing changes."""
-    robot = kincal.Robot.load(ROBOTS / "ur10.json")
-    q, p = ur10_data()
-    cal = kincal.identify(robot, q, p, every=5, residual_model="gp")
+    robot, q, p, cal, plain = gp_calibration
     summary = cal.residual_model
     assert summary["used"] is True and len(summary["folds"]) == 5
     assert summary["mean_gain_mm"][0] > summary["mean_gain_mm"][1]
@@ -642,8 +653,116 @@ def test_the_residual_model_is_kept_by_the_gate_and_predicts_held_out_poses_bett
     z = np.abs(cal.predict(q[held]) - p[held]) / sd
     assert 0.6 < (z <= 1).mean() < 0.8 and 0.9 < (z <= 2).mean() < 0.98
     assert cal.predict_sd(q[0]).shape == (3,)
-    plain = kincal.identify(robot, q, p, every=5)
     assert plain.residual_model is None and plain.predict_sd(q[0]) is None
     assert np.array_equal(plain.predict(q[held]), cal.predict(q[held], geometry_only=True))
     with pytest.raises(ValueError, match="residual_model"):
         kincal.identify(robot, q, p, every=5, residual_model="nn")
+
+
+# `calibrate::residual::FIXED_POINT_TOL_MM`: the fixed point of a compensation with the model
+# stops when r(q) changes by less than this, a tenth of the IK's position tolerance; so
+# `FK_geom(q) + r(q)` is on the target to the IK's tolerance (10x) plus that last change.
+FIXED_POINT_TOL_MM = 1e-7
+COMPENSATED_TOL_MM = 10 * FIXED_POINT_TOL_MM + FIXED_POINT_TOL_MM
+
+
+def test_compensate_applies_the_kept_residual_model_as_the_cli(gp_calibration, tmp_path):
+    """Issue 41: ``compensate`` of a Calibration whose residual model was kept solves
+    ``FK_geom(q) + r(q) = target`` as ``kincal compensate`` does: ``predict(q)`` (with the
+    model's mean) is on the registered nominal's points to the fixed point's tolerance,
+    where the geometric joints miss by the model's correction; ``geometry_only=True`` gives
+    the geometric joints (those of a calibration without the model), as ``--geometry-only``;
+    both equal the CLI's on the saved calibration, to the bit."""
+    _, q, _, cal, plain = gp_calibration
+    assert cal.residual_model["used"] is True
+    commanded = q[1:200:20]
+    target = cal.registered_nominal.fk(commanded)
+    q_model = kincal.compensate(cal, commanded)
+    q_geometry = kincal.compensate(cal, commanded, geometry_only=True)
+    miss_model = np.linalg.norm(cal.predict(q_model) - target, axis=1).max()
+    miss_geometry = np.linalg.norm(cal.predict(q_geometry, geometry_only=True) - target, axis=1)
+    miss_geometry_with_model = np.linalg.norm(cal.predict(q_geometry) - target, axis=1)
+    moved = np.abs(q_model - q_geometry).max()
+    print(
+        f"compensate with the model: max |predict(q) - target| {miss_model:.2e} mm "
+        f"(geometric joints: {miss_geometry.max():.2e} mm geometry-only, "
+        f"{miss_geometry_with_model.max():.3f} mm with the model); joints moved by the "
+        f"model up to {moved:.4f} deg"
+    )
+    assert miss_model < COMPENSATED_TOL_MM
+    assert miss_geometry.max() < COMPENSATED_TOL_MM
+    # The model's correction is tenths of a millimetre: the geometric joints miss by it.
+    assert miss_geometry_with_model.max() > 1e4 * COMPENSATED_TOL_MM
+    assert moved > 1e-3
+    assert np.array_equal(kincal.compensate(cal, commanded[3]), q_model[3])
+    # geometry_only=True is the compensation of the same geometry without a model.
+    assert np.array_equal(kincal.compensate(plain, commanded), q_geometry)
+    assert np.array_equal(kincal.compensate(plain, commanded, geometry_only=True), q_geometry)
+    # The CLI on the saved calibration (identified.json names the model).
+    cal.save(tmp_path / "cal")
+    targets = tmp_path / "targets.csv"
+    targets.write_text(
+        "q1,q2,q3,q4,q5,q6\n"
+        + "".join(",".join(repr(float(v)) for v in r) + "\n" for r in commanded)
+    )
+    for flags, expected in (([], q_model), (["--geometry-only"], q_geometry)):
+        out = tmp_path / f"c{len(flags)}.csv"
+        run_cli(
+            "compensate", "--robot", tmp_path / "cal" / "identified.json", "--nominal",
+            tmp_path / "cal" / "registered-nominal.json", "--targets", targets, "--out", out,
+            *flags,
+        )
+        rows = read_csv(out)
+        q_cli = np.array([[float(r[f"q{i + 1}"]) for i in range(6)] for r in rows])
+        assert np.array_equal(q_cli, expected), flags
+
+
+def test_compensate_cartesian_applies_the_kept_residual_model_as_the_cli(
+    gp_calibration, tmp_path
+):
+    """Cartesian targets (positions in the measurement frame) with the kept model: the
+    calibrated solve puts ``predict(q)`` on each position to the fixed point's tolerance;
+    ``geometry_only=True`` gives the geometric joints; both equal ``kincal compensate``'s on
+    a targets file without joint columns."""
+    _, q, _, cal, plain = gp_calibration
+    positions = cal.registered_nominal.fk(q[100:106])
+    start = list(q[100])
+    q_model, p_model, _ = kincal.compensate_cartesian(
+        cal, positions, frame="measurement", start_q_deg=start
+    )
+    q_geometry, p_geometry, o_geometry = kincal.compensate_cartesian(
+        cal, positions, frame="measurement", start_q_deg=start, geometry_only=True
+    )
+    miss_model = np.linalg.norm(cal.predict(q_model) - positions, axis=1).max()
+    miss_geometry = np.linalg.norm(cal.predict(q_geometry, geometry_only=True) - positions, axis=1)
+    moved = np.abs(q_model - q_geometry).max()
+    print(
+        f"compensate_cartesian with the model: max |predict(q) - target| {miss_model:.2e} mm "
+        f"(geometry-only {miss_geometry.max():.2e} mm); joints moved by the model up to "
+        f"{moved:.4f} deg, corrected targets by {np.abs(p_model - p_geometry).max():.4f} mm"
+    )
+    assert miss_model < COMPENSATED_TOL_MM
+    assert miss_geometry.max() < COMPENSATED_TOL_MM
+    assert moved > 1e-3
+    # geometry_only=True is the compensation of the same geometry without a model.
+    q_plain, p_plain, o_plain = kincal.compensate_cartesian(
+        plain, positions, frame="measurement", start_q_deg=start
+    )
+    assert np.array_equal(q_plain, q_geometry) and np.array_equal(p_plain, p_geometry)
+    assert np.array_equal(o_plain, o_geometry)
+    targets = tmp_path / "targets.csv"
+    targets.write_text(
+        "x,y,z\n" + "".join(",".join(repr(float(v)) for v in r) + "\n" for r in positions)
+    )
+    cal.save(tmp_path / "cal")
+    for flags, expected in (([], q_model), (["--geometry-only"], q_geometry)):
+        out = tmp_path / f"c{len(flags)}.csv"
+        run_cli(
+            "compensate", "--robot", tmp_path / "cal" / "identified.json", "--nominal",
+            tmp_path / "cal" / "registered-nominal.json", "--targets", targets, "--out", out,
+            "--frame", "measurement", "--start-joints=" + ",".join(repr(float(v)) for v in start),
+            *flags,
+        )
+        rows = read_csv(out)
+        q_cli = np.array([[float(r[f"q{i + 1}"]) for i in range(6)] for r in rows])
+        assert np.array_equal(q_cli, expected), flags

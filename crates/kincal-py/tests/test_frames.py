@@ -229,6 +229,10 @@ def test_compensate_cartesian_targets_of_a_frame_calibration():
     again, _, _ = kincal.compensate_cartesian(cal, mp, mo, frame="measurement", start_q_deg=start)
     assert np.max(np.abs(again - qc)) < 1e-6
     assert kincal.compensate(cal, q[::100]).shape == (15, 6)
+    # A FrameCalibration has no residual model: geometry_only changes nothing.
+    assert np.array_equal(
+        kincal.compensate(cal, q[::100], geometry_only=True), kincal.compensate(cal, q[::100])
+    )
     bad = to.copy()
     bad[4] *= 1.01
     with pytest.raises(kincal.KincalError, match='target arrays:5: column "qw"'):

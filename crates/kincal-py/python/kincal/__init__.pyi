@@ -534,12 +534,18 @@ def identify_frames(
     Raises KincalError with the library's message. The GIL is released during the work."""
 
 def compensate(
-    calibration: Calibration | FrameCalibration, q_deg: ArrayLike
+    calibration: Calibration | FrameCalibration,
+    q_deg: ArrayLike,
+    *,
+    geometry_only: bool = False,
 ) -> NDArray[np.float64]:
     """The joints ``(n, N)`` (degrees) that make the calibrated robot reach the points the
     registered nominal robot reaches at ``q_deg``, as ``kincal compensate`` with the
     calibration's ``identified.json`` and ``registered-nominal.json``; ``(N,)`` → ``(N,)``.
-    Raises KincalError listing the unreachable rows."""
+    With a residual model that ``identify(..., residual_model="gp")`` kept, the joints bring
+    the geometry plus the model's mean onto each target (``calibration.predict(q)`` reaches
+    it; ``docs/residual-model.md``); ``geometry_only=True`` leaves the model out, as
+    ``--geometry-only``. Raises KincalError listing the unreachable rows."""
 
 def compensate_cartesian(
     calibration: Calibration | FrameCalibration,
@@ -548,6 +554,7 @@ def compensate_cartesian(
     *,
     frame: Literal["base", "measurement"] = "base",
     start_q_deg: Sequence[float] | None = None,
+    geometry_only: bool = False,
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
     """Cartesian targets, as ``kincal compensate`` with a targets file without joint columns:
     TCP positions ``(n, 3)`` (mm) and optionally orientations ``(n, 4)`` (unit quaternions,
@@ -559,7 +566,10 @@ def compensate_cartesian(
     model). Returns ``(q_deg, positions_mm, orientations_wxyz)``: the joints to command
     ``(n, N)`` and the corrected targets ``(n, 3)``, ``(n, 4)`` — the nominal model's
     forward kinematics at those joints in the base frame, for a controller that runs the
-    nominal model. Raises KincalError listing the unreachable rows."""
+    nominal model. With a residual model that ``identify(..., residual_model="gp")`` kept,
+    the calibrated solve brings the geometry plus the model's mean onto each target position
+    (the model is position-only); ``geometry_only=True`` leaves it out, as
+    ``--geometry-only``. Raises KincalError listing the unreachable rows."""
 
 def design(
     robot: Robot,
