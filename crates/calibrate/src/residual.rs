@@ -36,8 +36,7 @@ use crate::workflow::{Calibration, PointCalibration, as_written, fit_points, res
 pub use residual::{
     Coverage, CrossValidation, CvOptions, DEFAULT_FOLDS, FoldResult, Gain, GpOptions, HeldOut,
     Hyperparameters, MIN_TRAIN_POSES, MODEL_FILE, Prediction, ResidualError, ResidualModel,
-    cross_validate,
-    evenly_spaced, folds, held_out,
+    cross_validate, evenly_spaced, folds, held_out,
 };
 
 /// What `identify --residual-model gp` found.
@@ -393,14 +392,12 @@ pub fn fixed_point(
             position_mm: target.position_mm - r,
             ..*target
         };
-        let report = identified
-            .solve_ik(&shifted, &mut q, ik)
-            .map_err(|e| {
-                format!(
-                    "with the residual model's correction ({} mm) at step {step}: {e}",
-                    measurements::number(r.norm(), 4)
-                )
-            })?;
+        let report = identified.solve_ik(&shifted, &mut q, ik).map_err(|e| {
+            format!(
+                "with the residual model's correction ({} mm) at step {step}: {e}",
+                measurements::number(r.norm(), 4)
+            )
+        })?;
         let next = mean_at(model, &q)?;
         change = (next - r).norm();
         r = next;
