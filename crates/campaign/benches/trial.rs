@@ -8,7 +8,9 @@
 //!   validation poses by IK, Table 4);
 //! - `trial_<scenario>_iso`: the same with the ISO 9283 test (the scenario as committed).
 //!
-//! `cargo bench -p campaign`; the ratios are in `docs/profile.md`.
+//! With the `kincal` binary's allocator (mimalloc, `docs/profile.md`, "The allocator"), so
+//! that the figures are the CLI's. `cargo bench -p campaign`; the ratios are in
+//! `docs/profile.md`.
 
 use std::hint::black_box;
 use std::path::Path;
@@ -18,6 +20,9 @@ use campaign::{Context, Scenario, run_trial};
 use criterion::{Criterion, criterion_group, criterion_main};
 use identify::Problem;
 use nalgebra::Vector3;
+
+#[global_allocator]
+static GLOBAL: mimalloc::MiMalloc = mimalloc::MiMalloc;
 
 fn context(iso: bool) -> Context {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenarios/paper-kr1000.json");
