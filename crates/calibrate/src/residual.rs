@@ -226,13 +226,17 @@ impl ToolFrameCalibration {
         let single = matches!(self.kind, MeasurementKind::SixDof { targets: 1 });
         if !single || self.data.rows.len() != self.data.n_poses() {
             return Err(CalibrateError::ResidualMismatch(format!(
-                "a residual model is fitted on point data or on 6-DoF data of one probe a                  pose; {} has {} data (several targets a pose: their residuals are not                  modelled): calibrate its points alone (points_only) for a model of the                  position residuals",
+                "a residual model is fitted on point data or on 6-DoF data of one probe a \
+                 pose; {} has {} data (several targets a pose: their residuals are not \
+                 modelled): calibrate its points alone (points_only) for a model of the \
+                 position residuals",
                 self.data_source, self.kind
             )));
         }
         if let Some(row) = self.data.rows.iter().position(|r| r.rotation.is_none()) {
             return Err(CalibrateError::ResidualMismatch(format!(
-                "a residual model of 6-DoF data needs an orientation at every pose; pose {row}                  of {} has none",
+                "a residual model of 6-DoF data needs an orientation at every pose; pose {row} \
+                 of {} has none",
                 self.data_source
             )));
         }
@@ -281,10 +285,10 @@ impl ToolFrameCalibration {
                     ))
                 };
                 let position = held_out(m, &q, &rp).map_err(err())?;
-                let orientation = match m.predict_orientation(&q).map_err(err())? {
-                    Some(pred) => Some(held_out_deg(&pred, &ro)),
-                    None => None,
-                };
+                let orientation = m
+                    .predict_orientation(&q)
+                    .map_err(err())?
+                    .map(|pred| held_out_deg(&pred, &ro));
                 (Some(position), orientation)
             }
             _ => (None, None),
