@@ -363,8 +363,9 @@ pub fn compensate_poses(
 
 /// [`compensate_poses`] with the learned residual model of `calibrated`, if given, as
 /// [`crate::compensate_rows_with`] applies it: the calibrated solve brings `FK(q) + r(q)`
-/// onto each target's position (its orientation as without the model: the model is
-/// position-only). With a TCP other than the calibrated robot's (`--tcp`), the model's
+/// onto each target's position; with the model's orientation part (6-DoF data) the
+/// orientation solved is `exp(−r_o(q))·R_target`, so that `exp(r_o(q))·R(q)` (what `predict`
+/// writes) is the target's (without it, the orientation as without the model). With a TCP other than the calibrated robot's (`--tcp`), the model's
 /// correction of the measured point is applied to it as is. Without a model the result is
 /// [`compensate_poses`]'s.
 ///

@@ -4,7 +4,7 @@
 use std::path::Path;
 
 use identify::{Compensated, CompensationOptions, compensation_target, kabsch};
-use kinematics::rotation::{log_so3, unit_quaternion};
+use kinematics::rotation::{exp_so3, log_so3, unit_quaternion};
 use kinematics::{IkTarget, Robot};
 use measurements::{Measurement, MeasurementSet, quaternion_to_matrix, to_csv_string};
 use nalgebra::{Matrix3, Vector3};
@@ -57,7 +57,10 @@ pub fn predict(robot: &LoadedRobot, joints: &Path, out_label: &str) -> Result<Pr
 
 /// [`predict`] with a learned residual model (`crate::residual::load_model`): its mean is
 /// added to each predicted point, and with `with_sd` its predictive standard deviation is
-/// written as the `sx, sy, sz` columns (mm).
+/// written as the `sx, sy, sz` columns (mm). A model with an orientation part (6-DoF data)
+/// on a robot with a tool orientation also rotates the predicted orientation by
+/// `exp(r_o(q))` (measurement axes), and with `with_sd` writes that part's standard
+/// deviation as the `srx, sry, srz` columns (degrees).
 ///
 /// # Errors
 /// As [`predict`]; the residual model's errors (a joint count it was not trained on).
@@ -80,11 +83,26 @@ pub fn predict_with(
             })
         })
         .transpose()?;
+    let orientation = robot.robot.tool_rotation_rad().is_some();
+    let rotations = residual
+        .filter(|_| orientation)
+        .map(|(m, _)| {
+            let q: Vec<Vec<f64>> = set.rows.iter().map(|r| r.q_deg.clone()).collect();
+            m.predict_orientation(&q)
+                .map_err(|source| CalibrateError::Residual {
+                    context: format!(
+                        "predicting the residual model's orientation part at the joints of {}",
+                        joints.display()
+                    ),
+                    source,
+                })
+        })
+        .transpose()?
+        .flatten();
     let with_sd = residual.is_some_and(|(_, sd)| sd);
     let mut rows = Vec::with_capacity(set.rows.len());
     let mut errors = Vec::new();
     let mut angles = Vec::new();
-    let orientation = robot.robot.tool_rotation_rad().is_some();
     let mut q = vec![0.0; robot.robot.n_joints()];
     for (k, r) in set.rows.iter().enumerate() {
         for (qr, d) in q.iter_mut().zip(&r.q_deg) {
@@ -96,7 +114,15 @@ pub fn predict_with(
         if let Some(m) = r.point_mm {
             errors.push((Vector3::from(m) - p).norm());
         }
-        let o = orientation_wxyz(&robot.robot, &q);
+        let rotation = rotations.as_ref().map(|c| c[k]);
+        let o = match rotation {
+            Some(c) => Some(unit_quaternion(
+                &(exp_so3(&Vector3::from(c.mean_deg).map(f64::to_radians))
+                    * robot.robot.flange(&q).rot
+                    * robot.robot.tool_rotation()),
+            )),
+            None => orientation_wxyz(&robot.robot, &q),
+        };
         if let (Some(o), Some(m)) = (o, r.orientation) {
             angles.push(angle_deg(o, m));
         }
@@ -107,6 +133,7 @@ pub fn predict_with(
             point_mm: Some([p.x, p.y, p.z]),
             orientation: o,
             sigma_mm: correction.filter(|_| with_sd).map(|c| c.sd_mm),
+            sigma_deg: rotation.filter(|_| with_sd).map(|c| c.sd_deg),
             ..Default::default()
         });
     }
@@ -131,10 +158,21 @@ pub fn predict_with(
              docs/residual-model.md)",
         );
     }
+    if rotations.is_some() {
+        header.push_str(
+            "; qw qx qy qz include the residual model's orientation part (rotated by \
+             exp(r_o(q)), measurement axes)",
+        );
+    }
     if with_sd {
         header.push_str(
             "; sx sy sz the residual model's predictive standard deviation of the point, mm",
         );
+        if rotations.is_some() {
+            header.push_str(
+                "; srx sry srz that of the orientation, degrees about the measurement axes",
+            );
+        }
     }
     let csv = to_csv_string(&out_set, Some(&header)).map_err(|source| CalibrateError::Read {
         context: "formatting the predictions".into(),

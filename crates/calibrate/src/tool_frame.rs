@@ -129,6 +129,10 @@ pub struct ToolFrameCalibration {
     /// points were divided by it before this calibration; `None` without `--fit-scale` or
     /// when the factor was not significant (the points were left as measured).
     pub measurement_scale: Option<crate::scale::ScaleEvidence>,
+    /// The learned residual model's cross-validation and, when it helps, the model
+    /// ([`crate::residual`]: position and orientation parts); `None` unless asked for
+    /// ([`crate::Calibration::fit_residual_model`]).
+    pub residual: Option<crate::residual::ResidualOutcome>,
 }
 
 /// The rows of `set` as [`FrameData`] (poses in [`MeasurementSet::poses`] order), weighted
@@ -299,7 +303,7 @@ pub fn pose_lines(set: &MeasurementSet) -> Vec<usize> {
 /// schedule: `--schedule`, `schedule=`) and its prior (`--prior`, `prior=`; by default only
 /// where the data leave a robot parameter undetermined, as for points). The one place this
 /// kind calls the solver.
-fn fit_tool_frame(
+pub(crate) fn fit_tool_frame(
     start: &FrameModel,
     data: &FrameData,
     free: &FrameFree,
@@ -315,6 +319,27 @@ fn fit_tool_frame(
         &options,
         fit,
     )
+}
+
+/// `model` as `identified.json` gives it back: an extended model's gravity torques were
+/// evaluated on the geometry it was extended from, and the file re-extends its own geometry
+/// when read (the frame's own tool fields are ignored by the frame model: its targets stand
+/// for them); a geometric model as it is.
+pub(crate) fn as_written_frame(
+    mut model: FrameModel,
+    data: &FrameData,
+    nominal: &LoadedRobot,
+) -> Result<FrameModel> {
+    if model.robot.is_extended() {
+        let written = model.to_robot(&data.target_names, data.has_orientation());
+        model.robot =
+            Robot::from_spec(&written.to_spec()).map_err(|source| CalibrateError::Robot {
+                what: "identified robot",
+                path: nominal.path.clone(),
+                source,
+            })?;
+    }
+    Ok(model)
 }
 
 /// This kind's stages (`crate::pipeline::Kind`).
@@ -373,15 +398,7 @@ impl Kind for ToolFrameKind<'_> {
         // it was extended from; `identified.json` re-extends its own geometry when read, so
         // the model validated and reported is that one (the frame's own tool fields are
         // ignored by the frame model: its targets stand for them).
-        if fit.model.robot.is_extended() {
-            let written = fit.model.to_robot(&d.target_names, d.has_orientation());
-            fit.model.robot =
-                Robot::from_spec(&written.to_spec()).map_err(|source| CalibrateError::Robot {
-                    what: "identified robot",
-                    path: self.nominal.path.clone(),
-                    source,
-                })?;
-        }
+        fit.model = as_written_frame(fit.model, d, self.nominal)?;
         self.fit_ms
             .set(self.fit_ms.get() + started.elapsed().as_secs_f64() * 1e3);
         Ok(Pass {
@@ -567,6 +584,7 @@ pub(crate) fn calibrate(common: Common<'_>) -> Result<ToolFrameCalibration> {
             .chain(out.analysis.warning(&request.prior))
             .collect(),
         measurement_scale: None,
+        residual: None,
     })
 }
 

@@ -882,8 +882,9 @@ impl ResidualModelConfig {
         if scenario.measurement.kind != design::Measure::Point {
             return Err((
                 "residual_model.enabled",
-                "the residual model is fitted on point measurements (orientation residuals are \
-                 not modelled); measurement.type must be \"point\""
+                "a campaign's residual model is fitted on point measurements (its trials do not \
+                 model orientation residuals; `kincal identify --residual-model gp` does, on a \
+                 6-DoF recording); measurement.type must be \"point\""
                     .into(),
             ));
         }

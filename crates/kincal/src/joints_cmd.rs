@@ -86,9 +86,14 @@ pub fn predict(args: &PredictArgs) -> Result<()> {
         &out_label(args.out.as_deref()),
     )?;
     if p.residual_model {
+        let what = if p.orientation && model.as_ref().is_some_and(|m| m.has_orientation()) {
+            "the points and orientations include the learned residual model (with its \
+             orientation part)"
+        } else {
+            "the points include the learned residual model"
+        };
         crate::errln!(
-            "note: the points include the learned residual model named in {} \
-             (--geometry-only to leave it out)",
+            "note: {what} named in {} (--geometry-only to leave it out)",
             args.robot.display()
         );
     }
@@ -317,11 +322,15 @@ pub fn compensate(args: &CompensateArgs) -> Result<()> {
     if let Some(m) = &c.residual_model {
         crate::errln!(
             "note: the joints include the learned residual model named in {} ({}; |r| mean {} \
-             mm, max {} mm; at most {} fixed-point steps; --geometry-only to leave it out)",
+             mm, max {} mm{}; at most {} fixed-point steps; --geometry-only to leave it out)",
             args.robot.display(),
             m.file,
             report::fmt::mm(m.mean_correction_mm),
             report::fmt::mm(m.max_correction_mm),
+            m.max_orientation_correction_deg
+                .map_or(String::new(), |d| format!(
+                    "; orientation part |r_o| max {d:.4}°"
+                )),
             m.max_steps
         );
     } else if args.geometry_only {

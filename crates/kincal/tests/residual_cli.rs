@@ -231,3 +231,124 @@ fn with_sd_needs_a_model() {
         stderr(&out)
     );
 }
+
+/// The mean angle `predict` prints on stderr (`angle file − predicted mean X°`).
+fn mean_angle(stderr: &str) -> f64 {
+    let key = "angle file − predicted mean ";
+    let at = stderr.find(key).expect("an angle") + key.len();
+    stderr[at..].split('°').next().unwrap().parse().unwrap()
+}
+
+/// 6-DoF data end to end (`kincal simulate` of the paper KR1000 measured by a probe, with its
+/// compliance and gear errors): `identify --residual-model gp` keeps both parts and writes a
+/// `kincal-residual-model/2` file; `predict` with it is closer to the validation poses'
+/// orientations than `--geometry-only`; `compensate` of Cartesian targets applies the
+/// orientation part and says so.
+#[test]
+fn six_dof_identify_predict_compensate() {
+    let dir = tempfile::tempdir().unwrap();
+    let root = crate::common::root();
+    let mut scenario: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(root.join("scenarios/paper-kr1000.json")).unwrap(),
+    )
+    .unwrap();
+    scenario["robot"] = serde_json::json!(s(&root.join("scenarios/robots/kr1000-titan.json")));
+    scenario["measurement"] = serde_json::json!({"type": "frame"});
+    scenario["poses"] = serde_json::json!({"identification": 150, "validation": 40});
+    scenario["iso"] = serde_json::json!({"enabled": false});
+    scenario["residual_budget"] = serde_json::json!({"enabled": false});
+    let scenario_path = dir.path().join("scenario.json");
+    std::fs::write(&scenario_path, scenario.to_string()).unwrap();
+    let sim = dir.path().join("sim");
+    ok(&kincal(&["simulate", s(&scenario_path), "--out", s(&sim)]));
+    let out = dir.path().join("id");
+    let console = ok(&kincal(&[
+        "identify",
+        "--robot",
+        "scenarios/robots/kr1000-titan.json",
+        "--data",
+        s(&sim.join("identification.csv")),
+        "--residual-model",
+        "gp",
+        "--out",
+        s(&out),
+    ]));
+    assert!(
+        console.contains("residual model (gp): used")
+            && console.contains("orientation part: applied"),
+        "{console}"
+    );
+    let model = std::fs::read_to_string(out.join("residual-model.json")).unwrap();
+    assert!(model.contains("\"format\": \"kincal-residual-model/2\""));
+    let report = std::fs::read_to_string(out.join("report.md")).unwrap();
+    assert!(report.contains("Orientation part (6-DoF data"), "{report}");
+
+    let robot = out.join("identified.json");
+    let validation = sim.join("validation.csv");
+    let predict = |extra: &[&str]| {
+        let mut args = vec![
+            "predict",
+            "--robot",
+            s(&robot),
+            "--joints",
+            s(&validation),
+            "--out",
+            "-",
+        ];
+        args.extend(extra);
+        let o = kincal(&args);
+        ok(&o);
+        stderr(&o)
+    };
+    let (hybrid, geometric) = (predict(&["--with-sd"]), predict(&["--geometry-only"]));
+    assert!(
+        hybrid.contains("points and orientations include"),
+        "{hybrid}"
+    );
+    let (h, g) = (mean_angle(&hybrid), mean_angle(&geometric));
+    assert!(h < 0.8 * g, "held-out angle: hybrid {h}°, geometry {g}°");
+
+    // Cartesian targets: the validation poses as measured, in the measurement frame.
+    let text = std::fs::read_to_string(&validation).unwrap();
+    let mut lines = text.lines().filter(|l| !l.starts_with('#'));
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let cols: Vec<usize> = ["id", "x", "y", "z", "qw", "qx", "qy", "qz"]
+        .iter()
+        .map(|c| header.iter().position(|h| h == c).unwrap())
+        .collect();
+    let mut targets = String::from("id,x,y,z,qw,qx,qy,qz\n");
+    let mut start = String::new();
+    for (k, l) in lines.take(10).enumerate() {
+        let v: Vec<&str> = l.split(',').collect();
+        if k == 0 {
+            start = v[1..7].join(",");
+        }
+        let row: Vec<&str> = cols.iter().map(|&i| v[i]).collect();
+        targets.push_str(&row.join(","));
+        targets.push('\n');
+    }
+    let targets_path = dir.path().join("targets.csv");
+    std::fs::write(&targets_path, targets).unwrap();
+    let o = kincal(&[
+        "compensate",
+        "--robot",
+        s(&robot),
+        "--nominal",
+        s(&out.join("registered-nominal.json")),
+        "--targets",
+        s(&targets_path),
+        "--frame",
+        "measurement",
+        &format!("--start-joints={start}"),
+        "--allow-unreachable",
+        "--out",
+        "-",
+    ]);
+    let csv = ok(&o);
+    assert!(csv.contains("with its orientation part"), "{csv}");
+    assert!(
+        stderr(&o).contains("orientation part |r_o| max"),
+        "{}",
+        stderr(&o)
+    );
+}

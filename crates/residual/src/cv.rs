@@ -147,6 +147,23 @@ pub fn folds(n: usize, k: usize) -> Vec<Vec<usize>> {
 pub type GeometryResult =
     std::result::Result<Vec<[f64; 3]>, Box<dyn std::error::Error + Send + Sync>>;
 
+/// What the geometric fit of a fold returns for 6-DoF data: the position residuals (mm) and
+/// the orientation residuals (rotation vectors of `R_measured · R_geometryᵀ`, degrees) of
+/// every row, the geometry fitted on the training rows it was given.
+pub type PoseGeometryResult =
+    std::result::Result<(Vec<[f64; 3]>, Vec<[f64; 3]>), Box<dyn std::error::Error + Send + Sync>>;
+
+/// The cross-validation of 6-DoF data ([`cross_validate_pose`]): one per part, the same
+/// folds and the same geometric fit of each fold.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PoseCrossValidation {
+    /// The position part, mm.
+    pub position_mm: CrossValidation,
+    /// The orientation part: the held-out angle errors (the norms of the rotation vectors)
+    /// and their gains, **degrees** (its `_mm`-named fields hold degrees here).
+    pub orientation_deg: CrossValidation,
+}
+
 /// Cross-validates the hybrid on the rows `joints_deg` (module doc): `geometry(train)`
 /// fits the geometric model on the rows `train` (indices, ascending) and returns the
 /// residuals of all rows.
@@ -160,6 +177,59 @@ pub fn cross_validate(
     opts: &CvOptions,
     mut geometry: impl FnMut(&[usize]) -> GeometryResult,
 ) -> Result<CrossValidation> {
+    let mut parts = cross_validate_parts(joints_deg, opts, 1, |train| {
+        geometry(train).map(|r| vec![r])
+    })?;
+    Ok(parts.remove(0))
+}
+
+/// [`cross_validate`] of 6-DoF data: each fold's one geometric fit (`geometry(train)`)
+/// returns the position and the orientation residuals of every row; a GP is fitted to each
+/// part on the training rows, and each part is judged by the same rule
+/// ([`CrossValidation::helps`]).
+///
+/// # Errors
+/// As [`cross_validate`].
+pub fn cross_validate_pose(
+    joints_deg: &[Vec<f64>],
+    opts: &CvOptions,
+    mut geometry: impl FnMut(&[usize]) -> PoseGeometryResult,
+) -> Result<PoseCrossValidation> {
+    let mut parts = cross_validate_parts(joints_deg, opts, 2, |train| {
+        geometry(train).map(|(p, o)| vec![p, o])
+    })?;
+    let orientation_deg = parts.pop().expect("two parts");
+    let position_mm = parts.pop().expect("two parts");
+    Ok(PoseCrossValidation {
+        position_mm,
+        orientation_deg,
+    })
+}
+
+/// One part's held-out errors, accumulated over the folds.
+#[derive(Default)]
+struct Part {
+    results: Vec<FoldResult>,
+    geometry: Vec<f64>,
+    hybrid: Vec<f64>,
+    in1: usize,
+    in2: usize,
+    values: usize,
+}
+
+/// The folds of [`cross_validate`] and [`cross_validate_pose`]: `geometry(train)` returns
+/// `parts` residual sets of every row, each judged on its own.
+fn cross_validate_parts(
+    joints_deg: &[Vec<f64>],
+    opts: &CvOptions,
+    parts: usize,
+    mut geometry: impl FnMut(
+        &[usize],
+    ) -> std::result::Result<
+        Vec<Vec<[f64; 3]>>,
+        Box<dyn std::error::Error + Send + Sync>,
+    >,
+) -> Result<Vec<CrossValidation>> {
     let (n, k) = (joints_deg.len(), opts.folds);
     if k < 3 {
         return Err(ResidualError::CrossValidation(format!(
@@ -172,52 +242,64 @@ pub fn cross_validate(
             crate::MIN_TRAIN_POSES
         )));
     }
-    let mut results = Vec::with_capacity(k);
-    let (mut all_geo, mut all_hyb) = (Vec::new(), Vec::new());
-    let (mut in1, mut in2, mut values) = (0usize, 0usize, 0usize);
+    let mut acc: Vec<Part> = (0..parts).map(|_| Part::default()).collect();
     for (f, test) in folds(n, k).into_iter().enumerate() {
         let train: Vec<usize> = (0..n).filter(|i| i % k != f).collect();
-        let res = geometry(&train).map_err(|source| ResidualError::Geometry {
+        let all = geometry(&train).map_err(|source| ResidualError::Geometry {
             fold: f + 1,
             source,
         })?;
-        if res.len() != n {
+        if all.len() != parts {
             return Err(ResidualError::Geometry {
                 fold: f + 1,
-                source: format!("{} residuals returned for {n} rows", res.len()).into(),
+                source: format!("{} residual sets returned, {parts} expected", all.len()).into(),
             });
         }
         let q_train: Vec<Vec<f64>> = train.iter().map(|&i| joints_deg[i].clone()).collect();
-        let r_train: Vec<[f64; 3]> = train.iter().map(|&i| res[i]).collect();
-        let model = ResidualModel::fit(&q_train, &r_train, &opts.gp)?;
         let q_test: Vec<Vec<f64>> = test.iter().map(|&i| joints_deg[i].clone()).collect();
-        let r_test: Vec<[f64; 3]> = test.iter().map(|&i| res[i]).collect();
-        let HeldOut {
-            geometry_mm: geo,
-            hybrid_mm: hyb,
-            coverage: c,
-        } = held_out(&model, &q_test, &r_test)?;
-        in1 += c.0;
-        in2 += c.1;
-        values += c.2;
-        let stats = |v: &[f64]| {
-            AxisStats::from_values(v).map_err(|e| ResidualError::Geometry {
+        for (res, part) in all.iter().zip(acc.iter_mut()) {
+            if res.len() != n {
+                return Err(ResidualError::Geometry {
+                    fold: f + 1,
+                    source: format!("{} residuals returned for {n} rows", res.len()).into(),
+                });
+            }
+            let r_train: Vec<[f64; 3]> = train.iter().map(|&i| res[i]).collect();
+            let model = ResidualModel::fit(&q_train, &r_train, &opts.gp)?;
+            let r_test: Vec<[f64; 3]> = test.iter().map(|&i| res[i]).collect();
+            let HeldOut {
+                geometry_mm: geo,
+                hybrid_mm: hyb,
+                coverage: c,
+            } = held_out(&model, &q_test, &r_test)?;
+            part.in1 += c.0;
+            part.in2 += c.1;
+            part.values += c.2;
+            let stats = |v: &[f64]| {
+                AxisStats::from_values(v).map_err(|e| ResidualError::Geometry {
+                    fold: f + 1,
+                    source: Box::new(e),
+                })
+            };
+            part.results.push(FoldResult {
                 fold: f + 1,
-                source: Box::new(e),
-            })
-        };
-        results.push(FoldResult {
-            fold: f + 1,
-            train_poses: train.len(),
-            held_out_poses: test.len(),
-            geometry: stats(&geo)?,
-            hybrid: stats(&hyb)?,
-        });
-        all_geo.extend(geo);
-        all_hyb.extend(hyb);
+                train_poses: train.len(),
+                held_out_poses: test.len(),
+                geometry: stats(&geo)?,
+                hybrid: stats(&hyb)?,
+            });
+            part.geometry.extend(geo);
+            part.hybrid.extend(hyb);
+        }
     }
+    acc.into_iter().map(finish).collect()
+}
+
+/// The cross-validation of one part from its folds.
+fn finish(part: Part) -> Result<CrossValidation> {
     let gain = |g: fn(&AxisStats) -> f64| {
-        let d: Vec<f64> = results
+        let d: Vec<f64> = part
+            .results
             .iter()
             .map(|r| g(&r.geometry) - g(&r.hybrid))
             .collect();
@@ -227,16 +309,16 @@ pub fn cross_validate(
         AxisStats::from_values(v).map_err(|e| ResidualError::CrossValidation(e.to_string()))
     };
     Ok(CrossValidation {
-        geometry: pooled(&all_geo)?,
-        hybrid: pooled(&all_hyb)?,
+        geometry: pooled(&part.geometry)?,
+        hybrid: pooled(&part.hybrid)?,
         mean_gain: gain(|s| s.mean_mm),
         p95_gain: gain(|s| s.p95_mm),
         coverage: Coverage {
-            values,
-            within_1sd: in1 as f64 / values as f64,
-            within_2sd: in2 as f64 / values as f64,
+            values: part.values,
+            within_1sd: part.in1 as f64 / part.values as f64,
+            within_2sd: part.in2 as f64 / part.values as f64,
         },
-        folds: results,
+        folds: part.results,
     })
 }
 

@@ -46,8 +46,14 @@ use serde::{Deserialize, Serialize};
 
 use crate::error::{ResidualError, Result};
 
-/// The model file's format tag.
+/// The model file's format tag (a model of the position residuals alone: point data, or
+/// 6-DoF data whose orientation part the gate declined).
 pub const FORMAT: &str = "kincal-residual-model/1";
+
+/// The format tag of a model file that also carries the orientation part (6-DoF data:
+/// the `orientation` object, `docs/residual-model.md`). A reader of `/1` refuses it rather
+/// than ignore the orientation correction.
+pub const FORMAT_ORIENTATION: &str = "kincal-residual-model/2";
 
 /// The kernel, in words (the model file's `kernel` field).
 pub const KERNEL: &str = "s² · exp(−½ Σ_i (q_i − q'_i)² / ℓ_i²) + σ_n² · [q = q'], q in radians, \
@@ -136,7 +142,34 @@ pub struct Prediction {
     pub sd_mm: [f64; 3],
 }
 
-/// The model file (`kincal-residual-model/1`), as written.
+/// One prediction of the orientation part of a residual model (6-DoF data).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct OrientationPrediction {
+    /// The predicted orientation residual, the rotation vector of `R_measured ·
+    /// R_geometryᵀ` (measurement axes), degrees: the measured orientation is
+    /// `exp(mean) · R_geometry`.
+    pub mean_deg: [f64; 3],
+    /// The standard deviation of a measured orientation residual at this pose, degrees, per
+    /// axis.
+    pub sd_deg: [f64; 3],
+}
+
+/// The orientation part of a model file (`kincal-residual-model/2`): the same GP as the
+/// position part, on the rotation vectors in degrees, trained on the same poses (the
+/// file's `training_joints_deg`).
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct OrientationFile {
+    hyperparameters: Hyperparameters,
+    residual_mean_deg: [f64; 3],
+    residual_scale_deg: [f64; 3],
+    log_marginal_likelihood: f64,
+    optimiser: OptimiserReport,
+    training_residuals_deg: Vec<[f64; 3]>,
+}
+
+/// The model file (`kincal-residual-model/1`, or `/2` with the orientation part), as
+/// written.
 #[derive(Clone, Debug, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 struct ModelFile {
@@ -152,9 +185,15 @@ struct ModelFile {
     training_poses_given: usize,
     training_joints_deg: Vec<Vec<f64>>,
     training_residuals_mm: Vec<[f64; 3]>,
+    /// The orientation part (`/2` only); in memory always `None`: the part is held
+    /// factored in [`ResidualModel::orientation`].
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    orientation: Option<OrientationFile>,
 }
 
-/// A fitted residual model: the hyperparameters, the training data and their factor.
+/// A fitted residual model: the hyperparameters, the training data and their factor; with
+/// 6-DoF data optionally a second GP of the same code on the orientation residuals
+/// (degrees), trained on the same poses.
 #[derive(Clone, Debug)]
 pub struct ResidualModel {
     file: ModelFile,
@@ -163,6 +202,8 @@ pub struct ResidualModel {
     chol: Vec<f64>,
     /// `α = K⁻¹ Y`, row-major `n × 3`.
     alpha: Vec<f64>,
+    /// The orientation part: a GP whose outputs (named `_mm` inside) are degrees.
+    orientation: Option<Box<ResidualModel>>,
 }
 
 /// Training inputs (radians) and normalised outputs.
@@ -635,6 +676,7 @@ impl ResidualModel {
             training_poses_given: joints_deg.len(),
             training_joints_deg: q,
             training_residuals_mm: r,
+            orientation: None,
         };
         Self::from_file(file, "the fit")
     }
@@ -656,7 +698,80 @@ impl ResidualModel {
             train,
             chol,
             alpha,
+            orientation: None,
         })
+    }
+
+    /// Adds the orientation part (6-DoF data): the same GP fitted to the orientation
+    /// residuals `residuals_deg` (rotation vectors of `R_measured · R_geometryᵀ`, degrees)
+    /// at the poses `joints_deg`, which must be those the position part was fitted on.
+    /// The file is then written as [`FORMAT_ORIENTATION`].
+    ///
+    /// # Errors
+    /// [`ResidualModel::fit`]'s; [`ResidualError::Data`] for other poses than the position
+    /// part's.
+    pub fn fit_orientation(
+        &mut self,
+        joints_deg: &[Vec<f64>],
+        residuals_deg: &[[f64; 3]],
+        opts: &GpOptions,
+    ) -> Result<()> {
+        let part = ResidualModel::fit(joints_deg, residuals_deg, opts)?;
+        if part.file.training_joints_deg != self.file.training_joints_deg
+            || part.file.training_poses_given != self.file.training_poses_given
+        {
+            return Err(ResidualError::Data(
+                "the orientation residuals must be given at the poses of the position part".into(),
+            ));
+        }
+        self.orientation = Some(Box::new(part));
+        Ok(())
+    }
+
+    /// Whether the model has the orientation part (6-DoF data, [`FORMAT_ORIENTATION`]).
+    pub fn has_orientation(&self) -> bool {
+        self.orientation.is_some()
+    }
+
+    /// The orientation part's hyperparameters (its signal and noise variances normalised
+    /// by the degrees' scatter), if it has one.
+    pub fn orientation_hyperparameters(&self) -> Option<&Hyperparameters> {
+        self.orientation.as_ref().map(|o| o.hyperparameters())
+    }
+
+    /// The noise standard deviation the orientation part learnt, degrees, per axis.
+    pub fn orientation_noise_sd_deg(&self) -> Option<[f64; 3]> {
+        self.orientation.as_ref().map(|o| o.noise_sd_mm())
+    }
+
+    /// The orientation part's log marginal likelihood and optimiser report.
+    pub fn orientation_fit(&self) -> Option<(f64, &OptimiserReport)> {
+        self.orientation
+            .as_ref()
+            .map(|o| (o.log_marginal_likelihood(), o.optimiser()))
+    }
+
+    /// Predicts the orientation residual and its standard deviation (degrees) at each pose
+    /// of `joints_deg`; `None` without the orientation part.
+    ///
+    /// # Errors
+    /// As [`ResidualModel::predict`].
+    pub fn predict_orientation(
+        &self,
+        joints_deg: &[Vec<f64>],
+    ) -> Result<Option<Vec<OrientationPrediction>>> {
+        let Some(o) = &self.orientation else {
+            return Ok(None);
+        };
+        Ok(Some(
+            o.predict(joints_deg)?
+                .into_iter()
+                .map(|p| OrientationPrediction {
+                    mean_deg: p.mean_mm,
+                    sd_deg: p.sd_mm,
+                })
+                .collect(),
+        ))
     }
 
     /// The hyperparameters.
@@ -753,7 +868,23 @@ impl ResidualModel {
     /// ending in a newline: the hyperparameters, the normalisation, the optimiser's report
     /// and the training data (the factor is recomputed when read).
     pub fn to_json_string(&self) -> String {
-        let mut s = serde_json::to_string_pretty(&self.file).expect("a model serialises");
+        let mut s = match &self.orientation {
+            None => serde_json::to_string_pretty(&self.file),
+            Some(o) => {
+                let mut file = self.file.clone();
+                file.format = FORMAT_ORIENTATION.to_string();
+                file.orientation = Some(OrientationFile {
+                    hyperparameters: o.file.hyperparameters.clone(),
+                    residual_mean_deg: o.file.residual_mean_mm,
+                    residual_scale_deg: o.file.residual_scale_mm,
+                    log_marginal_likelihood: o.file.log_marginal_likelihood,
+                    optimiser: o.file.optimiser.clone(),
+                    training_residuals_deg: o.file.training_residuals_mm.clone(),
+                });
+                serde_json::to_string_pretty(&file)
+            }
+        }
+        .expect("a model serialises");
         s.push('\n');
         s
     }
@@ -770,13 +901,61 @@ impl ResidualModel {
             source_name: source.to_string(),
             message,
         };
-        let file: ModelFile = serde_json::from_str(text).map_err(|e| bad(e.to_string()))?;
-        if file.format != FORMAT {
+        let mut file: ModelFile = serde_json::from_str(text).map_err(|e| bad(e.to_string()))?;
+        let expected = if file.orientation.is_some() {
+            FORMAT_ORIENTATION
+        } else {
+            FORMAT
+        };
+        if file.format != expected {
             return Err(bad(format!(
-                "format is {:?}, expected {FORMAT:?}",
-                file.format
+                "format is {:?}, expected {expected:?} (a model {} the orientation part)",
+                file.format,
+                if file.orientation.is_some() {
+                    "with"
+                } else {
+                    "without"
+                }
             )));
         }
+        let orientation = file.orientation.take().map(|o| ModelFile {
+            format: FORMAT.to_string(),
+            kernel: file.kernel.clone(),
+            fitted_for: None,
+            hyperparameters: o.hyperparameters,
+            residual_mean_mm: o.residual_mean_deg,
+            residual_scale_mm: o.residual_scale_deg,
+            log_marginal_likelihood: o.log_marginal_likelihood,
+            optimiser: o.optimiser,
+            training_poses_given: file.training_poses_given,
+            training_joints_deg: file.training_joints_deg.clone(),
+            training_residuals_mm: o.training_residuals_deg,
+            orientation: None,
+        });
+        let mut model = Self::checked(file, source)?;
+        if let Some(o) = orientation {
+            // The part's own field names in messages: `_deg` where the position part says `_mm`.
+            let part = Self::checked(o, source).map_err(|e| match e {
+                ResidualError::File {
+                    source_name,
+                    message,
+                } => ResidualError::File {
+                    source_name,
+                    message: format!("orientation: {}", message.replace("_mm", "_deg")),
+                },
+                other => other,
+            })?;
+            model.orientation = Some(Box::new(part));
+        }
+        Ok(model)
+    }
+
+    /// [`ResidualModel::from_json_str`]'s checks of one part and its factor.
+    fn checked(file: ModelFile, source: &str) -> Result<Self> {
+        let bad = |message: String| ResidualError::File {
+            source_name: source.to_string(),
+            message,
+        };
         let n = file.training_joints_deg.len();
         if n == 0 || file.training_residuals_mm.len() != n {
             return Err(bad(format!(

@@ -15,7 +15,10 @@
 //! one deterministic start) — the model of scikit-learn's example
 //! (`crates/kincal-py/examples/hybrid_gp.py`). The gate and the coverage: [`cv`].
 //!
-//! Position only: orientation residuals of 6-DoF data are not modelled.
+//! 6-DoF data: a second GP of the same code on the orientation residual (the rotation
+//! vector of `R_measured · R_geometryᵀ`, degrees), trained on the same poses
+//! ([`ResidualModel::fit_orientation`], [`cross_validate_pose`]); its file is
+//! [`FORMAT_ORIENTATION`] with an `orientation` object whose fields end in `_deg`.
 //!
 //! **Why written here, not taken from a crate.** The GP is ~300 lines on a Cholesky factor;
 //! the crates looked at each failed one of the requirements (nalgebra 0.35, few
@@ -36,12 +39,12 @@ pub mod gp;
 
 pub use cv::{
     Coverage, CrossValidation, CvOptions, DEFAULT_FOLDS, FoldResult, Gain, GeometryResult, HeldOut,
-    cross_validate, folds, held_out,
+    PoseCrossValidation, PoseGeometryResult, cross_validate, cross_validate_pose, folds, held_out,
 };
 pub use error::{ResidualError, Result};
 pub use gp::{
-    FORMAT, GpOptions, Hyperparameters, MIN_TRAIN_POSES, OptimiserReport, Prediction,
-    ResidualModel, evenly_spaced,
+    FORMAT, FORMAT_ORIENTATION, GpOptions, Hyperparameters, MIN_TRAIN_POSES, OptimiserReport,
+    OrientationPrediction, Prediction, ResidualModel, evenly_spaced,
 };
 
 /// The residual model's file name beside `identified.json` (`docs/residual-model.md`).

@@ -182,3 +182,64 @@ fn the_gate_declines_a_model_that_hurts() {
         "{cv:#?}"
     );
 }
+
+/// 6-DoF data: the orientation part (the same GP on degrees) round-trips through its `/2`
+/// file with `_deg` field names; the position part alone still writes `/1`, and a `/1`
+/// file with an orientation part is refused.
+#[test]
+fn the_orientation_part_round_trips_as_format_2() {
+    let q = poses(60, 11);
+    let r = noisy(&q, 12, true);
+    let o: Vec<[f64; 3]> = noisy(&q, 13, true)
+        .iter()
+        .map(|v| v.map(|c| 0.1 * c))
+        .collect();
+    let mut model = ResidualModel::fit(&q, &r, &GpOptions::default()).unwrap();
+    let position_only = model.to_json_string();
+    assert!(position_only.contains("\"format\": \"kincal-residual-model/1\""));
+    assert!(!position_only.contains("orientation") && !model.has_orientation());
+    model
+        .fit_orientation(&q, &o, &GpOptions::default())
+        .unwrap();
+    let text = model.to_json_string();
+    assert!(text.contains("\"format\": \"kincal-residual-model/2\""));
+    for field in [
+        "\"orientation\"",
+        "\"residual_mean_deg\"",
+        "\"residual_scale_deg\"",
+        "\"training_residuals_deg\"",
+    ] {
+        assert!(text.contains(field), "{field}");
+    }
+    // The position part's bytes are unchanged by the orientation part.
+    let read = ResidualModel::from_json_str(&text, "m.json").unwrap();
+    assert_eq!(read.to_json_string(), text);
+    let qt = poses(5, 14);
+    let (a, b) = (
+        model.predict_orientation(&qt).unwrap().unwrap(),
+        read.predict_orientation(&qt).unwrap().unwrap(),
+    );
+    assert_eq!(a, b);
+    assert_eq!(model.predict(&qt).unwrap(), read.predict(&qt).unwrap());
+    let e = ResidualModel::from_json_str(
+        &text.replace("kincal-residual-model/2", "kincal-residual-model/1"),
+        "m.json",
+    )
+    .unwrap_err();
+    assert!(e.to_string().contains("with the orientation part"), "{e}");
+    let e = ResidualModel::from_json_str(
+        &text.replacen(
+            "\"training_residuals_deg\": [",
+            "\"training_residuals_deg\": [[0,0,0],",
+            1,
+        ),
+        "m.json",
+    )
+    .unwrap_err();
+    assert!(e.to_string().contains("orientation"), "{e}");
+    // Other poses than the position part's are refused.
+    let e = model
+        .fit_orientation(&poses(60, 15), &o, &GpOptions::default())
+        .unwrap_err();
+    assert!(e.to_string().contains("poses of the position part"), "{e}");
+}

@@ -1,11 +1,12 @@
-//! The learned residual model's section of a point calibration's report and its console
-//! line (`identify --residual-model gp`, `docs/residual-model.md`): the cross-validation
-//! table (geometry vs hybrid, per fold), the gate's decision with its numbers, the coverage
-//! of the predicted standard deviation and the model's hyperparameters.
+//! The learned residual model's section of a calibration's report and its console line
+//! (`identify --residual-model gp`, `docs/residual-model.md`): the cross-validation table
+//! (geometry vs hybrid, per fold), the gate's decision with its numbers, the coverage of the
+//! predicted standard deviation and the model's hyperparameters; for 6-DoF data also the
+//! orientation part's (degrees) and whether it is applied.
 
 use std::fmt::Write as _;
 
-use calibrate::residual::{Gain, ResidualOutcome};
+use calibrate::residual::{Gain, OrientationOutcome, ResidualOutcome};
 
 use crate::fmt::{mm, ms, pct};
 
@@ -14,8 +15,71 @@ fn gain(g: &Gain) -> String {
     format!("{} ± {} mm", mm(g.mean_mm), mm(g.scatter_mm))
 }
 
-/// The gate's decision in one sentence (console and report).
+/// `Δ̄ ± s_Δ` of a gain of the orientation part, degrees.
+fn gain_deg(g: &Gain) -> String {
+    format!("{} ± {}°", deg(g.mean_mm), deg(g.scatter_mm))
+}
+
+/// Degrees to 4 decimals (the orientation residuals are hundredths of a degree).
+fn deg(v: f64) -> String {
+    format!("{v:.4}")
+}
+
+/// The gate's decision in one sentence (console and report); for 6-DoF data a second
+/// sentence on the orientation part.
 pub fn decision(o: &ResidualOutcome) -> String {
+    let position = position_decision(o);
+    match &o.orientation {
+        Some(or) => format!("{position}\n{}", orientation_decision(o, or)),
+        None => position,
+    }
+}
+
+/// The orientation part's decision in one sentence: its held-out angle errors, gains and
+/// whether it is applied.
+fn orientation_decision(o: &ResidualOutcome, or: &OrientationOutcome) -> String {
+    let cv = &or.cv_deg;
+    let numbers = format!(
+        "held-out angle mean {}° → {}° (gain {}), p95 {}° → {}° (gain {})",
+        deg(cv.geometry.mean_mm),
+        deg(cv.hybrid.mean_mm),
+        gain_deg(&cv.mean_gain),
+        deg(cv.geometry.p95_mm),
+        deg(cv.hybrid.p95_mm),
+        gain_deg(&cv.p95_gain),
+    );
+    if or.applied {
+        format!(
+            "residual model (gp), orientation part: applied — {numbers}; both gains exceed \
+             their fold-to-fold scatter"
+        )
+    } else if !cv.helps() {
+        let which: Vec<&str> = [
+            (!cv.mean_gain.significant()).then_some("mean"),
+            (!cv.p95_gain.significant()).then_some("p95"),
+        ]
+        .into_iter()
+        .flatten()
+        .collect();
+        let kept = if o.model.is_some() {
+            "the position part alone is written"
+        } else {
+            "no model is written"
+        };
+        format!(
+            "residual model (gp), orientation part: declined, {kept} — {numbers}; the {} gain \
+             does not exceed its fold-to-fold scatter",
+            which.join(" and ")
+        )
+    } else {
+        format!(
+            "residual model (gp), orientation part: not applied — {numbers} (it passes the \
+             gate, but the position part does not, and no model is written)"
+        )
+    }
+}
+
+fn position_decision(o: &ResidualOutcome) -> String {
     let cv = &o.cv;
     let (g, h) = (&cv.geometry, &cv.hybrid);
     let numbers = format!(
@@ -54,6 +118,33 @@ pub fn decision(o: &ResidualOutcome) -> String {
 /// and the hybrid's mean, p95 and max, and the coverage; `None` without validation rows or
 /// without a kept model.
 pub fn validation(o: &ResidualOutcome) -> Option<String> {
+    let mut line = position_validation(o)?;
+    if let Some(v) = o
+        .orientation
+        .as_ref()
+        .and_then(|or| or.validation_deg.as_ref())
+    {
+        let g = evaluate::AxisStats::from_values(&v.geometry_mm).ok()?;
+        let h = evaluate::AxisStats::from_values(&v.hybrid_mm).ok()?;
+        let c = v.coverage();
+        let _ = write!(
+            line,
+            "; orientation: angle mean {}° → {}°, p95 {}° → {}°, max {}° → {}°; {} % within 1 \
+             sd, {} % within 2 sd",
+            deg(g.mean_mm),
+            deg(h.mean_mm),
+            deg(g.p95_mm),
+            deg(h.p95_mm),
+            deg(g.max_mm),
+            deg(h.max_mm),
+            pct(100.0 * c.within_1sd),
+            pct(100.0 * c.within_2sd)
+        );
+    }
+    Some(line)
+}
+
+fn position_validation(o: &ResidualOutcome) -> Option<String> {
     let v = o.validation.as_ref()?;
     let g = evaluate::AxisStats::from_values(&v.geometry_mm).ok()?;
     let h = evaluate::AxisStats::from_values(&v.hybrid_mm).ok()?;
@@ -120,7 +211,34 @@ pub fn markdown(o: &ResidualOutcome) -> String {
         mm(cv.geometry.max_mm),
         mm(cv.hybrid.max_mm)
     );
-    let _ = writeln!(s, "**Decision.** {}.\n", decision(o));
+    if let Some(or) = &o.orientation {
+        let cv = &or.cv_deg;
+        s.push_str(
+            "Orientation part (6-DoF data: the rotation vector of R_measured · R_geometryᵀ, \
+             degrees; the same folds and geometric refits):\n\n| fold | geometry mean | \
+             hybrid mean | geometry p95 | hybrid p95 |\n|---:|---:|---:|---:|---:|\n",
+        );
+        for f in &cv.folds {
+            let _ = writeln!(
+                s,
+                "| {} | {}° | {}° | {}° | {}° |",
+                f.fold,
+                deg(f.geometry.mean_mm),
+                deg(f.hybrid.mean_mm),
+                deg(f.geometry.p95_mm),
+                deg(f.hybrid.p95_mm)
+            );
+        }
+        let _ = writeln!(
+            s,
+            "| all | {}° | {}° | {}° | {}° |\n",
+            deg(cv.geometry.mean_mm),
+            deg(cv.hybrid.mean_mm),
+            deg(cv.geometry.p95_mm),
+            deg(cv.hybrid.p95_mm)
+        );
+    }
+    let _ = writeln!(s, "**Decision.** {}.\n", decision(o).replace('\n', ".\n\n"));
     let _ = writeln!(
         s,
         "**Coverage** of the hybrid's predicted standard deviation on the held-out rows \
@@ -164,6 +282,29 @@ pub fn markdown(o: &ResidualOutcome) -> String {
                 m.optimiser().iterations,
                 ms(o.elapsed_ms)
             );
+            if let (Some(h), Some(noise)) = (
+                m.orientation_hyperparameters(),
+                m.orientation_noise_sd_deg(),
+            ) {
+                let ls: Vec<String> = h
+                    .length_scales_rad
+                    .iter()
+                    .map(|l| format!("{:.3}", l.to_degrees()))
+                    .collect();
+                let _ = writeln!(
+                    s,
+                    "\nIts orientation part (`kincal-residual-model/2`): length scales {}° \
+                     (q1…); signal variance {:.4}, noise variance {:.4} (normalised); learnt \
+                     noise {}° / {}° / {}°. `kincal predict` rotates the orientation by \
+                     exp(r_o(q)); `compensate` solves for exp(−r_o(q))·R_target.",
+                    ls.join(", "),
+                    h.signal_variance,
+                    h.noise_variance,
+                    deg(noise[0]),
+                    deg(noise[1]),
+                    deg(noise[2]),
+                );
+            }
         }
         None => {
             let _ = writeln!(

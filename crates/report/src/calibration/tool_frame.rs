@@ -183,6 +183,12 @@ pub fn summary(c: &ToolFrameCalibration) -> String {
             errors_line(after, ori)
         );
     }
+    if let Some(r) = &c.residual {
+        let _ = writeln!(out, "{}", super::residual::decision(r));
+        if let Some(line) = super::residual::validation(r) {
+            let _ = writeln!(out, "{line}");
+        }
+    }
     out
 }
 
@@ -243,6 +249,9 @@ pub fn markdown(c: &ToolFrameCalibration) -> String {
             fixed(e.value, 5),
             fixed(e.std_error, 5)
         );
+    }
+    if let Some(r) = &c.residual {
+        out.push_str(&super::residual::markdown(r));
     }
     out
 }
