@@ -48,6 +48,24 @@ pub fn orientation_wxyz(robot: &Robot, q_rad: &[f64]) -> Option<[f64; 4]> {
         .map(|_| unit_quaternion(&(robot.flange(q_rad).rot * robot.tool_rotation())))
 }
 
+/// [`orientation_wxyz`] with a residual model's orientation mean applied: the measured
+/// frame `exp(r_o)·R_flange·R_tool`, `rotation_deg` the mean `r_o` (a rotation vector in the
+/// measurement axes, degrees; `docs/residual-model.md`, "6-DoF data"); `None` without one.
+pub fn orientation_wxyz_with(
+    robot: &Robot,
+    q_rad: &[f64],
+    rotation_deg: Option<[f64; 3]>,
+) -> Option<[f64; 4]> {
+    match rotation_deg {
+        Some(r) if robot.tool_rotation_rad().is_some() => Some(unit_quaternion(
+            &(exp_so3(&Vector3::from(r).map(f64::to_radians))
+                * robot.flange(q_rad).rot
+                * robot.tool_rotation()),
+        )),
+        _ => orientation_wxyz(robot, q_rad),
+    }
+}
+
 /// Predicts the measured point of `robot` at each row of the joint file `joints`, and the
 /// measured frame's orientation when the robot has a tool orientation
 /// ([`orientation_wxyz`]); `out_label` names the output in the CSV (a path or `stdout`).
@@ -115,14 +133,7 @@ pub fn predict_with(
             errors.push((Vector3::from(m) - p).norm());
         }
         let rotation = rotations.as_ref().map(|c| c[k]);
-        let o = match rotation {
-            Some(c) => Some(unit_quaternion(
-                &(exp_so3(&Vector3::from(c.mean_deg).map(f64::to_radians))
-                    * robot.robot.flange(&q).rot
-                    * robot.robot.tool_rotation()),
-            )),
-            None => orientation_wxyz(&robot.robot, &q),
-        };
+        let o = orientation_wxyz_with(&robot.robot, &q, rotation.map(|c| c.mean_deg));
         if let (Some(o), Some(m)) = (o, r.orientation) {
             angles.push(angle_deg(o, m));
         }

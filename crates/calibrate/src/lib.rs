@@ -47,7 +47,8 @@ pub use files::{
 };
 pub use joints::{
     Compensation, Prediction, SAME_FRAME_DEG, SAME_FRAME_FRACTION, SAME_FRAME_MM, compensate_rows,
-    compensate_rows_with, compensate_targets, orientation_wxyz, predict, predict_with,
+    compensate_rows_with, compensate_targets, orientation_wxyz, orientation_wxyz_with, predict,
+    predict_with,
 };
 pub use memory::{compensate_set, compensate_set_with};
 pub use pipeline::{MAX_CONCENTRATION_STEPS, MAX_REJECTION_PASSES, MeasurementKind, RobustScreen};

@@ -193,6 +193,40 @@ pub(crate) fn residual_array<'py>(
     Ok(out.into_pyarray(py))
 }
 
+/// [`orientation_array`] with a residual model's orientation part applied
+/// ([`calibrate::orientation_wxyz_with`]: `exp(r_o)·R`, as `kincal predict`); the plain
+/// orientations when the model has no orientation part; `None` without a tool orientation.
+pub(crate) fn residual_orientation_array<'py>(
+    py: Python<'py>,
+    robot: &kinematics::Robot,
+    model: &calibrate::residual::ResidualModel,
+    q_deg: &ArrayArg<'py>,
+) -> PyResult<Option<Bound<'py, PyArrayDyn<f64>>>> {
+    if robot.tool_rotation_rad().is_none() {
+        return Ok(None);
+    }
+    let n = robot.n_joints();
+    let (flat_deg, _) = joints_arg(q_deg, n, "q_deg")?;
+    if flat_deg.iter().any(|v| !v.is_finite()) {
+        return Err(refuse("q_deg: joint angles must be finite"));
+    }
+    let joints: Vec<Vec<f64>> = flat_deg.chunks_exact(n).map(<[f64]>::to_vec).collect();
+    let rotations = py
+        .detach(|| model.predict_orientation(&joints))
+        .map_err(|e| refuse(format!("q_deg: {e}")))?;
+    pose_array::<4>(py, robot, q_deg, |q_rad| {
+        q_rad
+            .chunks_exact(n)
+            .enumerate()
+            .flat_map(|(k, q)| {
+                let r = rotations.as_ref().map(|r| r[k].mean_deg);
+                calibrate::orientation_wxyz_with(robot, q, r).expect("a tool orientation")
+            })
+            .collect()
+    })
+    .map(Some)
+}
+
 /// The measured frame's orientation of `robot` on `q_deg` as a numpy array of unit
 /// quaternions `w, x, y, z` (see `Robot.fk_orientation`); `None` for a robot without a tool
 /// orientation.

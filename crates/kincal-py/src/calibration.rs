@@ -47,7 +47,7 @@ impl PyCalibration {
     }
 
     /// The learned residual model, when one was asked for and the gate kept it.
-    fn kept_model(&self) -> Option<&calibrate::residual::ResidualModel> {
+    pub(crate) fn kept_model(&self) -> Option<&calibrate::residual::ResidualModel> {
         self.cal.residual().and_then(|o| o.model.as_ref())
     }
 }
@@ -113,31 +113,7 @@ impl PyCalibration {
         let Some(outcome) = self.cal.residual() else {
             return Ok(None);
         };
-        let cv = &outcome.cv;
-        let d = PyDict::new(py);
-        d.set_item("used", outcome.model.is_some())?;
-        let mut folds = Vec::with_capacity(cv.folds.len());
-        for f in &cv.folds {
-            let row = PyDict::new(py);
-            row.set_item("fold", f.fold)?;
-            row.set_item("train_poses", f.train_poses)?;
-            row.set_item("held_out_poses", f.held_out_poses)?;
-            for (name, stats) in [("geometry", &f.geometry), ("hybrid", &f.hybrid)] {
-                row.set_item(format!("{name}_mean_mm"), stats.mean_mm)?;
-                row.set_item(format!("{name}_p95_mm"), stats.p95_mm)?;
-                row.set_item(format!("{name}_max_mm"), stats.max_mm)?;
-            }
-            folds.push(row);
-        }
-        d.set_item("folds", folds)?;
-        d.set_item(
-            "mean_gain_mm",
-            (cv.mean_gain.mean_mm, cv.mean_gain.scatter_mm),
-        )?;
-        d.set_item("p95_gain_mm", (cv.p95_gain.mean_mm, cv.p95_gain.scatter_mm))?;
-        d.set_item("coverage_1sd", cv.coverage.within_1sd)?;
-        d.set_item("coverage_2sd", cv.coverage.within_2sd)?;
-        Ok(Some(d))
+        residual_dict(py, outcome).map(Some)
     }
 
     /// Residuals `measured − calibrated` `(n, 3)` (mm) on the identification rows (all of
@@ -372,19 +348,7 @@ fn py_identify<'py>(
     residual_model: &str,
     residual_folds: usize,
 ) -> PyResult<PyCalibration> {
-    let residual = match residual_model {
-        "none" => None,
-        "gp" => Some(calibrate::residual::CvOptions {
-            folds: residual_folds,
-            ..Default::default()
-        }),
-        other => {
-            return Err(pyo3::exceptions::PyValueError::new_err(format!(
-                "residual_model: {other:?} is not a residual model (\"none\" or \"gp\", as \
-                 --residual-model takes)"
-            )));
-        }
-    };
+    let residual = residual_options(residual_model, residual_folds)?;
     let nominal = robot.loaded.clone();
     let n = nominal.robot.n_joints();
     let q = joint_rows(&q_deg, n, "q_deg")?;
@@ -470,8 +434,80 @@ pub(crate) fn calibrate_abandonable<T: Send + 'static>(
     })
 }
 
+/// The cross-validation options of `identify`'s and `identify_frames`' `residual_model`
+/// and `residual_folds` (`None` for `"none"`), as `--residual-model` takes them.
+pub(crate) fn residual_options(
+    residual_model: &str,
+    residual_folds: usize,
+) -> PyResult<Option<calibrate::residual::CvOptions>> {
+    match residual_model {
+        "none" => Ok(None),
+        "gp" => Ok(Some(calibrate::residual::CvOptions {
+            folds: residual_folds,
+            ..Default::default()
+        })),
+        other => Err(pyo3::exceptions::PyValueError::new_err(format!(
+            "residual_model: {other:?} is not a residual model (\"none\" or \"gp\", as \
+             --residual-model takes)"
+        ))),
+    }
+}
+
+/// The residual model's cross-validation and decision as a dict (`Calibration` and
+/// `FrameCalibration`'s `residual_model`): `used`, `folds`, the gains `(mean, scatter)`, the
+/// coverage, and for 6-DoF data `orientation` — the same in degrees for the orientation
+/// part, with `used` (applied).
+pub(crate) fn residual_dict<'py>(
+    py: Python<'py>,
+    outcome: &calibrate::residual::ResidualOutcome,
+) -> PyResult<Bound<'py, PyDict>> {
+    let d = cv_dict(py, &outcome.cv, "mm")?;
+    d.set_item("used", outcome.model.is_some())?;
+    if let Some(o) = &outcome.orientation {
+        let od = cv_dict(py, &o.cv_deg, "deg")?;
+        od.set_item("used", o.applied)?;
+        d.set_item("orientation", od)?;
+    }
+    Ok(d)
+}
+
+/// A cross-validation's folds, gains and coverage, its values in `unit` (`mm`, or `deg`
+/// for the orientation part, whose `_mm`-named fields hold degrees).
+fn cv_dict<'py>(
+    py: Python<'py>,
+    cv: &calibrate::residual::CrossValidation,
+    unit: &str,
+) -> PyResult<Bound<'py, PyDict>> {
+    let d = PyDict::new(py);
+    let mut folds = Vec::with_capacity(cv.folds.len());
+    for f in &cv.folds {
+        let row = PyDict::new(py);
+        row.set_item("fold", f.fold)?;
+        row.set_item("train_poses", f.train_poses)?;
+        row.set_item("held_out_poses", f.held_out_poses)?;
+        for (name, stats) in [("geometry", &f.geometry), ("hybrid", &f.hybrid)] {
+            row.set_item(format!("{name}_mean_{unit}"), stats.mean_mm)?;
+            row.set_item(format!("{name}_p95_{unit}"), stats.p95_mm)?;
+            row.set_item(format!("{name}_max_{unit}"), stats.max_mm)?;
+        }
+        folds.push(row);
+    }
+    d.set_item("folds", folds)?;
+    d.set_item(
+        format!("mean_gain_{unit}"),
+        (cv.mean_gain.mean_mm, cv.mean_gain.scatter_mm),
+    )?;
+    d.set_item(
+        format!("p95_gain_{unit}"),
+        (cv.p95_gain.mean_mm, cv.p95_gain.scatter_mm),
+    )?;
+    d.set_item("coverage_1sd", cv.coverage.within_1sd)?;
+    d.set_item("coverage_2sd", cv.coverage.within_2sd)?;
+    Ok(d)
+}
+
 /// The calibrated robot, the registered nominal one and, unless `geometry_only`, the kept
-/// residual model of a `Calibration` (a `FrameCalibration` has none).
+/// residual model of a `Calibration` or a `FrameCalibration`.
 type Pair = (
     calibrate::LoadedRobot,
     calibrate::LoadedRobot,
@@ -488,8 +524,10 @@ fn pair(calibration: &Bound<'_, PyAny>, geometry_only: bool) -> PyResult<Pair> {
         return Ok((c.identified.clone(), c.registered.clone(), model));
     }
     if let Ok(c) = calibration.cast::<crate::frame_calibration::PyFrameCalibration>() {
-        let (identified, registered) = c.get().pair();
-        return Ok((identified.clone(), registered.clone(), None));
+        let c = c.get();
+        let (identified, registered) = c.pair();
+        let model = c.kept_model().filter(|_| !geometry_only).cloned();
+        return Ok((identified.clone(), registered.clone(), model));
     }
     Err(pyo3::exceptions::PyTypeError::new_err(
         "calibration: expected a Calibration (kincal.identify) or a FrameCalibration \
@@ -536,8 +574,9 @@ fn py_compensate<'py>(
 /// (positions `(n, 3)` mm and orientations `(n, 4)` wxyz, in the robot's base frame) for a
 /// controller running the nominal model, as `kincal compensate` with a targets file without
 /// joint columns. With a residual model that `identify(..., residual_model="gp")` kept, the
-/// joints bring the geometry plus the model's mean onto each target position (the model is
-/// position-only); `geometry_only=True` leaves it out, as `--geometry-only`.
+/// joints bring the geometry plus the model's mean onto each target position (and, with the
+/// orientation part of a 6-DoF calibration's model, its orientation onto the target's);
+/// `geometry_only=True` leaves it out, as `--geometry-only`.
 #[pyfunction(name = "compensate_cartesian")]
 #[pyo3(signature = (calibration, positions_mm, orientations_wxyz=None, *, frame="base", start_q_deg=None, geometry_only=false))]
 #[allow(clippy::type_complexity)]

@@ -9,7 +9,7 @@ use pyo3::types::{PyDict, PyTuple};
 
 use crate::arrays::{
     ArrayArg, fixed_rows, fk_array, joint_rows, memory_set, orientation_array, point_rows,
-    string_rows,
+    residual_array, residual_orientation_array, string_rows,
 };
 use crate::errors::{kincal_error, refuse, save_outputs};
 use crate::options::{Shared, identify_request};
@@ -65,7 +65,9 @@ fn frame_set(
 /// quaternions `w, x, y, z` of the probe) and/or several named targets per pose, as
 /// `kincal identify` does on a file with `qw,qx,qy,qz` or `target` columns (`docs/model.md`
 /// §5, §6.4). The options are `identify`'s; `orientation_weight` is `--orientation-weight`
-/// (mm per degree, default 5).
+/// (mm per degree, default 5). `residual_model="gp"` cross-validates the learned residual
+/// model on 6-DoF data as `--residual-model gp` does (position and orientation parts;
+/// docs/residual-model.md), `residual_folds` its folds.
 #[pyfunction(name = "identify_frames")]
 #[pyo3(signature = (
     robot, q_deg, points_mm, *, orientations_wxyz = None, targets = None, pose_ids = None,
@@ -73,7 +75,7 @@ fn frame_set(
     keep_outliers = false, every = None, offset = 0, select = None, criterion = "d", schedule = "levenberg",
     redundant = "hold", registration = "auto", outlier_k = 3.0, worst = 10,
     joint_units = "deg", length_units = "mm", allow = None, prior = "auto",
-    fit_scale = false
+    fit_scale = false, residual_model = "none", residual_folds = 5
 ))]
 #[allow(clippy::too_many_arguments)]
 fn py_identify_frames<'py>(
@@ -103,7 +105,10 @@ fn py_identify_frames<'py>(
     allow: Option<Bound<'py, PyAny>>,
     prior: &str,
     fit_scale: bool,
+    residual_model: &str,
+    residual_folds: usize,
 ) -> PyResult<PyFrameCalibration> {
+    let residual = crate::calibration::residual_options(residual_model, residual_folds)?;
     if orientations_wxyz.is_none() && targets.is_none() {
         return Err(refuse(
             "identify_frames: give orientations_wxyz or targets (points alone: kincal.identify)",
@@ -207,11 +212,15 @@ fn py_identify_frames<'py>(
         py,
         request,
         (nominal, data, validate),
-        |cal, library_ms| {
+        move |mut cal, library_ms| {
             if cal.tool_frame().is_none() {
                 return Err(refuse(
                     "identify_frames: the arrays give neither orientations nor targets (use identify)",
                 ));
+            }
+            if let Some(options) = &residual {
+                cal.fit_residual_model(options)
+                    .map_err(|e| kincal_error(&e))?;
             }
             let identified = calibrate::LoadedRobot::from_spec(
                 cal.identified_robot().to_spec(),
@@ -270,6 +279,11 @@ impl PyFrameCalibration {
         (&self.identified, &self.registered)
     }
 
+    /// The learned residual model, when one was asked for and the gate kept it.
+    pub(crate) fn kept_model(&self) -> Option<&calibrate::residual::ResidualModel> {
+        self.cal.residual().and_then(|o| o.model.as_ref())
+    }
+
     /// The calibration from 6-DoF or multi-target data (checked by `identify_frames`).
     fn tool(&self) -> &calibrate::ToolFrameCalibration {
         self.cal.tool_frame().expect("checked by identify_frames")
@@ -291,21 +305,58 @@ impl PyFrameCalibration {
     /// `(points_mm, orientations_wxyz)`, the points `(n, 3)` (mm, the measurement frame) and
     /// the measured frame's orientation `(n, 4)` (unit quaternions, scalar first, `w ≥ 0`;
     /// `None` when no orientation was measured): `kincal predict`'s `x, y, z` and
-    /// `qw, qx, qy, qz`, `(robot.fk(q_deg), robot.fk_orientation(q_deg))`.
+    /// `qw, qx, qy, qz`, `(robot.fk(q_deg), robot.fk_orientation(q_deg))`. With a residual
+    /// model that `identify_frames(..., residual_model="gp")` kept, the points add its mean
+    /// and the orientations turn by its orientation part's mean where that part was applied,
+    /// as `kincal predict` with the calibration's files; `geometry_only=True` leaves the
+    /// model out.
+    #[pyo3(signature = (q_deg, *, geometry_only = false))]
     #[allow(clippy::type_complexity)]
     fn predict<'py>(
         &self,
         py: Python<'py>,
         q_deg: ArrayArg<'py>,
+        geometry_only: bool,
     ) -> PyResult<(
         Bound<'py, PyArrayDyn<f64>>,
         Option<Bound<'py, PyArrayDyn<f64>>>,
     )> {
         let robot = &self.identified.robot;
-        Ok((
-            fk_array(py, robot, &q_deg)?,
-            orientation_array(py, robot, &q_deg)?,
-        ))
+        match self.kept_model().filter(|_| !geometry_only) {
+            Some(model) => Ok((
+                residual_array(py, robot, model, &q_deg, true)?,
+                residual_orientation_array(py, robot, model, &q_deg)?,
+            )),
+            None => Ok((
+                fk_array(py, robot, &q_deg)?,
+                orientation_array(py, robot, &q_deg)?,
+            )),
+        }
+    }
+
+    /// The learned residual model's predictive standard deviation of the points `(n, 3)`
+    /// (mm, per axis; `(3,)` for one pose) at `q_deg`, as `kincal predict --with-sd` writes
+    /// `sx, sy, sz`; `None` without a kept model.
+    fn predict_sd<'py>(
+        &self,
+        py: Python<'py>,
+        q_deg: ArrayArg<'py>,
+    ) -> PyResult<Option<Bound<'py, PyArrayDyn<f64>>>> {
+        self.kept_model()
+            .map(|model| residual_array(py, &self.identified.robot, model, &q_deg, false))
+            .transpose()
+    }
+
+    /// The residual model's cross-validation and decision (`identify_frames(...,
+    /// residual_model="gp")`; docs/residual-model.md), as `Calibration.residual_model`, with
+    /// `orientation`: the orientation part's folds, gains and coverage in degrees and
+    /// whether it is applied (`used`); `None` when no model was asked for.
+    #[getter]
+    fn residual_model<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyDict>>> {
+        self.cal
+            .residual()
+            .map(|o| crate::calibration::residual_dict(py, o))
+            .transpose()
     }
 
     /// The nominal robot in the data's measurement frame, as `registered-nominal.json`

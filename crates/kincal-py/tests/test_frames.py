@@ -2,6 +2,7 @@
 a file with the same rows: the same calibrated robot to the bit, the same figures, errors as
 exceptions naming the row."""
 
+import json
 import re
 
 import numpy as np
@@ -237,3 +238,50 @@ def test_compensate_cartesian_targets_of_a_frame_calibration():
     bad[4] *= 1.01
     with pytest.raises(kincal.KincalError, match='target arrays:5: column "qw"'):
         kincal.compensate_cartesian(cal, tp, bad, start_q_deg=start)
+
+
+def test_six_dof_residual_model_equals_the_cli(tmp_path):
+    """Issue 41 on 6-DoF data: identify_frames(..., residual_model="gp") keeps the model of
+    `kincal identify --residual-model gp` on the same rows — the same residual-model.json
+    numbers, position and orientation parts applied on the UR10's every=5 split — and
+    FrameCalibration.predict is `kincal predict` with it, to the bit (geometry_only: the
+    robot alone). compensate brings the hybrid onto the nominal's points."""
+    q, p, o = six_dof()
+    out = tmp_path / "cli"
+    run_cli("identify", "--robot", ROBOTS / "ur10.json", "--data", SIX_DOF, "--every", 5,
+            "--residual-model", "gp", "--out", out)
+    robot = kincal.Robot.load(ROBOTS / "ur10.json")
+    cal = kincal.identify_frames(robot, q, p, orientations_wxyz=o, every=5, residual_model="gp")
+    r = cal.residual_model
+    assert r["used"] and r["orientation"]["used"]
+    assert len(r["folds"]) == 5 and len(r["orientation"]["folds"]) == 5
+    gain, scatter = r["orientation"]["mean_gain_deg"]
+    assert gain > scatter > 0
+    cal.save(tmp_path / "py")
+    # The same model; only the calibration run it names differs (the data's source is the
+    # arrays here, the file there).
+    files = [json.loads((d / "residual-model.json").read_text()) for d in (tmp_path / "py", out)]
+    assert files[0].pop("fitted_for") != files[1].pop("fitted_for")
+    assert files[0] == files[1] and files[0]["format"] == "kincal-residual-model/2"
+    run_cli("predict", "--robot", out / "identified.json", "--joints", SIX_DOF,
+            "--out", tmp_path / "p.csv")
+    rows = read_csv(tmp_path / "p.csv")
+    cli_p = np.array([[float(r[c]) for c in "xyz"] for r in rows])
+    cli_o = np.array([[float(r[c]) for c in ("qw", "qx", "qy", "qz")] for r in rows])
+    points, wxyz = cal.predict(q)
+    assert np.array_equal(points, cli_p) and np.array_equal(wxyz, cli_o)
+    geo_p, geo_o = cal.predict(q, geometry_only=True)
+    assert np.array_equal(geo_p, cal.robot.fk(q))
+    assert np.array_equal(geo_o, cal.robot.fk_orientation(q))
+    # The model moves the prediction by tenths of a millimetre and hundredths of a degree.
+    assert 0.05 < np.mean(np.linalg.norm(points - geo_p, axis=1)) < 1.0
+    assert cal.predict_sd(q).shape == (len(q), 3)
+    # Compensation with the model: the hybrid at the joints found is on the registered
+    # nominal's points (to the fixed point's and the IK's tolerances); without, it is not.
+    targets = q[1::150]
+    qc = kincal.compensate(cal, targets)
+    reached = cal.predict(qc)[0]
+    nominal = cal.registered_nominal.fk(targets)
+    assert np.max(np.linalg.norm(reached - nominal, axis=1)) < 1e-5
+    qg = kincal.compensate(cal, targets, geometry_only=True)
+    assert np.max(np.linalg.norm(cal.predict(qg)[0] - nominal, axis=1)) > 0.05

@@ -10,7 +10,7 @@ mypy's stubtest checks it against the compiled module.
 
 from collections.abc import Callable, Mapping, Sequence
 from os import PathLike
-from typing import Any, Literal, TypedDict, Union, final
+from typing import Any, Literal, NotRequired, TypedDict, Union, final
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -206,6 +206,33 @@ class ResidualModelSummary(TypedDict):
     folds: list[ResidualFold]
     mean_gain_mm: tuple[float, float]
     p95_gain_mm: tuple[float, float]
+    coverage_1sd: float
+    coverage_2sd: float
+    orientation: NotRequired[OrientationResidualSummary]
+    """6-DoF data (:attr:`FrameCalibration.residual_model`): the orientation part."""
+
+class OrientationResidualFold(TypedDict):
+    """One fold of :attr:`OrientationResidualSummary.folds`: held-out angle errors, degrees."""
+
+    fold: int
+    train_poses: int
+    held_out_poses: int
+    geometry_mean_deg: float
+    geometry_p95_deg: float
+    geometry_max_deg: float
+    hybrid_mean_deg: float
+    hybrid_p95_deg: float
+    hybrid_max_deg: float
+
+class OrientationResidualSummary(TypedDict):
+    """The orientation part of a 6-DoF calibration's residual model, cross-validated on the
+    same folds as the position part (angles in degrees); ``used``: applied (the position
+    part was kept and this part passes the same gate)."""
+
+    used: bool
+    folds: list[OrientationResidualFold]
+    mean_gain_deg: tuple[float, float]
+    p95_gain_deg: tuple[float, float]
     coverage_1sd: float
     coverage_2sd: float
 
@@ -448,13 +475,28 @@ class FrameCalibration:
         the nominal controller's model of compensation."""
 
     def predict(
-        self, q_deg: ArrayLike
+        self, q_deg: ArrayLike, *, geometry_only: bool = False
     ) -> tuple[NDArray[np.float64], NDArray[np.float64] | None]:
         """The calibrated robot's prediction at joints ``(n, N)`` in degrees (or ``(N,)``):
         ``(points_mm, orientations_wxyz)``, the points ``(n, 3)`` (mm, the measurement frame)
         and the measured frame's orientation ``(n, 4)`` (unit quaternions, scalar first,
         ``w ≥ 0``; ``None`` when no orientation was measured) — ``kincal predict``'s
-        ``x, y, z`` and ``qw, qx, qy, qz``: ``(robot.fk(q_deg), robot.fk_orientation(q_deg))``."""
+        ``x, y, z`` and ``qw, qx, qy, qz``: ``(robot.fk(q_deg), robot.fk_orientation(q_deg))``.
+        With a residual model that ``identify_frames(..., residual_model="gp")`` kept, the
+        points add its mean and the orientations turn by its orientation part's mean (where
+        that part is applied), as ``kincal predict``; ``geometry_only=True`` leaves it out."""
+
+    def predict_sd(self, q_deg: ArrayLike) -> NDArray[np.float64] | None:
+        """The learned residual model's predictive standard deviation of the points
+        ``(n, 3)`` (mm, per axis; ``(N,)`` → ``(3,)``), as ``kincal predict --with-sd``
+        writes ``sx, sy, sz``; ``None`` without a kept model."""
+
+    @property
+    def residual_model(self) -> ResidualModelSummary | None:
+        """The residual model's cross-validation and the gate's decision
+        (``identify_frames(..., residual_model="gp")``, ``docs/residual-model.md``), with
+        ``orientation`` for the orientation part of 6-DoF data; ``None`` when no model was
+        asked for."""
 
     @property
     def parameters(self) -> list[FrameParameter]:
@@ -522,6 +564,8 @@ def identify_frames(
     allow: str | Sequence[str] | None = None,
     prior: str = "auto",
     fit_scale: bool = False,
+    residual_model: Literal["none", "gp"] = "none",
+    residual_folds: int = 5,
 ) -> FrameCalibration:
     """Identifies the robot and its tool frame from 6-DoF measurements and/or several
     targets per pose, as ``kincal identify`` does on a file with ``qw,qx,qy,qz`` or
@@ -530,8 +574,11 @@ def identify_frames(
     target names with ``pose_ids`` ``(n,)`` (the rows with the same id are one pose, with
     equal joints). ``orientation_weight`` is ``--orientation-weight`` (mm per degree, default
     5); ``validate=(q_deg, points_mm[, orientations_wxyz[, targets[, pose_ids]]])``. The
-    other options, the checks (:class:`Refused`) and ``allow`` are :func:`identify`'s.
-    Raises KincalError with the library's message. The GIL is released during the work."""
+    other options, the checks (:class:`Refused`) and ``allow`` are :func:`identify`'s;
+    ``residual_model="gp"`` cross-validates the learned residual model on 6-DoF data
+    (position and orientation parts, ``FrameCalibration.residual_model``; several targets per
+    pose are refused). Raises KincalError with the library's message. The GIL is released
+    during the work."""
 
 def compensate(
     calibration: Calibration | FrameCalibration,
@@ -542,8 +589,8 @@ def compensate(
     """The joints ``(n, N)`` (degrees) that make the calibrated robot reach the points the
     registered nominal robot reaches at ``q_deg``, as ``kincal compensate`` with the
     calibration's ``identified.json`` and ``registered-nominal.json``; ``(N,)`` → ``(N,)``.
-    With a residual model that ``identify(..., residual_model="gp")`` kept, the joints bring
-    the geometry plus the model's mean onto each target (``calibration.predict(q)`` reaches
+    With a residual model that ``identify(..., residual_model="gp")`` (or ``identify_frames``)
+    kept, the joints bring the geometry plus the model's mean onto each target (``calibration.predict(q)`` reaches
     it; ``docs/residual-model.md``); ``geometry_only=True`` leaves the model out, as
     ``--geometry-only``. Raises KincalError listing the unreachable rows."""
 
@@ -568,7 +615,8 @@ def compensate_cartesian(
     forward kinematics at those joints in the base frame, for a controller that runs the
     nominal model. With a residual model that ``identify(..., residual_model="gp")`` kept,
     the calibrated solve brings the geometry plus the model's mean onto each target position
-    (the model is position-only); ``geometry_only=True`` leaves it out, as
+    (and the orientation part of a 6-DoF calibration's model onto its orientation);
+    ``geometry_only=True`` leaves it out, as
     ``--geometry-only``. Raises KincalError listing the unreachable rows."""
 
 def design(
