@@ -52,7 +52,9 @@ pub enum SizeError {
 /// The memory one row of joints (and its measured point) takes from being read to being
 /// identified on, validated on or predicted, in bytes: `docs/timings.md` ("A measurement
 /// file of many rows": the peak of `identify` on 10⁶ rows divided by the rows, 785 B when
-/// this was set). Arrays handed over by the Python package are checked with it.
+/// this was set, with the system allocator; the `kincal` binary's mimalloc takes about
+/// 860 B). Arrays handed over by the Python package (the system allocator) are checked with
+/// it.
 pub const BYTES_PER_ROW: u64 = 800;
 
 /// [`check_size`] for data rows that have no limit but the machine's memory:
