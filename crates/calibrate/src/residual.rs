@@ -176,7 +176,8 @@ impl PointCalibration {
 /// `model`: the position `p_meas − p_model(q)` (mm) and the orientation, the rotation vector
 /// of `R_meas · R_model(q)ᵀ` (degrees, measurement axes; `R_model` the flange rotation times
 /// the tool rotation). Rows without an orientation give a zero orientation residual (the
-/// caller refuses such data).
+/// caller refuses such identification data and leaves the orientation of such validation
+/// data unscored).
 pub fn pose_residuals(model: &FrameModel, data: &FrameData) -> (Vec<[f64; 3]>, Vec<[f64; 3]>) {
     let mut position = Vec::with_capacity(data.rows.len());
     let mut orientation = Vec::with_capacity(data.rows.len());
@@ -224,7 +225,11 @@ impl ToolFrameCalibration {
     /// orientation; [`CalibrateError::Residual`]; a fold's geometric fit's error.
     pub fn fit_residual_model(&mut self, options: &CvOptions) -> Result<()> {
         let single = matches!(self.kind, MeasurementKind::SixDof { targets: 1 });
-        if !single || self.data.rows.len() != self.data.n_poses() {
+        // One row a pose, in pose order: the folds index poses and rows alike.
+        let in_order = |d: &FrameData| {
+            d.rows.len() == d.n_poses() && d.rows.iter().enumerate().all(|(i, r)| r.pose == i)
+        };
+        if !single || !in_order(&self.data) {
             return Err(CalibrateError::ResidualMismatch(format!(
                 "a residual model is fitted on point data or on 6-DoF data of one probe a \
                  pose; {} has {} data (several targets a pose: their residuals are not \
@@ -273,7 +278,9 @@ impl ToolFrameCalibration {
             None
         };
         let (validation, validation_deg) = match (&model, &self.validation_data) {
-            (Some(m), Some(v)) if v.rows.len() == v.n_poses() => {
+            // Validation poses in order, each with its orientation (else the position part
+            // alone is scored there).
+            (Some(m), Some(v)) if in_order(v) => {
                 let q: Vec<Vec<f64>> = (0..v.n_poses())
                     .map(|j| v.pose(j).iter().map(|x| x.to_degrees()).collect())
                     .collect();
@@ -285,10 +292,13 @@ impl ToolFrameCalibration {
                     ))
                 };
                 let position = held_out(m, &q, &rp).map_err(err())?;
-                let orientation = m
-                    .predict_orientation(&q)
-                    .map_err(err())?
-                    .map(|pred| held_out_deg(&pred, &ro));
+                let orientation = if v.rows.iter().all(|r| r.rotation.is_some()) {
+                    m.predict_orientation(&q)
+                        .map_err(err())?
+                        .map(|pred| held_out_deg(&pred, &ro))
+                } else {
+                    None
+                };
                 (Some(position), orientation)
             }
             _ => (None, None),

@@ -58,8 +58,9 @@ fn residuals(robot: &Robot, poses_rad: &[f64], points_mm: &[Vector3<f64>]) -> Ve
 /// all of them (module doc, steps 1 and 2).
 ///
 /// # Errors
-/// [`CampaignError::Residual`] (a fold without enough poses, a fit that fails);
-/// [`CampaignError::Identify`] from a fold's geometric refit.
+/// [`CampaignError::Residual`]: a fold without enough poses, a GP fit that fails, or a
+/// fold's geometric refit that fails (its identification error inside); the trial then
+/// fails as a whole and is counted among the failed trials, with that message.
 pub(super) fn fit(
     ctx: &Context,
     id: &PointIdentification,
