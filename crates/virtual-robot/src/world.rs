@@ -447,7 +447,7 @@ impl World {
     /// added at the point, then the tracker checks visibility, adds its noise and maps the
     /// reading into the measurement frame (base-frame residual). Every call counts as one
     /// move, measurable or not, except calls rejected for the joint count or limits. No heap
-    /// allocation once the ring of recent points ([`PointCache`]) is full (its first 16
+    /// allocation once the ring of recent points (`PointCache`) is full (its first 16
     /// misses grow it).
     pub fn measure(&mut self, q_cmd_rad: &[f64]) -> Result<Vector3<f64>, NotMeasurable> {
         self.check_joints(q_cmd_rad)?;
