@@ -323,23 +323,7 @@ impl ToolFrameCalibration {
 /// (degrees) at poses whose orientation residuals are `residuals_deg`, and the coverage of
 /// the part's sd.
 fn held_out_deg(pred: &[OrientationPrediction], residuals_deg: &[[f64; 3]]) -> HeldOut {
-    let mut out = HeldOut {
-        geometry_mm: Vec::with_capacity(pred.len()),
-        hybrid_mm: Vec::with_capacity(pred.len()),
-        coverage: (0, 0, 0),
-    };
-    let norm = |v: [f64; 3]| (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
-    for (e, p) in residuals_deg.iter().zip(pred) {
-        let h = [0, 1, 2].map(|c| e[c] - p.mean_deg[c]);
-        out.geometry_mm.push(norm(*e));
-        out.hybrid_mm.push(norm(h));
-        for (hc, sd) in h.iter().zip(p.sd_deg) {
-            out.coverage.0 += usize::from(hc.abs() <= sd);
-            out.coverage.1 += usize::from(hc.abs() <= 2.0 * sd);
-            out.coverage.2 += 1;
-        }
-    }
-    out
+    residual::held_out_predicted(pred.iter().map(|p| (p.mean_deg, p.sd_deg)), residuals_deg)
 }
 
 impl Calibration {

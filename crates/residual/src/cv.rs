@@ -358,22 +358,34 @@ pub fn held_out(
     residuals_mm: &[[f64; 3]],
 ) -> Result<HeldOut> {
     let pred = model.predict(joints_deg)?;
+    Ok(held_out_predicted(
+        pred.iter().map(|p| (p.mean_mm, p.sd_mm)),
+        residuals_mm,
+    ))
+}
+
+/// [`held_out`] from predictions already made: `(mean, sd)` per row, in the residuals'
+/// unit (millimetres, or degrees for the orientation part of 6-DoF data), one a residual.
+pub fn held_out_predicted(
+    predictions: impl ExactSizeIterator<Item = ([f64; 3], [f64; 3])>,
+    residuals: &[[f64; 3]],
+) -> HeldOut {
     let mut out = HeldOut {
-        geometry_mm: Vec::with_capacity(pred.len()),
-        hybrid_mm: Vec::with_capacity(pred.len()),
+        geometry_mm: Vec::with_capacity(predictions.len()),
+        hybrid_mm: Vec::with_capacity(predictions.len()),
         coverage: (0, 0, 0),
     };
-    for (e, p) in residuals_mm.iter().zip(&pred) {
-        let h = [0, 1, 2].map(|c| e[c] - p.mean_mm[c]);
+    for (e, (mean, sd)) in residuals.iter().zip(predictions) {
+        let h = [0, 1, 2].map(|c| e[c] - mean[c]);
         out.geometry_mm.push(norm(*e));
         out.hybrid_mm.push(norm(h));
-        for (hc, sd) in h.iter().zip(p.sd_mm) {
+        for (hc, sd) in h.iter().zip(sd) {
             out.coverage.0 += usize::from(hc.abs() <= sd);
             out.coverage.1 += usize::from(hc.abs() <= 2.0 * sd);
             out.coverage.2 += 1;
         }
     }
-    Ok(out)
+    out
 }
 
 fn norm(e: [f64; 3]) -> f64 {

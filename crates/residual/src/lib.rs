@@ -40,6 +40,7 @@ pub mod gp;
 pub use cv::{
     Coverage, CrossValidation, CvOptions, DEFAULT_FOLDS, FoldResult, Gain, GeometryResult, HeldOut,
     PoseCrossValidation, PoseGeometryResult, cross_validate, cross_validate_pose, folds, held_out,
+    held_out_predicted,
 };
 pub use error::{ResidualError, Result};
 pub use gp::{
