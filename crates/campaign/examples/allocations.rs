@@ -9,43 +9,15 @@
 // example outside the library.
 #![allow(unsafe_code)]
 
-use std::alloc::{GlobalAlloc, Layout, System};
 use std::path::Path;
-use std::sync::atomic::{AtomicU64, Ordering};
 
 use campaign::{Context, Scenario, run_trial};
 
-/// The system allocator, counting.
-struct Counting;
-
-static ALLOCATIONS: AtomicU64 = AtomicU64::new(0);
-static BYTES: AtomicU64 = AtomicU64::new(0);
-
-// SAFETY: every call is forwarded unchanged to the system allocator; the counters are
-// atomics, touched without allocating.
-unsafe impl GlobalAlloc for Counting {
-    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        ALLOCATIONS.fetch_add(1, Ordering::Relaxed);
-        BYTES.fetch_add(layout.size() as u64, Ordering::Relaxed);
-        // SAFETY: the caller's contract is the system allocator's.
-        unsafe { System.alloc(layout) }
-    }
-
-    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
-        // SAFETY: `ptr` came from `alloc` / `realloc` above, i.e. from the system allocator.
-        unsafe { System.dealloc(ptr, layout) }
-    }
-
-    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
-        ALLOCATIONS.fetch_add(1, Ordering::Relaxed);
-        BYTES.fetch_add(new_size as u64, Ordering::Relaxed);
-        // SAFETY: as `dealloc`, and the caller's contract for the new size.
-        unsafe { System.realloc(ptr, layout, new_size) }
-    }
-}
+#[path = "../tests/allocations/counting.rs"]
+mod counting;
 
 #[global_allocator]
-static GLOBAL: Counting = Counting;
+static GLOBAL: counting::Counting = counting::Counting;
 
 fn main() {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenarios/paper-kr1000.json");
@@ -56,16 +28,13 @@ fn main() {
         for trial in 0..20 {
             run_trial(&ctx, trial).expect("trial");
         }
-        let (a0, b0) = (
-            ALLOCATIONS.load(Ordering::Relaxed),
-            BYTES.load(Ordering::Relaxed),
-        );
+        let (a0, b0) = counting::counts();
         let trials = 200;
         for trial in 20..20 + trials {
             std::hint::black_box(run_trial(&ctx, trial).expect("trial"));
         }
-        let a = ALLOCATIONS.load(Ordering::Relaxed) - a0;
-        let b = BYTES.load(Ordering::Relaxed) - b0;
+        let (a1, b1) = counting::counts();
+        let (a, b) = (a1 - a0, b1 - b0);
         println!(
             "paper-kr1000, ISO test {}: {} allocations and {:.0} kB per trial (mean of {trials}, after 20 of warm-up)",
             if iso { "on" } else { "off" },

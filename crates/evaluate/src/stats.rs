@@ -35,6 +35,12 @@ impl AxisStats {
     /// [`EvalError::Empty`] for an empty series, [`EvalError::NonFinite`] if a value is
     /// NaN or infinite.
     pub fn from_values(values_mm: &[f64]) -> Result<Self> {
+        Self::from_scratch(&mut values_mm.to_vec())
+    }
+
+    /// [`AxisStats::from_values`] of `values_mm`, which it sorts in place (the sums run
+    /// in the given order first: the same bits, without a copy to sort).
+    fn from_scratch(values_mm: &mut [f64]) -> Result<Self> {
         const WHAT: &str = "error series";
         check_finite(WHAT, values_mm)?;
         if values_mm.is_empty() {
@@ -44,7 +50,8 @@ impl AxisStats {
         let mean_mm = values_mm.iter().sum::<f64>() / n;
         let max_mm = values_mm.iter().copied().fold(f64::NEG_INFINITY, f64::max);
         let rms_mm = (values_mm.iter().map(|v| v * v).sum::<f64>() / n).sqrt();
-        let p95_mm = percentile_linear(values_mm, 95.0)?;
+        values_mm.sort_by(f64::total_cmp);
+        let p95_mm = percentile_sorted(values_mm, 95.0);
         Ok(Self {
             mean_mm,
             max_mm,
@@ -91,24 +98,34 @@ pub fn error_stats(errors_mm: &[[f64; 3]]) -> Result<ErrorStats> {
             });
         }
     }
-    let axis = |k: usize| -> Vec<f64> { errors_mm.iter().map(|e| e[k].abs()).collect() };
-    let norms = norms(errors_mm);
+    // One buffer for the four series, each sorted in place once its sums are taken.
+    let mut scratch = Vec::with_capacity(errors_mm.len());
+    let mut axis = |k: usize| {
+        scratch.clear();
+        scratch.extend(errors_mm.iter().map(|e| match k {
+            3 => norm3(e),
+            _ => e[k].abs(),
+        }));
+        AxisStats::from_scratch(&mut scratch)
+    };
     Ok(ErrorStats {
         count: errors_mm.len(),
-        x: AxisStats::from_values(&axis(0))?,
-        y: AxisStats::from_values(&axis(1))?,
-        z: AxisStats::from_values(&axis(2))?,
-        norm: AxisStats::from_values(&norms)?,
+        x: axis(0)?,
+        y: axis(1)?,
+        z: axis(2)?,
+        norm: axis(3)?,
     })
 }
 
 /// The 3-D norms ‖e‖ = √(x² + y² + z²) of error vectors, in their order (the `norm` row of
 /// [`error_stats`], and what the error plots draw).
 pub fn norms(errors_mm: &[[f64; 3]]) -> Vec<f64> {
-    errors_mm
-        .iter()
-        .map(|e| (e[0] * e[0] + e[1] * e[1] + e[2] * e[2]).sqrt())
-        .collect()
+    errors_mm.iter().map(norm3).collect()
+}
+
+/// ‖e‖ = √(x² + y² + z²), summed in that order.
+fn norm3(e: &[f64; 3]) -> f64 {
+    (e[0] * e[0] + e[1] * e[1] + e[2] * e[2]).sqrt()
 }
 
 /// The mean of `v`, summed in order (0 for an empty slice): e.g. the reference lines of the
@@ -186,12 +203,18 @@ pub fn percentile_linear(values: &[f64], p: f64) -> Result<f64> {
     }
     let mut sorted = values.to_vec();
     sorted.sort_by(f64::total_cmp);
+    Ok(percentile_sorted(&sorted, p))
+}
+
+/// [`percentile_linear`] of values already sorted ascending (non-empty, finite, `p` in
+/// `[0, 100]`).
+fn percentile_sorted(sorted: &[f64], p: f64) -> f64 {
     let h = (sorted.len() - 1) as f64 * p / 100.0;
     let k = h.floor() as usize;
     if k + 1 >= sorted.len() {
-        return Ok(sorted[sorted.len() - 1]);
+        return sorted[sorted.len() - 1];
     }
-    Ok(sorted[k] + (h - k as f64) * (sorted[k + 1] - sorted[k]))
+    sorted[k] + (h - k as f64) * (sorted[k + 1] - sorted[k])
 }
 
 /// Relative improvement in percent, `100·(before − after)/before`.

@@ -995,6 +995,8 @@ struct PointLs<'a, 'p, 'f> {
     prior: Option<&'f crate::prior::PriorTerm>,
     /// The data's part of the last trial cost (without the prior), for `accept`.
     trial_data: f64,
+    /// A parameter vector reused by every step (no allocation per iteration).
+    x: std::cell::RefCell<Vec<f64>>,
 }
 
 impl LeastSquares for PointLs<'_, '_, '_> {
@@ -1024,7 +1026,8 @@ impl LeastSquares for PointLs<'_, '_, '_> {
     }
 
     fn step(&self, m: &Robot, dx: &[f64], out: &mut Robot) -> Result<(), IdentifyError> {
-        let mut x = m.params();
+        let mut x = self.x.borrow_mut();
+        m.params_into(&mut x);
         for (c, &k) in self.free.iter().enumerate() {
             x[k] += dx[c];
         }
@@ -1033,7 +1036,8 @@ impl LeastSquares for PointLs<'_, '_, '_> {
     }
 
     fn scaled_norm(&self, m: &Robot, s: &[f64]) -> f64 {
-        let x = m.params();
+        let mut x = self.x.borrow_mut();
+        m.params_into(&mut x);
         self.free
             .iter()
             .zip(s)
@@ -1093,6 +1097,7 @@ fn solve_free(
             free,
             prior: problem.prior(),
             trial_data: 0.0,
+            x: Default::default(),
         },
         problem.robot().clone(),
         options,

@@ -843,32 +843,42 @@ impl Robot {
 
     /// The parameter vector in internal units (rad, mm), in layout order.
     pub fn params(&self) -> Vec<f64> {
-        self.layout
-            .params()
-            .iter()
-            .enumerate()
-            .map(|(k, p)| match p.kind {
-                ParamKind::Theta(i) => self.links[i].theta_rad,
-                ParamKind::D(i) => self.links[i].d_mm,
-                ParamKind::A(i) => self.links[i].a_mm,
-                ParamKind::Alpha(i) => self.links[i].alpha_rad,
-                ParamKind::Beta(i) => self.links[i].beta_rad,
-                ParamKind::Scale(i) => self.links[i].scale,
-                ParamKind::BaseRx => self.base.r_rad[0],
-                ParamKind::BaseRy => self.base.r_rad[1],
-                ParamKind::BaseRz => self.base.r_rad[2],
-                ParamKind::BaseDx => self.base.d_mm[0],
-                ParamKind::BaseDy => self.base.d_mm[1],
-                ParamKind::BaseDz => self.base.d_mm[2],
-                ParamKind::ToolX => self.tool_mm.x,
-                ParamKind::ToolY => self.tool_mm.y,
-                ParamKind::ToolZ => self.tool_mm.z,
-                ParamKind::Extended(_) => {
-                    let e = self.extended.as_ref().expect("extended layout");
-                    e.model.values()[k - e.first]
-                }
-            })
-            .collect()
+        let mut out = Vec::with_capacity(self.layout.len());
+        self.params_into(&mut out);
+        out
+    }
+
+    /// [`Robot::params`] written into `out` (cleared first; no allocation once `out` has
+    /// the capacity: what a solver's iterations reuse).
+    pub fn params_into(&self, out: &mut Vec<f64>) {
+        out.clear();
+        out.extend(
+            self.layout
+                .params()
+                .iter()
+                .enumerate()
+                .map(|(k, p)| match p.kind {
+                    ParamKind::Theta(i) => self.links[i].theta_rad,
+                    ParamKind::D(i) => self.links[i].d_mm,
+                    ParamKind::A(i) => self.links[i].a_mm,
+                    ParamKind::Alpha(i) => self.links[i].alpha_rad,
+                    ParamKind::Beta(i) => self.links[i].beta_rad,
+                    ParamKind::Scale(i) => self.links[i].scale,
+                    ParamKind::BaseRx => self.base.r_rad[0],
+                    ParamKind::BaseRy => self.base.r_rad[1],
+                    ParamKind::BaseRz => self.base.r_rad[2],
+                    ParamKind::BaseDx => self.base.d_mm[0],
+                    ParamKind::BaseDy => self.base.d_mm[1],
+                    ParamKind::BaseDz => self.base.d_mm[2],
+                    ParamKind::ToolX => self.tool_mm.x,
+                    ParamKind::ToolY => self.tool_mm.y,
+                    ParamKind::ToolZ => self.tool_mm.z,
+                    ParamKind::Extended(_) => {
+                        let e = self.extended.as_ref().expect("extended layout");
+                        e.model.values()[k - e.first]
+                    }
+                }),
+        );
     }
 
     /// Sets every parameter from a vector in internal units, in layout order.

@@ -128,8 +128,8 @@ pub(super) fn iso_trial(
         q_after.push(qc);
     }
     let cycles = scenario.iso.cycles;
-    let mut before: [Vec<[f64; 3]>; 5] = Default::default();
-    let mut after: [Vec<[f64; 3]>; 5] = Default::default();
+    let mut before: [Vec<[f64; 3]>; 5] = std::array::from_fn(|_| Vec::with_capacity(cycles));
+    let mut after: [Vec<[f64; 3]>; 5] = std::array::from_fn(|_| Vec::with_capacity(cycles));
     for (joints, out) in [
         (&plan.q_cmd_rad[..], &mut before),
         (&q_after[..], &mut after),

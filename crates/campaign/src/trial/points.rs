@@ -3,8 +3,10 @@
 //! resolved on them and LM identifies the robot from the nominal model; the observability
 //! of the poses and the recovery of the minimal set are scored on the same points.
 
+use std::borrow::Cow;
+
 use evaluate::ParameterRecovery;
-use identify::{Fit, Observability, Problem};
+use identify::{Covariance, Fit, Observability, Problem};
 use kinematics::Robot;
 use nalgebra::{DMatrix, DVector, Vector3};
 use virtual_robot::World;
@@ -175,8 +177,13 @@ fn recovery(
         .filter_map(|n| layout.index_of(n).ok())
         .collect();
     let registered = fit.registration.as_ref().is_some_and(|r| r.applied);
-    let (est_min, cov) = if !registered && solved == *free {
-        (fit.params.clone(), fit.covariance.clone())
+    // Borrowed when the fit is its own re-expression (no copy of its covariance's names
+    // and matrices: issue 43's allocations).
+    let (est_min, cov): (Cow<[f64]>, Option<Cow<Covariance>>) = if !registered && solved == *free {
+        (
+            Cow::Borrowed(&fit.params),
+            fit.covariance.as_ref().map(Cow::Borrowed),
+        )
     } else {
         // The estimate's re-expression, then its covariance with the trial's measurements
         // at that solution (reusing the normal matrix the solver assembled there).
@@ -190,7 +197,7 @@ fn recovery(
             &ctx.id_options.identifiability,
             ctx.id_options.correlation_flag,
         )?;
-        (est.params, cov)
+        (Cow::Owned(est.params), cov.map(Cow::Owned))
     };
     let Some(cov) = cov else {
         return Ok(Vec::new());
