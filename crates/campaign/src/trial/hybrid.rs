@@ -11,8 +11,8 @@
 //! 2. **The model** fitted on every identification pose's residual of the trial's fit —
 //!    always, so that the trial reports what the hybrid gives even where the gate declines
 //!    it.
-//! 3. **Validation** ([`Hybrid::validate`]): each validation target is compensated by the
-//!    hybrid, `FK_fit(q) + r(q) = target` — the geometric IK from the commanded joints,
+//! 3. **Validation** ([`Hybrid::validate`], through the trial's own compensate-and-measure
+//!    loop): each validation target is compensated by the hybrid, `FK_fit(q) + r(q) = target` — the geometric IK from the commanded joints,
 //!    then the fixed point of [`calibrate::residual::fixed_point`] — and measured by the
 //!    virtual robot; the coverage of the model's sd is scored on the validation poses'
 //!    measured residuals before compensation.
@@ -40,7 +40,7 @@ pub(super) struct Hybrid {
     pub model: ResidualModel,
 }
 
-fn to_deg(q_rad: &[f64]) -> Vec<f64> {
+pub(super) fn to_deg(q_rad: &[f64]) -> Vec<f64> {
     q_rad.iter().map(|v| v.to_degrees()).collect()
 }
 
@@ -135,8 +135,6 @@ impl Hybrid {
         geometry_after_mm: &[[f64; 3]],
         trial: u64,
     ) -> Result<HybridValidation, CampaignError> {
-        let scenario = &ctx.loaded.scenario;
-        let nominal = ctx.nominal();
         let eval = |source| CampaignError::Evaluate { trial, source };
         let gp = |source| CampaignError::Residual { trial, source };
         // Coverage of the sd on the validation poses' residuals before compensation.
@@ -146,48 +144,25 @@ impl Hybrid {
             .map(|&(j, _, p)| (p - fit_robot.point_trig(val_trig.pose(j))).into())
             .collect();
         let coverage = held_out(&self.model, &q_deg, &e).map_err(gp)?.coverage();
-        let predicted = if scenario.compensation.enabled {
-            Vec::new()
-        } else {
-            self.model.predict(&q_deg).map_err(gp)?
-        };
-        let ik = scenario.compensation.ik_options();
-        let (mut after_mm, mut failures, mut unmeasurable) = (Vec::new(), 0, 0);
-        let mut q_c = vec![0.0; nominal.n_joints()];
-        for (k, &(j, q, _)) in measured.iter().enumerate() {
-            if scenario.compensation.enabled {
-                let target =
-                    identify::compensation_target_trig(nominal, fit_robot, val_trig.pose(j));
-                q_c.copy_from_slice(q);
-                if !compensate(fit_robot, &self.model, &target, &mut q_c, &ik) {
-                    failures += 1;
-                    continue;
-                }
-                match world.measure(&q_c) {
-                    Ok(p) => after_mm.push((p - target.position_mm).into()),
-                    Err(_) => unmeasurable += 1,
-                }
-            } else {
-                // Without compensation, the hybrid's prediction error.
-                let r = &predicted[k].mean_mm;
-                after_mm.push([e[k][0] - r[0], e[k][1] - r[1], e[k][2] - r[2]]);
-            }
-        }
-        let norms = |v: &[[f64; 3]]| -> Vec<f64> {
-            v.iter()
-                .map(|a| (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt())
-                .collect()
-        };
+        let (after_mm, failures, unmeasurable) = super::compensated_errors(
+            ctx,
+            world,
+            (fit_robot, val_trig),
+            measured,
+            Some(&self.model),
+            trial,
+        )?;
         let hybrid_after = if after_mm.is_empty() {
             None
         } else {
-            Some(AxisStats::from_values(&norms(&after_mm)).map_err(eval)?)
+            Some(AxisStats::from_values(&evaluate::norms(&after_mm)).map_err(eval)?)
         };
         let outcome = ResidualTrial {
             used: self.used(),
             cv_mean_gain: self.cv.mean_gain.into(),
             cv_p95_gain: self.cv.p95_gain.into(),
-            geometry_after: AxisStats::from_values(&norms(geometry_after_mm)).map_err(eval)?,
+            geometry_after: AxisStats::from_values(&evaluate::norms(geometry_after_mm))
+                .map_err(eval)?,
             hybrid_after,
             hybrid_compensation_failures: failures,
             coverage_1sd: coverage.within_1sd,

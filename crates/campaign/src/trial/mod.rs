@@ -67,6 +67,69 @@ fn to_arr(v: Vector3<f64>) -> [f64; 3] {
     [v.x, v.y, v.z]
 }
 
+/// The errors after compensation at the measured validation poses `measured`: each target
+/// compensated by the identified model `fit_robot` (IK from the commanded joints) or, with
+/// `model`, by the hybrid ([`hybrid::compensate`]), and measured by the virtual robot;
+/// with compensation off, the model's prediction error at the commanded joints (the
+/// measured point minus `FK_fit(q)`, and minus `r(q)` with `model`). Returns the errors
+/// (mm, one a compensated and measured target), the targets the model could not reach and
+/// those the tracker could not measure.
+fn compensated_errors(
+    ctx: &Context,
+    world: &mut World,
+    (fit_robot, val_trig): (&Robot, &PoseTrig),
+    measured: &[hybrid::MeasuredPose<'_>],
+    model: Option<&calibrate::residual::ResidualModel>,
+    trial: u64,
+) -> Result<(Vec<[f64; 3]>, usize, usize), CampaignError> {
+    let scenario = &ctx.loaded.scenario;
+    let nominal = ctx.nominal();
+    let ik = scenario.compensation.ik_options();
+    let (mut after, mut failures, mut unmeasurable) = (Vec::with_capacity(measured.len()), 0, 0);
+    if !scenario.compensation.enabled {
+        let predicted = match model {
+            Some(m) => {
+                let q_deg: Vec<Vec<f64>> = measured
+                    .iter()
+                    .map(|&(_, q, _)| hybrid::to_deg(q))
+                    .collect();
+                m.predict(&q_deg)
+                    .map_err(|source| CampaignError::Residual { trial, source })?
+            }
+            None => Vec::new(),
+        };
+        for (k, &(j, _, p_meas)) in measured.iter().enumerate() {
+            let e = p_meas - fit_robot.point_trig(val_trig.pose(j));
+            after.push(match predicted.get(k) {
+                Some(r) => {
+                    let r = &r.mean_mm;
+                    [e.x - r[0], e.y - r[1], e.z - r[2]]
+                }
+                None => to_arr(e),
+            });
+        }
+        return Ok((after, failures, unmeasurable));
+    }
+    let mut q_c = vec![0.0; nominal.n_joints()];
+    for &(j, q, _) in measured {
+        let target = identify::compensation_target_trig(nominal, fit_robot, val_trig.pose(j));
+        q_c.copy_from_slice(q);
+        let reached = match model {
+            None => fit_robot.solve_ik(&target, &mut q_c, &ik).is_ok(),
+            Some(m) => hybrid::compensate(fit_robot, m, &target, &mut q_c, &ik),
+        };
+        if !reached {
+            failures += 1;
+            continue;
+        }
+        match world.measure(&q_c) {
+            Ok(p) => after.push(to_arr(p - target.position_mm)),
+            Err(_) => unmeasurable += 1,
+        }
+    }
+    Ok((after, failures, unmeasurable))
+}
+
 /// Runs trial `trial` of the campaign.
 pub fn run_trial(ctx: &Context, trial: u64) -> Result<TrialResult, CampaignError> {
     let nominal = ctx.nominal();
@@ -146,26 +209,15 @@ pub fn run_trial(ctx: &Context, trial: u64) -> Result<TrialResult, CampaignError
             Err(_) => unmeasurable += 1,
         }
     }
-    let ik = scenario.compensation.ik_options();
-    let mut after = Vec::with_capacity(before.len());
-    let mut compensation_failures = 0;
-    let mut q_c = vec![0.0; n];
-    for &(j, q, p_meas) in &measured_val {
-        if scenario.compensation.enabled {
-            let target = identify::compensation_target_trig(nominal, fit_robot, val_trig.pose(j));
-            q_c.copy_from_slice(q);
-            if fit_robot.solve_ik(&target, &mut q_c, &ik).is_err() {
-                compensation_failures += 1;
-                continue;
-            }
-            match world.measure(&q_c) {
-                Ok(p) => after.push(to_arr(p - target.position_mm)),
-                Err(_) => unmeasurable += 1,
-            }
-        } else {
-            after.push(to_arr(p_meas - fit_robot.point_trig(val_trig.pose(j))));
-        }
-    }
+    let (mut after, mut compensation_failures, lost) = compensated_errors(
+        ctx,
+        &mut world,
+        (fit_robot, &val_trig),
+        &measured_val,
+        None,
+        trial,
+    )?;
+    unmeasurable += lost;
     // With a residual model, the hybrid's compensation too; the trial's `after` is the one
     // the gate chose.
     let residual = match &hybrid {
