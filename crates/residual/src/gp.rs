@@ -716,14 +716,18 @@ impl ResidualModel {
         residuals_deg: &[[f64; 3]],
         opts: &GpOptions,
     ) -> Result<()> {
-        let part = ResidualModel::fit(joints_deg, residuals_deg, opts)?;
-        if part.file.training_joints_deg != self.file.training_joints_deg
-            || part.file.training_poses_given != self.file.training_poses_given
+        // Checked before the fit: the poses it would train on must be the position part's.
+        let keep = evenly_spaced(joints_deg.len(), opts.max_train_poses);
+        let given = &self.file.training_joints_deg;
+        if joints_deg.len() != self.file.training_poses_given
+            || keep.len() != given.len()
+            || keep.iter().zip(given).any(|(&i, q)| joints_deg[i] != *q)
         {
             return Err(ResidualError::Data(
                 "the orientation residuals must be given at the poses of the position part".into(),
             ));
         }
+        let part = ResidualModel::fit(joints_deg, residuals_deg, opts)?;
         self.orientation = Some(Box::new(part));
         Ok(())
     }
