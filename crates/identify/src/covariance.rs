@@ -61,12 +61,14 @@ pub struct Covariance {
     pub dof: usize,
     /// Whether the residuals were weighted.
     pub weighted: bool,
-    /// Covariance matrix, display units (deg², deg·mm, mm²), row-major.
-    pub covariance: Vec<Vec<f64>>,
+    /// Covariance matrix, display units (deg², deg·mm, mm²); written as rows.
+    #[serde(with = "rows")]
+    pub covariance: DMatrix<f64>,
     /// Standard errors √Cov_kk, display units.
     pub std_errors: Vec<f64>,
-    /// Correlation matrix ρ_kl = Cov_kl / (σ_k σ_l), row-major.
-    pub correlation: Vec<Vec<f64>>,
+    /// Correlation matrix ρ_kl = Cov_kl / (σ_k σ_l); written as rows.
+    #[serde(with = "rows")]
+    pub correlation: DMatrix<f64>,
     /// Pairs with |ρ| above the flag threshold.
     pub high_correlations: Vec<CorrelatedPair>,
     /// The flag threshold used.
@@ -327,44 +329,32 @@ fn covariance_on(
         .zip(&kept)
         .map(|(info, &k)| info.to_display(1.0) * scale[k])
         .collect();
-    let cov: Vec<Vec<f64>> = (0..r)
-        .map(|i| {
-            (0..r)
-                .map(|j| sigma2 * factor[i] * cs[(i, j)] * factor[j])
-                .collect()
-        })
-        .collect();
-    let std_errors: Vec<f64> = (0..r).map(|i| cov[i][i].sqrt()).collect();
-    let correlation: Vec<Vec<f64>> = (0..r)
-        .map(|i| {
-            (0..r)
-                .map(|j| {
-                    let d = std_errors[i] * std_errors[j];
-                    if i == j {
-                        1.0
-                    } else if d > 0.0 {
-                        cov[i][j] / d
-                    } else {
-                        0.0
-                    }
-                })
-                .collect()
-        })
-        .collect();
+    let cov = DMatrix::from_fn(r, r, |i, j| sigma2 * factor[i] * cs[(i, j)] * factor[j]);
+    let std_errors: Vec<f64> = (0..r).map(|i| cov[(i, i)].sqrt()).collect();
+    let correlation = DMatrix::from_fn(r, r, |i, j| {
+        let d = std_errors[i] * std_errors[j];
+        if i == j {
+            1.0
+        } else if d > 0.0 {
+            cov[(i, j)] / d
+        } else {
+            0.0
+        }
+    });
     let names: Vec<String> = infos.iter().map(|i| i.name.clone()).collect();
     let mut high = Vec::new();
     for i in 0..r {
         for j in i + 1..r {
-            if correlation[i][j].abs() > correlation_flag {
+            if correlation[(i, j)].abs() > correlation_flag {
                 high.push(CorrelatedPair {
                     a: names[i].clone(),
                     b: names[j].clone(),
-                    rho: correlation[i][j],
+                    rho: correlation[(i, j)],
                 });
             }
         }
     }
-    if !cov.iter().flatten().all(|v| v.is_finite()) {
+    if !cov.iter().all(|v| v.is_finite()) {
         return Err(IdentifyError::NonFiniteStep {
             iteration: 0,
             what: "covariance",
@@ -460,5 +450,87 @@ impl<M> LsSolution<M> {
     /// [`IdentifyError::Singular`] when `JᵀJ` is not positive definite.
     pub fn covariance(&self, n_equations: usize) -> Result<NormalCovariance, IdentifyError> {
         normal_covariance(&self.normal_matrix, self.cost, n_equations, self.iterations)
+    }
+}
+
+/// A square matrix written and read as an array of rows (`[[..], ..]`): the covariance's
+/// and correlation's form in `identified.json`.
+mod rows {
+    use nalgebra::DMatrix;
+    use serde::de::Error as _;
+    use serde::ser::SerializeSeq;
+    use serde::{Deserialize, Deserializer, Serialize, Serializer};
+
+    /// Row `.1` of matrix `.0`, as a sequence.
+    struct Row<'a>(&'a DMatrix<f64>, usize);
+
+    impl Serialize for Row<'_> {
+        fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+            let mut seq = s.serialize_seq(Some(self.0.ncols()))?;
+            for j in 0..self.0.ncols() {
+                seq.serialize_element(&self.0[(self.1, j)])?;
+            }
+            seq.end()
+        }
+    }
+
+    pub fn serialize<S: Serializer>(m: &DMatrix<f64>, s: S) -> Result<S::Ok, S::Error> {
+        let mut seq = s.serialize_seq(Some(m.nrows()))?;
+        for i in 0..m.nrows() {
+            seq.serialize_element(&Row(m, i))?;
+        }
+        seq.end()
+    }
+
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<DMatrix<f64>, D::Error> {
+        let rows = Vec::<Vec<f64>>::deserialize(d)?;
+        let n = rows.len();
+        if let Some((i, row)) = rows.iter().enumerate().find(|(_, r)| r.len() != n) {
+            return Err(D::Error::custom(format!(
+                "row {i} has {} values: a square matrix of {n} rows needs {n}",
+                row.len()
+            )));
+        }
+        Ok(DMatrix::from_fn(n, n, |i, j| rows[i][j]))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The matrices are written as arrays of rows, the same text a `Vec<Vec<f64>>` gives
+    /// (what `identified.json` held before they were matrices), and read back equal; a
+    /// ragged or non-square array is refused naming the row.
+    #[test]
+    fn matrices_are_written_and_read_as_rows() {
+        let m = DMatrix::from_row_slice(2, 2, &[1.0, -0.25, -0.25, 4.5e-7]);
+        let cov = Covariance {
+            parameters: vec!["a_1".into(), "d_2".into()],
+            indices: vec![3, 4],
+            units: vec![Unit::Mm, Unit::Mm],
+            omitted: vec![],
+            sigma_hat: 0.01,
+            dof: 10,
+            weighted: false,
+            covariance: m.clone(),
+            std_errors: vec![1.0, 4.5e-7_f64.sqrt()],
+            correlation: m.transpose(),
+            high_correlations: vec![],
+            correlation_flag: 0.9,
+        };
+        let text = serde_json::to_string_pretty(&cov).unwrap();
+        let rows = serde_json::to_string_pretty(&vec![vec![1.0, -0.25], vec![-0.25, 4.5e-7]])
+            .unwrap()
+            .replace('\n', "\n  ");
+        assert!(text.contains(&format!("\"covariance\": {rows}")), "{text}");
+        let back: Covariance = serde_json::from_str(&text).unwrap();
+        assert_eq!(back, cov);
+        let mut v: serde_json::Value = serde_json::from_str(&text).unwrap();
+        v["correlation"] = serde_json::json!([[1.0, 0.0], [0.0]]);
+        let e = serde_json::from_value::<Covariance>(v)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("row 1 has 1 values"), "{e}");
     }
 }

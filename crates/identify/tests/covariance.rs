@@ -56,10 +56,10 @@ fn covariance_matches_a_direct_computation() {
         let r = cov.parameters.len();
         let mut flagged = 0;
         for i in 0..r {
-            assert!((cov.correlation[i][i] - 1.0).abs() < 1e-12);
+            assert!((cov.correlation[(i, i)] - 1.0).abs() < 1e-12);
             for jj in 0..r {
-                let rho = cov.correlation[i][jj];
-                assert!((rho - cov.correlation[jj][i]).abs() < 1e-12);
+                let rho = cov.correlation[(i, jj)];
+                assert!((rho - cov.correlation[(jj, i)]).abs() < 1e-12);
                 assert!(rho.abs() <= 1.0 + 1e-9);
                 if jj > i && rho.abs() > cov.correlation_flag {
                     flagged += 1;

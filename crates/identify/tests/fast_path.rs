@@ -207,7 +207,7 @@ fn assert_cov_close(fast: &Covariance, reference: &Covariance, what: &str) {
     for i in 0..r {
         for j in 0..r {
             let s = reference.std_errors[i] * reference.std_errors[j];
-            let d = (fast.covariance[i][j] - reference.covariance[i][j]).abs();
+            let d = (fast.covariance[(i, j)] - reference.covariance[(i, j)]).abs();
             assert!(d <= 1e-8 * s, "{what}: cov ({i}, {j})");
         }
     }

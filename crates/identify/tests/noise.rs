@@ -21,7 +21,7 @@ fn predicted_error_moments(fit: &Fit, poses: &[f64]) -> (f64, f64) {
         .iter()
         .map(|&k| 1.0 / layout.get(k).to_display(1.0))
         .collect();
-    let c = DMatrix::from_fn(r, r, |i, j| cov.covariance[i][j] * f[i] * f[j]);
+    let c = DMatrix::from_fn(r, r, |i, j| cov.covariance[(i, j)] * f[i] * f[j]);
     let jv = jac.select_columns(cov.indices.iter());
     let m = &jv * c * jv.transpose();
     let n = (poses.len() / fit.robot.n_joints()) as f64;

@@ -304,6 +304,15 @@ pub(crate) fn vec_rows_array<'py>(
         .into_pyarray(py)
 }
 
+/// A matrix of `shape` (rows, columns) with entries `at(i, j)` as a 2-D array.
+pub(crate) fn matrix_array(
+    py: Python<'_>,
+    shape: (usize, usize),
+    at: impl Fn(usize, usize) -> f64,
+) -> Bound<'_, PyArray2<f64>> {
+    Array2::from_shape_fn(shape, |(i, j)| at(i, j)).into_pyarray(py)
+}
+
 /// Indices as a 1-D int64 array.
 pub(crate) fn index_array(py: Python<'_>, indices: Vec<usize>) -> Bound<'_, PyArray1<i64>> {
     Array1::from(indices.into_iter().map(|i| i as i64).collect::<Vec<_>>()).into_pyarray(py)

@@ -8,8 +8,8 @@ use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
 use crate::arrays::{
-    ArrayArg, fk_array, joint_rows, joints_arg, memory_set, point_rows, residual_array, rows_array,
-    vec_rows_array,
+    ArrayArg, fk_array, joint_rows, joints_arg, matrix_array, memory_set, point_rows,
+    residual_array, rows_array, vec_rows_array,
 };
 use crate::errors::{kincal_error, refuse, save_outputs};
 use crate::options::{Shared, identify_request};
@@ -184,10 +184,11 @@ impl PyCalibration {
     /// mm²), in the order of `covariance_parameters`; `None` without degrees of freedom.
     #[getter]
     fn covariance<'py>(&self, py: Python<'py>) -> Option<Bound<'py, PyArray2<f64>>> {
-        self.points().fit.covariance.as_ref().map(|c| {
-            let r = c.parameters.len();
-            vec_rows_array(py, &c.covariance, r)
-        })
+        self.points()
+            .fit
+            .covariance
+            .as_ref()
+            .map(|c| matrix_array(py, c.covariance.shape(), |i, j| c.covariance[(i, j)]))
     }
 
     /// The names of the rows and columns of `covariance` (empty without one).

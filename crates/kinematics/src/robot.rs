@@ -1,6 +1,8 @@
 //! The robot: parameters in internal units, forward kinematics and the identification
 //! Jacobian. One implementation of each; everything else in the workspace calls these.
 
+use std::sync::Arc;
+
 use nalgebra::{DMatrix, Matrix3, Matrix6, Rotation3, Vector3, Vector6};
 
 use crate::error::ModelError;
@@ -164,17 +166,16 @@ impl Base {
 /// Joint values `q` are radians, lengths mm.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Robot {
-    name: String,
+    /// The model file's descriptive parts, shared between copies (one reference count: a
+    /// copy of a robot, which the solvers and the virtual robot make per trial, allocates
+    /// its links only).
+    described: Arc<Described>,
     links: Vec<Link>,
     base: Base,
     base_frame: Frame,
     /// [`Base::axes`] of `base`, cached.
     base_axes: [Vector3<f64>; 3],
     tool_mm: Vector3<f64>,
-    /// The model file's optional joint names, carried to [`Robot::to_spec`].
-    joint_names: Option<Vec<String>>,
-    /// The model file's optional controller axis mapping, carried to [`Robot::to_spec`].
-    controller: Option<ControllerSpec>,
     layout: ParamLayout,
     /// Parameter index of β for each joint (`None` where β is not a parameter).
     beta_index: [Option<usize>; MAX_JOINTS],
@@ -186,13 +187,25 @@ pub struct Robot {
     ik_hold: Option<[bool; MAX_JOINTS]>,
     /// Index of `base_rx` (base and tool parameters follow in order).
     base_index: usize,
-    /// The model file's optional mass model, kept as given (see [`MassModelSpec`]).
-    mass_model: Option<MassModelSpec>,
     /// The non-geometric joint-error parameters of an extended robot
     /// ([`Robot::with_extended`]).
     extended: Option<Box<ExtendedPart>>,
     /// The robot file's optional tool orientation (rx, ry, rz, rad; `R = Rz·Ry·Rx`).
     tool_rotation_rad: Option<[f64; 3]>,
+}
+
+/// What a robot carries from its model file without computing with it (a [`Robot`]'s
+/// `described`).
+#[derive(Clone, Debug, PartialEq)]
+struct Described {
+    /// The robot's name.
+    name: String,
+    /// The model file's optional joint names, carried to [`Robot::to_spec`].
+    joint_names: Option<Vec<String>>,
+    /// The model file's optional controller axis mapping, carried to [`Robot::to_spec`].
+    controller: Option<ControllerSpec>,
+    /// The model file's optional mass model, kept as given (see [`MassModelSpec`]).
+    mass_model: Option<MassModelSpec>,
     /// The robot file's optional named targets (flange frame, mm).
     targets: Option<Vec<(String, Vector3<f64>)>>,
 }
@@ -275,30 +288,32 @@ impl Robot {
         };
         let base_index = layout.len() - 9;
         Ok(Robot {
-            name: spec.name.clone(),
+            described: Arc::new(Described {
+                name: spec.name.clone(),
+                joint_names: spec.joint_names.clone(),
+                controller: spec.controller.clone(),
+                mass_model: spec.mass_model.clone(),
+                targets: spec.targets.as_ref().map(|t| {
+                    t.iter()
+                        .map(|t| (t.name.clone(), Vector3::from(t.point_mm)))
+                        .collect()
+                }),
+            }),
             links,
             base,
             base_frame: base.frame(),
             base_axes: base.axes(),
             tool_mm: Vector3::from(spec.tool_mm),
-            joint_names: spec.joint_names.clone(),
-            controller: spec.controller.clone(),
             layout,
             beta_index,
             scale_index,
             has_prismatic: prismatic.contains(&true),
             ik_hold: None,
             base_index,
-            mass_model: spec.mass_model.clone(),
             extended: None,
             tool_rotation_rad: spec
                 .tool_rotation_deg
                 .map(|r| [r[0].to_radians(), r[1].to_radians(), r[2].to_radians()]),
-            targets: spec.targets.as_ref().map(|t| {
-                t.iter()
-                    .map(|t| (t.name.clone(), Vector3::from(t.point_mm)))
-                    .collect()
-            }),
         })
         .and_then(|r: Robot| match &spec.extended {
             None => Ok(r),
@@ -595,7 +610,7 @@ impl Robot {
     /// The model file of this robot (degrees and mm), e.g. to save a calibrated robot.
     pub fn to_spec(&self) -> RobotSpec {
         RobotSpec {
-            name: self.name.clone(),
+            name: self.described.name.clone(),
             joints: self
                 .links
                 .iter()
@@ -620,9 +635,9 @@ impl Robot {
                 .collect(),
             base: BaseSpec::from_internal(self.base.r_rad, self.base.d_mm),
             tool_mm: self.tool_mm.into(),
-            joint_names: self.joint_names.clone(),
-            controller: self.controller.clone(),
-            mass_model: self.mass_model.clone(),
+            joint_names: self.described.joint_names.clone(),
+            controller: self.described.controller.clone(),
+            mass_model: self.described.mass_model.clone(),
             extended: self.extended.as_ref().map(|e| {
                 e.model
                     .kinds()
@@ -637,7 +652,7 @@ impl Robot {
             tool_rotation_deg: self
                 .tool_rotation_rad
                 .map(|r| [r[0].to_degrees(), r[1].to_degrees(), r[2].to_degrees()]),
-            targets: self.targets.as_ref().map(|t| {
+            targets: self.described.targets.as_ref().map(|t| {
                 t.iter()
                     .map(|(name, p)| TargetSpec {
                         name: name.clone(),
@@ -655,22 +670,22 @@ impl Robot {
     /// The mass model of the robot file, if it has one (link masses, centres of mass, payload;
     /// see [`MassModelSpec`]).
     pub fn mass_model(&self) -> Option<&MassModelSpec> {
-        self.mass_model.as_ref()
+        self.described.mass_model.as_ref()
     }
 
     /// The controller axis mapping of the robot file, if it has one ([`ControllerSpec`]).
     pub fn controller(&self) -> Option<&ControllerSpec> {
-        self.controller.as_ref()
+        self.described.controller.as_ref()
     }
 
     /// The robot's name.
     pub fn name(&self) -> &str {
-        &self.name
+        &self.described.name
     }
 
     /// Renames the robot (e.g. "… (calibrated)").
     pub fn set_name(&mut self, name: impl Into<String>) {
-        self.name = name.into();
+        Arc::make_mut(&mut self.described).name = name.into();
     }
 
     /// Number of joints N.
@@ -743,12 +758,12 @@ impl Robot {
 
     /// The named targets of the robot file (flange frame, mm), if it gives any.
     pub fn targets(&self) -> Option<&[(String, Vector3<f64>)]> {
-        self.targets.as_deref()
+        self.described.targets.as_deref()
     }
 
     /// Replaces the named targets.
     pub fn set_targets(&mut self, targets: Option<Vec<(String, Vector3<f64>)>>) {
-        self.targets = targets;
+        Arc::make_mut(&mut self.described).targets = targets;
     }
 
     /// The flange frame and its exact derivatives with respect to every parameter: for
