@@ -5,6 +5,8 @@
 //! standard error the identification reported. If the reported standard errors are
 //! right, the z-scores of many parameters/trials have mean ≈ 0 and sd ≈ 1.
 
+use std::borrow::Cow;
+
 use serde::{Deserialize, Serialize};
 
 use crate::{EvalError, Result};
@@ -17,8 +19,9 @@ use crate::{EvalError, Result};
 pub struct ParameterRecovery {
     /// Stable parameter name (e.g. `"a_2"`).
     pub name: String,
-    /// Display unit of `truth`, `estimate`, `error` and `std_error` (`"mm"`, `"deg"`).
-    pub unit: String,
+    /// Display unit of `truth`, `estimate`, `error` and `std_error` (`"mm"`, `"deg"`): a
+    /// unit's static name, borrowed (no allocation per row in a campaign), or read text.
+    pub unit: Cow<'static, str>,
     /// True value (unit `unit`).
     pub truth: f64,
     /// Estimated value (unit `unit`).
@@ -39,7 +42,7 @@ impl ParameterRecovery {
     /// finite; [`EvalError::InvalidStdError`] unless `std_error` is finite and `> 0`.
     pub fn new(
         name: impl Into<String>,
-        unit: impl Into<String>,
+        unit: impl Into<Cow<'static, str>>,
         truth: f64,
         estimate: f64,
         std_error: f64,
@@ -106,7 +109,7 @@ pub fn score_recovery<N: AsRef<str>, U: AsRef<str>>(
         .map(|i| {
             ParameterRecovery::new(
                 names[i].as_ref(),
-                units[i].as_ref(),
+                units[i].as_ref().to_string(),
                 truths[i],
                 estimates[i],
                 std_errors[i],

@@ -182,7 +182,7 @@ impl Aggregate {
                 None => self.recovery.entry(rec.name.clone()).or_default(),
             };
             if e.unit != rec.unit {
-                e.unit.clone_from(&rec.unit);
+                e.unit = rec.unit.to_string();
             }
             e.error.push(rec.error);
             e.abs_error.push(rec.error.abs());

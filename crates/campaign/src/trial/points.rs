@@ -212,7 +212,7 @@ fn recovery(
             let e = info.to_display(est_min[k]);
             ParameterRecovery {
                 name: info.name.clone(),
-                unit: info.unit.as_str().to_string(),
+                unit: Cow::Borrowed(info.unit.as_str()),
                 truth: t,
                 estimate: e,
                 error: e - t,
