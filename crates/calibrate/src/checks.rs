@@ -389,7 +389,7 @@ pub fn far_parameters(
             d
         };
         if d.abs() > limit {
-            far.push((p.name.clone(), d, limit));
+            far.push((p.name.to_string(), d, limit));
         }
     }
     far

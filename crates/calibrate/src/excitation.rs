@@ -126,7 +126,7 @@ fn diagnose_with(
             let p = layout.get(k);
             let tol = tolerance(p.kind)?;
             (se > UNDETERMINED_FRACTION * tol).then(|| Undetermined {
-                name: p.name.clone(),
+                name: p.name.to_string(),
                 std_error: se,
                 tolerance: tol,
             })

@@ -115,7 +115,7 @@ pub fn common_scale(
             let p = layout.get(k);
             let (l0, l1) = (p.to_display(x0[k]), p.to_display(x1[k]));
             (matches!(p.kind, ParamKind::A(_) | ParamKind::D(_)) && l0.abs() >= MIN_LENGTH_MM)
-                .then(|| (p.name.clone(), l0, l1 - l0))
+                .then(|| (p.name.to_string(), l0, l1 - l0))
         })
         .collect();
     let n = lengths.len();

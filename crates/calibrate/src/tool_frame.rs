@@ -276,7 +276,7 @@ fn free_set(
         select_free(model, data, &candidates).map_err(id_err("choosing the identifiable set"))?;
     let held = dropped
         .iter()
-        .map(|&k| robot.layout().get(k).name.clone())
+        .map(|&k| robot.layout().get(k).name.to_string())
         .collect();
     Ok((free, held))
 }

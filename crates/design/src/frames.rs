@@ -220,7 +220,7 @@ impl InfoModel {
             )?;
             let names: Vec<String> = dropped
                 .iter()
-                .map(|&k| robot.layout().get(k).name.clone())
+                .map(|&k| robot.layout().get(k).name.to_string())
                 .collect();
             return Err(DesignError::RankDeficientPool {
                 detail: "dependent on the tool frame and the parameters kept before them".into(),

@@ -282,7 +282,7 @@ impl InfoModel {
         let blocks = blocks_of(robot, candidates_rad, &params, &scale);
         let names: Vec<String> = params
             .iter()
-            .map(|&k| robot.layout().get(k).name.clone())
+            .map(|&k| robot.layout().get(k).name.to_string())
             .collect();
         let mut model = InfoModel {
             n_joints: n,

@@ -17,8 +17,9 @@ use crate::{EvalError, Result};
 /// `error = estimate − truth`, `z = error / std_error` (with `std_error > 0`).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct ParameterRecovery {
-    /// Stable parameter name (e.g. `"a_2"`).
-    pub name: String,
+    /// Stable parameter name (e.g. `"a_2"`): an interned name borrowed (no allocation per
+    /// row in a campaign), or read text.
+    pub name: Cow<'static, str>,
     /// Display unit of `truth`, `estimate`, `error` and `std_error` (`"mm"`, `"deg"`): a
     /// unit's static name, borrowed (no allocation per row in a campaign), or read text.
     pub unit: Cow<'static, str>,
@@ -41,7 +42,7 @@ impl ParameterRecovery {
     /// [`EvalError::NonFinite`] if `truth` (index 0) or `estimate` (index 1) is not
     /// finite; [`EvalError::InvalidStdError`] unless `std_error` is finite and `> 0`.
     pub fn new(
-        name: impl Into<String>,
+        name: impl Into<Cow<'static, str>>,
         unit: impl Into<Cow<'static, str>>,
         truth: f64,
         estimate: f64,
@@ -51,7 +52,7 @@ impl ParameterRecovery {
         crate::stats::check_finite("parameter truth/estimate", &[truth, estimate])?;
         if !(std_error.is_finite() && std_error > 0.0) {
             return Err(EvalError::InvalidStdError {
-                name,
+                name: name.into_owned(),
                 value: std_error,
             });
         }
@@ -108,7 +109,7 @@ pub fn score_recovery<N: AsRef<str>, U: AsRef<str>>(
     (0..n)
         .map(|i| {
             ParameterRecovery::new(
-                names[i].as_ref(),
+                names[i].as_ref().to_string(),
                 units[i].as_ref().to_string(),
                 truths[i],
                 estimates[i],

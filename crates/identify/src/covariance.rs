@@ -18,7 +18,7 @@
 //! [`Covariance::omitted`], and the covariance describes the minimal re-parametrisation with
 //! the omitted ones held at their values.
 
-use kinematics::{PoseTrig, Robot, Unit};
+use kinematics::{ParamName, PoseTrig, Robot, Unit};
 use nalgebra::{DMatrix, DVector, Vector3, linalg::SVD};
 use serde::{Deserialize, Serialize};
 
@@ -36,9 +36,9 @@ use crate::problem::{
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct CorrelatedPair {
     /// First parameter.
-    pub a: String,
+    pub a: ParamName,
     /// Second parameter.
-    pub b: String,
+    pub b: ParamName,
     /// Correlation coefficient ρ_ab.
     pub rho: f64,
 }
@@ -48,13 +48,13 @@ pub struct CorrelatedPair {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Covariance {
     /// Parameters covered (the identifiable subset of the free ones), layout order.
-    pub parameters: Vec<String>,
+    pub parameters: Vec<ParamName>,
     /// Their indices in the robot's parameter vector.
     pub indices: Vec<usize>,
     /// Their display units.
     pub units: Vec<Unit>,
     /// Free parameters left out because they are redundant.
-    pub omitted: Vec<String>,
+    pub omitted: Vec<ParamName>,
     /// σ̂ = √(F / dof): mm per axis unweighted, dimensionless weighted.
     pub sigma_hat: f64,
     /// Degrees of freedom 3m − r.
@@ -175,10 +175,7 @@ pub fn covariance_at_solution(
         let mut omitted: Vec<usize> = solution.held.clone();
         omitted.extend(c.omitted.iter().filter_map(|n| layout.index_of(n).ok()));
         omitted.sort_unstable();
-        c.omitted = omitted
-            .iter()
-            .map(|&k| layout.get(k).name.clone())
-            .collect();
+        c.omitted = omitted.iter().map(|&k| layout.get(k).name).collect();
     }
     Ok(cov)
 }
@@ -341,14 +338,14 @@ fn covariance_on(
             0.0
         }
     });
-    let names: Vec<String> = infos.iter().map(|i| i.name.clone()).collect();
+    let names: Vec<ParamName> = infos.iter().map(|i| i.name).collect();
     let mut high = Vec::new();
     for i in 0..r {
         for j in i + 1..r {
             if correlation[(i, j)].abs() > correlation_flag {
                 high.push(CorrelatedPair {
-                    a: names[i].clone(),
-                    b: names[j].clone(),
+                    a: names[i],
+                    b: names[j],
                     rho: correlation[(i, j)],
                 });
             }
@@ -362,10 +359,7 @@ fn covariance_on(
     }
     Ok(Some(Covariance {
         units: infos.iter().map(|i| i.unit).collect(),
-        omitted: dropped
-            .iter()
-            .map(|&k| layout.get(free[k]).name.clone())
-            .collect(),
+        omitted: dropped.iter().map(|&k| layout.get(free[k]).name).collect(),
         parameters: names,
         indices,
         sigma_hat: sigma2.sqrt(),

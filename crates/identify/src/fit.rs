@@ -1,6 +1,6 @@
 //! The whole identification: optional base registration, damped least squares, covariance.
 
-use kinematics::{Robot, Unit};
+use kinematics::{ParamName, Robot, Unit};
 use nalgebra::{DMatrix, DVector};
 use serde::{Deserialize, Serialize, Serializer};
 
@@ -43,7 +43,7 @@ impl Default for IdentifyOptions {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct ParamEstimate {
     /// Name.
-    pub name: String,
+    pub name: ParamName,
     /// Unit of `start`, `value`, `change`, `std_error`.
     pub unit: Unit,
     /// Value in the start model (after registration).
@@ -70,11 +70,11 @@ pub struct Fit {
     /// Its full parameter vector, internal units (rad, mm), layout order.
     pub params: Vec<f64>,
     /// Free parameters, layout order.
-    pub free: Vec<String>,
+    pub free: Vec<ParamName>,
     /// Free parameters held at their start values because they were exactly redundant there
     /// ([`crate::lm::Redundant::Hold`]), layout order; their `change` is 0 and they have no
     /// standard error.
-    pub held: Vec<String>,
+    pub held: Vec<ParamName>,
     /// Per free parameter: start, value, change, standard error (display units).
     pub estimates: Vec<ParamEstimate>,
     /// The schedule used.
@@ -198,7 +198,7 @@ pub fn identify(problem: &Problem, options: &IdentifyOptions) -> Result<Fit, Ide
             let info = layout.get(k);
             let (s, v) = (info.to_display(x0[k]), info.to_display(sol.params[k]));
             ParamEstimate {
-                name: info.name.clone(),
+                name: info.name,
                 unit: info.unit,
                 start: s,
                 value: v,
@@ -211,11 +211,7 @@ pub fn identify(problem: &Problem, options: &IdentifyOptions) -> Result<Fit, Ide
     Ok(Fit {
         params: sol.params,
         free: problem.free_names(),
-        held: sol
-            .held
-            .iter()
-            .map(|&k| layout.get(k).name.clone())
-            .collect(),
+        held: sol.held.iter().map(|&k| layout.get(k).name).collect(),
         estimates,
         damping: options.lm.damping,
         column_scaling: options.lm.column_scaling,

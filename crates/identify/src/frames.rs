@@ -256,7 +256,7 @@ impl FrameFree {
         let mut v: Vec<String> = self
             .robot
             .iter()
-            .map(|&k| robot.layout().get(k).name.clone())
+            .map(|&k| robot.layout().get(k).name.to_string())
             .collect();
         if self.rotation {
             v.extend(["tool_rx", "tool_ry", "tool_rz"].map(String::from));

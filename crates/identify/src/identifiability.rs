@@ -729,7 +729,7 @@ pub fn analyze(
     let jac = weighted_jacobian(robot, poses_rad, weights, &free);
     let priority = free_priority(layout, &free);
     let an = analyze_matrix(jac, &priority, opts)?;
-    let name = |pos: usize| layout.get(free[pos]).name.clone();
+    let name = |pos: usize| layout.get(free[pos]).name.to_string();
     let p = free.len();
     let d = an.dropped.len();
 

@@ -149,7 +149,9 @@ impl ParamSpec {
         let free = self.resolve(robot, &[], None, &IdentifiabilityOptions::default())?;
         let layout = robot.layout();
         Ok(Some(
-            free.iter().map(|&k| layout.get(k).name.clone()).collect(),
+            free.iter()
+                .map(|&k| layout.get(k).name.to_string())
+                .collect(),
         ))
     }
 }

@@ -167,7 +167,7 @@ pub(crate) fn posterior_from(
             let prior_sd =
                 (term.weight[k] > 0.0).then(|| term.sigma_e / term.weight[k].sqrt() * to);
             PosteriorParam {
-                name: info.name.clone(),
+                name: info.name.to_string(),
                 unit: info.unit,
                 prior_sd,
                 posterior_sd,

@@ -1,7 +1,7 @@
 //! The identification problem: start model, poses, measured points, weights, free parameters;
 //! and the allocation-free assembly of its residual, cost and normal equations.
 
-use kinematics::{MAX_PARAMS, POSE_LANES, PoseTrig, Robot};
+use kinematics::{MAX_PARAMS, POSE_LANES, ParamName, PoseTrig, Robot};
 use nalgebra::{DMatrix, DVector, Vector3};
 
 use crate::error::IdentifyError;
@@ -131,12 +131,9 @@ impl<'a> Problem<'a> {
     }
 
     /// Names of the free parameters, in layout order.
-    pub fn free_names(&self) -> Vec<String> {
+    pub fn free_names(&self) -> Vec<ParamName> {
         let layout = self.robot.layout();
-        self.free
-            .iter()
-            .map(|&k| layout.get(k).name.clone())
-            .collect()
+        self.free.iter().map(|&k| layout.get(k).name).collect()
     }
 
     /// Number of poses m.
@@ -288,7 +285,7 @@ pub(crate) fn check_free(robot: &Robot, mut free: Vec<usize>) -> Result<Vec<usiz
     free.sort_unstable();
     if let Some(w) = free.windows(2).find(|w| w[0] == w[1]) {
         return Err(IdentifyError::DuplicateFree {
-            name: robot.layout().get(w[0]).name.clone(),
+            name: robot.layout().get(w[0]).name.to_string(),
         });
     }
     Ok(free)

@@ -26,7 +26,7 @@ fn max_param_diff(robot: &Robot, a: &[f64], b: &[f64], which: &[usize]) -> (f64,
             let info = robot.layout().get(k);
             (
                 (info.to_display(a[k]) - info.to_display(b[k])).abs(),
-                info.name.clone(),
+                info.name.to_string(),
             )
         })
         .fold((0.0, String::new()), |m, v| if v.0 > m.0 { v } else { m })
@@ -68,7 +68,7 @@ fn every_schedule_and_both_sets_recover_the_truth() {
 
     let redundant_names: Vec<String> = (0..34)
         .filter(|k| !minimal.contains(k))
-        .map(|k| nominal.layout().get(k).name.clone())
+        .map(|k| nominal.layout().get(k).name.to_string())
         .collect();
     for (set_name, free, redundant) in [
         ("paper", all.clone(), Redundant::Hold),

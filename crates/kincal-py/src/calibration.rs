@@ -154,7 +154,7 @@ impl PyCalibration {
             .enumerate()
             .map(|(k, info)| {
                 let d = PyDict::new(py);
-                d.set_item("name", &info.name)?;
+                d.set_item("name", info.name.as_str())?;
                 d.set_item("unit", info.unit.as_str())?;
                 d.set_item("free", o.free.contains(&k))?;
                 d.set_item("nominal", info.to_display(xn[k]))?;
@@ -165,7 +165,7 @@ impl PyCalibration {
                     "identifiable",
                     match cov {
                         Some(c) => c.parameters.contains(&info.name),
-                        None => o.analysis.identifiable.contains(&info.name),
+                        None => o.analysis.identifiable.iter().any(|n| *n == info.name),
                     },
                 )?;
                 Ok(d)
@@ -198,7 +198,7 @@ impl PyCalibration {
             .fit
             .covariance
             .as_ref()
-            .map_or_else(Vec::new, |c| c.parameters.clone())
+            .map_or_else(Vec::new, |c| c.parameters.iter().map(|n| n.to_string()).collect())
     }
 
     /// RMS 3-D point error of the fit on the rows it used, mm.

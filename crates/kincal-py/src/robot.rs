@@ -155,7 +155,7 @@ impl PyRobot {
             .zip(values)
             .map(|(info, v)| {
                 let d = PyDict::new(py);
-                d.set_item("name", &info.name)?;
+                d.set_item("name", info.name.as_str())?;
                 d.set_item("value", info.to_display(v))?;
                 d.set_item("unit", info.unit.as_str())?;
                 Ok(d)

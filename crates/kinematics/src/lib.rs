@@ -35,7 +35,9 @@ pub use model::{
     JointType, LinkMassSpec, MAX_ANGLE_DEG, MAX_JOINTS, MAX_LENGTH_MM, MassModelSpec, Provenance,
     ResidualModelRef, RobotSpec, TargetSpec,
 };
-pub use params::{BETA_ALPHA_TOL_DEG, ExtendedKind, ParamInfo, ParamKind, ParamLayout, Unit};
+pub use params::{
+    BETA_ALPHA_TOL_DEG, ExtendedKind, ParamInfo, ParamKind, ParamLayout, ParamName, Unit,
+};
 pub use robot::{
     MAX_PARAMS, POSE_LANES, PRISMATIC_SLOT, PoseLanes, PoseTrig, Robot, gram_of_axes,
     prismatic_internal, prismatic_mm,

@@ -178,11 +178,141 @@ impl Unit {
     }
 }
 
+/// A parameter's stable name (`theta1`, `beta2`, `base_dz`, `gear_1_h1_sin`, …), interned:
+/// each distinct name is stored once for the life of the process, so a copy is a pointer
+/// and the identification's outputs (free set, estimates, covariance, recovery), which a
+/// campaign builds every trial, name their parameters without allocating. It reads as the
+/// `str` it holds (`Deref`, `Display`, comparisons with `str` and `String`) and is written
+/// and read as a JSON string.
+///
+/// The names interned are those of the layouts built and the files read: a few hundred
+/// at most in any run.
+#[derive(Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct ParamName(&'static str);
+
+impl ParamName {
+    /// The interned name equal to `name`.
+    pub fn new(name: &str) -> ParamName {
+        use std::collections::HashSet;
+        use std::sync::{Mutex, OnceLock};
+        static NAMES: OnceLock<Mutex<HashSet<&'static str>>> = OnceLock::new();
+        let mut names = NAMES
+            .get_or_init(Default::default)
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner);
+        match names.get(name) {
+            Some(&interned) => ParamName(interned),
+            None => {
+                let interned: &'static str = Box::leak(name.to_owned().into_boxed_str());
+                names.insert(interned);
+                ParamName(interned)
+            }
+        }
+    }
+
+    /// The name.
+    pub fn as_str(self) -> &'static str {
+        self.0
+    }
+}
+
+impl std::ops::Deref for ParamName {
+    type Target = str;
+    fn deref(&self) -> &str {
+        self.0
+    }
+}
+
+impl AsRef<str> for ParamName {
+    fn as_ref(&self) -> &str {
+        self.0
+    }
+}
+
+impl std::borrow::Borrow<str> for ParamName {
+    fn borrow(&self) -> &str {
+        self.0
+    }
+}
+
+impl std::fmt::Display for ParamName {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.0)
+    }
+}
+
+impl std::fmt::Debug for ParamName {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        std::fmt::Debug::fmt(self.0, f)
+    }
+}
+
+impl From<&str> for ParamName {
+    fn from(name: &str) -> ParamName {
+        ParamName::new(name)
+    }
+}
+
+impl From<ParamName> for String {
+    fn from(name: ParamName) -> String {
+        name.0.to_string()
+    }
+}
+
+impl PartialEq<str> for ParamName {
+    fn eq(&self, other: &str) -> bool {
+        self.0 == other
+    }
+}
+
+impl PartialEq<&str> for ParamName {
+    fn eq(&self, other: &&str) -> bool {
+        self.0 == *other
+    }
+}
+
+impl PartialEq<String> for ParamName {
+    fn eq(&self, other: &String) -> bool {
+        self.0 == other
+    }
+}
+
+impl PartialEq<ParamName> for str {
+    fn eq(&self, other: &ParamName) -> bool {
+        self == other.0
+    }
+}
+
+impl PartialEq<ParamName> for &str {
+    fn eq(&self, other: &ParamName) -> bool {
+        *self == other.0
+    }
+}
+
+impl PartialEq<ParamName> for String {
+    fn eq(&self, other: &ParamName) -> bool {
+        self == other.0
+    }
+}
+
+impl Serialize for ParamName {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_str(self.0)
+    }
+}
+
+impl<'de> Deserialize<'de> for ParamName {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<ParamName, D::Error> {
+        let name = std::borrow::Cow::<'de, str>::deserialize(d)?;
+        Ok(ParamName::new(&name))
+    }
+}
+
 /// One entry of the parameter vector.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct ParamInfo {
     /// Stable name used in every output (`theta1`, `beta2`, `base_dz`, `tool_x`, …).
-    pub name: String,
+    pub name: ParamName,
     /// What it is.
     pub kind: ParamKind,
     /// Its interface unit.
@@ -209,7 +339,11 @@ impl ParamInfo {
             ParamKind::ToolZ => ("tool_z".into(), Unit::Mm),
             ParamKind::Extended(e) => (e.name(), e.unit()),
         };
-        ParamInfo { name, kind, unit }
+        ParamInfo {
+            name: ParamName::new(&name),
+            kind,
+            unit,
+        }
     }
 
     /// Internal value (rad or mm) → interface value (deg or mm).
@@ -397,5 +531,33 @@ impl ParamLayout {
                 _ => None,
             })
             .collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Equal names are one interned string (the same pointer, however they were made);
+    /// a name compares with `str` and `String` both ways, prints as its text, is written
+    /// as a JSON string and read back interned.
+    #[test]
+    fn parameter_names_are_interned_strings() {
+        let layout_name = ParamInfo::new(ParamKind::Theta(1)).name;
+        let made = ParamName::new(&String::from("theta2"));
+        assert_eq!(layout_name, made);
+        assert!(std::ptr::eq(layout_name.as_str(), made.as_str()));
+        assert!(!std::ptr::eq(
+            ParamName::new("theta3").as_str(),
+            made.as_str()
+        ));
+        assert!(made == "theta2" && "theta2" == made);
+        assert!(made == String::from("theta2") && String::from("theta2") == made);
+        assert_eq!(format!("{made} {made:?}"), "theta2 \"theta2\"");
+        let json = serde_json::to_string(&vec![made, ParamName::new("base_dz")]).unwrap();
+        assert_eq!(json, r#"["theta2","base_dz"]"#);
+        let back: Vec<ParamName> = serde_json::from_str(&json).unwrap();
+        assert!(std::ptr::eq(back[0].as_str(), made.as_str()));
+        assert_eq!(vec!["theta2", "base_dz"].join(","), back.join(","));
     }
 }

@@ -784,7 +784,7 @@ impl World {
             .iter()
             .enumerate()
             .map(|(k, info)| TrueParameter {
-                name: info.name.clone(),
+                name: info.name.to_string(),
                 unit: info.unit.as_str().to_string(),
                 nominal: info.to_display(p_nom[k]),
                 error: info.to_display(self.errors_rad_mm[k]),

@@ -206,7 +206,7 @@ pub fn run_check(spec: &CheckSpec, check_dir: &Path) -> Result<Figures, Campaign
     let ctx = Context::new(loaded)?;
     let redundant = (0..layout.len())
         .filter(|k| !ctx.minimal_free.contains(k))
-        .map(|k| layout.get(k).name.clone())
+        .map(|k| layout.get(k).name.to_string())
         .collect();
     let agg = run_range(&ctx, 0..scenario.trials, &|_| {});
     let s = CampaignSummary::new(&scenario, &agg);

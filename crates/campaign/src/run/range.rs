@@ -177,9 +177,9 @@ impl Aggregate {
                 .map_or_else(|| "unknown".to_string(), |k| format!("{k:03}")),
         );
         for rec in &r.recovery {
-            let e = match self.recovery.get_mut(&rec.name) {
+            let e = match self.recovery.get_mut(&*rec.name) {
                 Some(e) => e,
-                None => self.recovery.entry(rec.name.clone()).or_default(),
+                None => self.recovery.entry(rec.name.to_string()).or_default(),
             };
             if e.unit != rec.unit {
                 e.unit = rec.unit.to_string();

@@ -211,7 +211,7 @@ fn recovery(
             let t = info.to_display(truth_min[k]);
             let e = info.to_display(est_min[k]);
             ParameterRecovery {
-                name: info.name.clone(),
+                name: Cow::Borrowed(info.name.as_str()),
                 unit: Cow::Borrowed(info.unit.as_str()),
                 truth: t,
                 estimate: e,

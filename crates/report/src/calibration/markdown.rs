@@ -305,8 +305,8 @@ pub fn markdown(o: &PointCalibration) -> String {
         .fit
         .held
         .iter()
-        .filter(|h| !an.redundant.contains(h))
-        .map(String::as_str)
+        .filter(|h| !an.redundant.iter().any(|r| r == *h))
+        .map(|h| h.as_str())
         .collect();
     if !held_not_redundant.is_empty() {
         let _ = writeln!(
@@ -335,10 +335,10 @@ pub fn markdown(o: &PointCalibration) -> String {
             "fixed"
         } else if o.fit.held.contains(&info.name) {
             "held (exactly redundant at the start: not fitted, no standard error)"
-        } else if se.is_none() && an.identifiable.contains(&info.name) {
+        } else if se.is_none() && an.identifiable.iter().any(|n| *n == info.name) {
             "yes at the solution, no standard error: outside the fit's covariance (redundant \
              at the start)"
-        } else if se.is_some() || an.identifiable.contains(&info.name) {
+        } else if se.is_some() || an.identifiable.iter().any(|n| *n == info.name) {
             "yes"
         } else {
             "no"

@@ -90,7 +90,7 @@ pub fn parameters_json(o: &PointCalibration) -> String {
                 std_error: cov.and_then(|c| c.std_error(&info.name)),
                 identifiable: match cov {
                     Some(c) => c.parameters.contains(&info.name),
-                    None => o.analysis.identifiable.contains(&info.name),
+                    None => o.analysis.identifiable.iter().any(|n| *n == info.name),
                 },
                 prior: o.fit.posterior.as_ref().and_then(|post| {
                     post.params
