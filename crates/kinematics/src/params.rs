@@ -551,13 +551,17 @@ mod tests {
             ParamName::new("theta3").as_str(),
             made.as_str()
         ));
-        assert!(made == "theta2" && "theta2" == made);
-        assert!(made == String::from("theta2") && String::from("theta2") == made);
+        let (text, owned) = ("theta2", String::from("theta2"));
+        assert_eq!(made, text);
+        assert_eq!(text, made);
+        assert_eq!(made, owned);
+        assert_eq!(owned, made);
+        assert_ne!(made, "theta3");
         assert_eq!(format!("{made} {made:?}"), "theta2 \"theta2\"");
         let json = serde_json::to_string(&vec![made, ParamName::new("base_dz")]).unwrap();
         assert_eq!(json, r#"["theta2","base_dz"]"#);
         let back: Vec<ParamName> = serde_json::from_str(&json).unwrap();
         assert!(std::ptr::eq(back[0].as_str(), made.as_str()));
-        assert_eq!(vec!["theta2", "base_dz"].join(","), back.join(","));
+        assert_eq!(back.join(","), "theta2,base_dz");
     }
 }
