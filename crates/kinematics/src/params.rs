@@ -191,23 +191,36 @@ impl Unit {
 pub struct ParamName(&'static str);
 
 impl ParamName {
-    /// The interned name equal to `name`.
+    /// The interned name equal to `name`. Each thread looks in its own copy of the names
+    /// it has seen first, so threads that build layouts every trial (an extended
+    /// identification's truth) do not contend for the process-wide set's lock.
     pub fn new(name: &str) -> ParamName {
+        use std::cell::RefCell;
         use std::collections::HashSet;
         use std::sync::{Mutex, OnceLock};
         static NAMES: OnceLock<Mutex<HashSet<&'static str>>> = OnceLock::new();
-        let mut names = NAMES
-            .get_or_init(Default::default)
-            .lock()
-            .unwrap_or_else(std::sync::PoisonError::into_inner);
-        match names.get(name) {
-            Some(&interned) => ParamName(interned),
-            None => {
-                let interned: &'static str = Box::leak(name.to_owned().into_boxed_str());
-                names.insert(interned);
-                ParamName(interned)
-            }
+        thread_local! {
+            static SEEN: RefCell<HashSet<&'static str>> = RefCell::new(HashSet::new());
         }
+        if let Some(seen) = SEEN.with(|s| s.borrow().get(name).copied()) {
+            return ParamName(seen);
+        }
+        let interned = {
+            let mut names = NAMES
+                .get_or_init(Default::default)
+                .lock()
+                .unwrap_or_else(std::sync::PoisonError::into_inner);
+            match names.get(name) {
+                Some(&interned) => interned,
+                None => {
+                    let interned: &'static str = Box::leak(name.to_owned().into_boxed_str());
+                    names.insert(interned);
+                    interned
+                }
+            }
+        };
+        SEEN.with(|s| s.borrow_mut().insert(interned));
+        ParamName(interned)
     }
 
     /// The name.
@@ -563,5 +576,10 @@ mod tests {
         let back: Vec<ParamName> = serde_json::from_str(&json).unwrap();
         assert!(std::ptr::eq(back[0].as_str(), made.as_str()));
         assert_eq!(back.join(","), "theta2,base_dz");
+        // Another thread finds the same string.
+        let there = std::thread::spawn(|| ParamName::new("theta2").as_str().as_ptr() as usize)
+            .join()
+            .unwrap();
+        assert_eq!(there, made.as_str().as_ptr() as usize);
     }
 }
