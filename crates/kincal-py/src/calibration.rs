@@ -198,7 +198,9 @@ impl PyCalibration {
             .fit
             .covariance
             .as_ref()
-            .map_or_else(Vec::new, |c| c.parameters.iter().map(|n| n.to_string()).collect())
+            .map_or_else(Vec::new, |c| {
+                c.parameters.iter().map(|n| n.to_string()).collect()
+            })
     }
 
     /// RMS 3-D point error of the fit on the rows it used, mm.
