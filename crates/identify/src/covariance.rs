@@ -481,7 +481,7 @@ mod rows {
         let n = rows.len();
         if let Some((i, row)) = rows.iter().enumerate().find(|(_, r)| r.len() != n) {
             return Err(D::Error::custom(format!(
-                "row {i} has {} values: a square matrix of {n} rows needs {n}",
+                "row {i} has {} entries: a square matrix of {n} rows needs {n} in each",
                 row.len()
             )));
         }
@@ -495,10 +495,11 @@ mod tests {
 
     /// The matrices are written as arrays of rows, the same text a `Vec<Vec<f64>>` gives
     /// (what `identified.json` held before they were matrices), and read back equal; a
-    /// ragged or non-square array is refused naming the row.
+    /// ragged or non-square array is refused naming the row. The matrix is not symmetric
+    /// (nor is a computed covariance, to the last bit), so a transposition would show.
     #[test]
     fn matrices_are_written_and_read_as_rows() {
-        let m = DMatrix::from_row_slice(2, 2, &[1.0, -0.25, -0.25, 4.5e-7]);
+        let m = DMatrix::from_row_slice(2, 2, &[1.0, -0.25, -0.5, 4.5e-7]);
         let cov = Covariance {
             parameters: vec!["a_1".into(), "d_2".into()],
             indices: vec![3, 4],
@@ -514,7 +515,7 @@ mod tests {
             correlation_flag: 0.9,
         };
         let text = serde_json::to_string_pretty(&cov).unwrap();
-        let rows = serde_json::to_string_pretty(&vec![vec![1.0, -0.25], vec![-0.25, 4.5e-7]])
+        let rows = serde_json::to_string_pretty(&vec![vec![1.0, -0.25], vec![-0.5, 4.5e-7]])
             .unwrap()
             .replace('\n', "\n  ");
         assert!(text.contains(&format!("\"covariance\": {rows}")), "{text}");
@@ -525,6 +526,6 @@ mod tests {
         let e = serde_json::from_value::<Covariance>(v)
             .unwrap_err()
             .to_string();
-        assert!(e.contains("row 1 has 1 values"), "{e}");
+        assert!(e.contains("row 1 has 1 entries"), "{e}");
     }
 }

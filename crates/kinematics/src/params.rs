@@ -185,8 +185,9 @@ impl Unit {
 /// `str` it holds (`Deref`, `Display`, comparisons with `str` and `String`) and is written
 /// and read as a JSON string.
 ///
-/// The names interned are those of the layouts built and the files read: a few hundred
-/// at most in any run.
+/// The names interned are those of the layouts built and the names read from files (each
+/// distinct one is kept for the life of the process): a few hundred in any command; a
+/// long-lived process reading many files with ever new names would keep them all.
 #[derive(Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub struct ParamName(&'static str);
 
@@ -202,7 +203,8 @@ impl ParamName {
         thread_local! {
             static SEEN: RefCell<HashSet<&'static str>> = RefCell::new(HashSet::new());
         }
-        if let Some(seen) = SEEN.with(|s| s.borrow().get(name).copied()) {
+        // (`try_with`: a thread whose thread-locals are being torn down uses the global set.)
+        if let Ok(Some(seen)) = SEEN.try_with(|s| s.borrow().get(name).copied()) {
             return ParamName(seen);
         }
         let interned = {
@@ -219,7 +221,7 @@ impl ParamName {
                 }
             }
         };
-        SEEN.with(|s| s.borrow_mut().insert(interned));
+        let _ = SEEN.try_with(|s| s.borrow_mut().insert(interned));
         ParamName(interned)
     }
 

@@ -100,12 +100,12 @@ fn compensated_errors(
         };
         for (k, &(j, _, p_meas)) in measured.iter().enumerate() {
             let e = p_meas - fit_robot.point_trig(val_trig.pose(j));
-            after.push(match predicted.get(k) {
-                Some(r) => {
-                    let r = &r.mean_mm;
-                    [e.x - r[0], e.y - r[1], e.z - r[2]]
-                }
-                None => to_arr(e),
+            after.push(if model.is_some() {
+                // One prediction a pose (`predict` returns a row per row asked).
+                let r = &predicted[k].mean_mm;
+                [e.x - r[0], e.y - r[1], e.z - r[2]]
+            } else {
+                to_arr(e)
             });
         }
         return Ok((after, failures, unmeasurable));

@@ -19,8 +19,9 @@ static GLOBAL: counting::Counting = counting::Counting;
 
 /// Allocations per trial of the paper scenario with the ISO test, with 5 % headroom over
 /// what was measured (trials 5–24): 280 in release, 406 with debug assertions (the test
-/// profile: some `debug_assert!`s build what they compare). Before issue 43's second pass
-/// these were 594 and 720 (the recovery cloned the fit's covariance, LM allocated its
+/// profile: some `debug_assert!`s build what they compare). At the start of issue 43's
+/// second pass a trial allocated 696 times in release (`examples/allocations`; the
+/// recovery cloned the fit's covariance, LM allocated its
 /// parameter vector per step, Table 4 and the ISO test grew or copied their series, every
 /// copy of a robot copied its model file's names, controller and mass model, the
 /// covariance held its two matrices as rows of vectors, and every parameter name in the
