@@ -14,8 +14,9 @@
 //! 3. **Validation** ([`Hybrid::validate`], through the trial's own compensate-and-measure
 //!    loop): each validation target is compensated by the hybrid, `FK_fit(q) + r(q) =
 //!    target` — the geometric IK from the commanded joints, then the fixed point of
-//!    [`calibrate::residual::fixed_point`] — and measured by the virtual robot; the coverage of the model's sd is scored on the validation poses'
-//!    measured residuals before compensation.
+//!    [`calibrate::residual::fixed_point`] — and measured by the virtual robot; the
+//!    coverage of the model's sd is scored on the validation poses' measured residuals
+//!    before compensation.
 //!
 //! The trial's `after` is the hybrid's when the gate keeps the model and the geometry's
 //! otherwise, so a campaign's Table 4 is what a user following the gate would get.
