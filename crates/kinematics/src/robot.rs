@@ -168,7 +168,7 @@ impl Base {
 pub struct Robot {
     /// The model file's descriptive parts, shared between copies (one reference count: a
     /// copy of a robot, which the solvers and the virtual robot make per trial, allocates
-    /// its links only).
+    /// its links, and an extended robot's extended part, only).
     described: Arc<Described>,
     links: Vec<Link>,
     base: Base,
