@@ -215,7 +215,14 @@ pub struct IdentifiabilityReport {
 /// parameters in layout order, base rotations, then the non-geometric parameters of an
 /// extended robot. See the module docs.
 pub fn keep_priority(layout: &ParamLayout) -> Vec<usize> {
-    let rank = |kind: ParamKind| match kind {
+    let mut idx: Vec<usize> = (0..layout.len()).collect();
+    idx.sort_by_key(|&k| (priority_rank(layout.get(k).kind), k));
+    idx
+}
+
+/// The class of a parameter kind in [`keep_priority`] (lower: kept first).
+fn priority_rank(kind: ParamKind) -> u8 {
+    match kind {
         ParamKind::ToolX | ParamKind::ToolY | ParamKind::ToolZ => 0,
         ParamKind::BaseDx | ParamKind::BaseDy | ParamKind::BaseDz => 1,
         ParamKind::BaseRx | ParamKind::BaseRy | ParamKind::BaseRz => 3,
@@ -223,18 +230,15 @@ pub fn keep_priority(layout: &ParamLayout) -> Vec<usize> {
         // geometric parameter is kept.
         ParamKind::Extended(_) => 4,
         _ => 2,
-    };
-    let mut idx: Vec<usize> = (0..layout.len()).collect();
-    idx.sort_by_key(|&k| (rank(layout.get(k).kind), k));
-    idx
+    }
 }
 
-/// [`keep_priority`] restricted to `free`: positions into `free`, most preferred first.
+/// [`keep_priority`] restricted to `free` (distinct indices): positions into `free`, most
+/// preferred first.
 pub(crate) fn free_priority(layout: &ParamLayout, free: &[usize]) -> Vec<usize> {
-    keep_priority(layout)
-        .into_iter()
-        .filter_map(|k| free.iter().position(|&f| f == k))
-        .collect()
+    let mut pos: Vec<usize> = (0..free.len()).collect();
+    pos.sort_by_key(|&c| (priority_rank(layout.get(free[c]).kind), free[c]));
+    pos
 }
 
 /// The outcome of the matrix part of the analysis, in positions 0..P of the analysed set.
@@ -393,6 +397,7 @@ pub(crate) struct Kept {
 
 /// Step 1 of [`kept_by_cholesky`]: the greedy Cholesky factorisation in priority order of
 /// the scaled normal matrix of `a` (see there).
+#[derive(Default)]
 struct Greedy {
     /// Column scaling 1/‖J_k‖ (1 for zero columns), by position.
     scale: Vec<f64>,
@@ -408,30 +413,81 @@ struct Greedy {
     inv_d: Vec<f64>,
     /// Dropped non-zero positions, in priority order.
     drops: Vec<usize>,
+    /// Scratch: the non-zero positions in priority order, the factorisation's padded
+    /// matrix and the kept pivots' places in it.
+    order: Vec<usize>,
+    m: Vec<f64>,
+    pivots: Vec<usize>,
+}
+
+thread_local! {
+    /// The buffers of the last [`Greedy`] dropped on this thread, refilled by the next
+    /// ([`greedy_cholesky`] runs in every solve: no allocation per call, issue 43).
+    static GREEDY: std::cell::RefCell<Option<Greedy>> = const { std::cell::RefCell::new(None) };
+}
+
+impl Drop for Greedy {
+    fn drop(&mut self) {
+        // (`try_with`: gone at thread exit; the value left behind is empty, and finds the
+        // slot taken, so this does not recurse.)
+        let _ = GREEDY.try_with(|slot| {
+            if let Ok(mut slot) = slot.try_borrow_mut()
+                && slot.is_none()
+                && self.gm.capacity() > 0
+            {
+                *slot = Some(std::mem::take(self));
+            }
+        });
+    }
 }
 
 /// [`Greedy`] of `a`; `None` when a column's zero test or a keep/drop decision falls in the
 /// band left to the SVD, or `a` is not finite. Compiled for the run-time SIMD level (the
 /// same operations, hence the same bits, at every level: no FMA).
 fn greedy_cholesky(a: &DMatrix<f64>, priority: &[usize]) -> Option<Greedy> {
+    let mut gr = GREEDY
+        .try_with(|slot| slot.borrow_mut().take())
+        .ok()
+        .flatten()
+        .unwrap_or_default();
     kinematics::simd::vectorised(
         #[inline(always)]
-        || greedy_impl(a, priority),
+        || greedy_impl(a, priority, &mut gr),
     )
+    .then_some(gr)
 }
 
+/// Fills `gr` (its buffers cleared and resized, contents as if new); `false` for `None` of
+/// [`greedy_cholesky`].
 #[inline(always)]
-fn greedy_impl(a: &DMatrix<f64>, priority: &[usize]) -> Option<Greedy> {
+fn greedy_impl(a: &DMatrix<f64>, priority: &[usize], gr: &mut Greedy) -> bool {
     let p = a.ncols();
     // (A fold, not `all`: no early exit, so it vectorises.)
     if p == 0 || !a.as_slice().iter().fold(true, |ok, v| ok & v.is_finite()) {
-        return None;
+        return false;
     }
     // Column norms and the zero test of analyze_matrix, with a factor-2 margin.
     let max_sq = (0..p).fold(0.0_f64, |m, k| m.max(a[(k, k)]));
     let thr = ZERO_COLUMN_RTOL_SQ * max_sq;
-    let mut scale = vec![1.0; p];
-    let mut zero = vec![false; p];
+    let Greedy {
+        scale,
+        zero,
+        gm,
+        kp,
+        l,
+        inv_d,
+        drops,
+        order,
+        m,
+        pivots,
+    } = gr;
+    let refill = |v: &mut Vec<f64>, len: usize, x: f64| {
+        v.clear();
+        v.resize(len, x);
+    };
+    refill(scale, p, 1.0);
+    zero.clear();
+    zero.resize(p, false);
     for k in 0..p {
         let d = a[(k, k)];
         if d > 2.0 * thr && d > 0.0 {
@@ -439,17 +495,17 @@ fn greedy_impl(a: &DMatrix<f64>, priority: &[usize]) -> Option<Greedy> {
         } else if d < 0.5 * thr || d <= 0.0 {
             zero[k] = true;
         } else {
-            return None;
+            return false;
         }
     }
     // The scaled normal matrix G̃ = S·A·S, dense column-major.
-    let mut gm = vec![0.0; p * p];
+    refill(gm, p * p, 0.0);
     for ((dst, src), sj) in gm
         .chunks_exact_mut(p)
         .zip(a.as_slice().chunks_exact(p))
-        .zip(&scale)
+        .zip(scale.iter())
     {
-        for ((d, v), si) in dst.iter_mut().zip(src).zip(&scale) {
+        for ((d, v), si) in dst.iter_mut().zip(src).zip(scale.iter()) {
             *d = si * v * sj;
         }
     }
@@ -464,19 +520,20 @@ fn greedy_impl(a: &DMatrix<f64>, priority: &[usize]) -> Option<Greedy> {
     // form, bit for bit, while the trailing updates run over contiguous columns, in whole
     // blocks of rows (the strict upper triangle and the padding rows then hold values that
     // are never read).
-    let order: Vec<usize> = priority.iter().copied().filter(|&k| !zero[k]).collect();
+    order.clear();
+    order.extend(priority.iter().copied().filter(|&k| !zero[k]));
     let n = order.len();
     let ld = crate::linalg::padded_ld(n);
-    let mut m = vec![0.0; ld * n];
+    refill(m, ld * n, 0.0);
     for (b, &kb) in order.iter().enumerate() {
         for (a, &ka) in order.iter().enumerate().skip(b) {
             m[b * ld + a] = gm[ka * p + kb];
         }
     }
-    let mut kp: Vec<usize> = Vec::with_capacity(p);
-    let mut pivots: Vec<usize> = Vec::with_capacity(p);
-    let mut inv_d = vec![0.0; p];
-    let mut drops: Vec<usize> = Vec::new();
+    kp.clear();
+    pivots.clear();
+    refill(inv_d, p, 0.0);
+    drops.clear();
     // Panels of columns: a kept pivot updates the rest of its panel at once, and the
     // panel's kept pivots update the trailing columns together (the same operations in
     // the same order for every entry, see `linalg::downdate`).
@@ -495,31 +552,23 @@ fn greedy_impl(a: &DMatrix<f64>, priority: &[usize]) -> Option<Greedy> {
                 inv_d[kp.len()] = inv;
                 kp.push(k);
                 pivots.push(b);
-                crate::linalg::downdate(&mut m, n, ld, &[b], b + 1..end);
+                crate::linalg::downdate(m, n, ld, &[b], b + 1..end);
             } else if s < CHOL_DROP_S {
                 drops.push(k);
             } else {
-                return None;
+                return false;
             }
         }
-        crate::linalg::downdate(&mut m, n, ld, &pivots[first..], end..n);
+        crate::linalg::downdate(m, n, ld, &pivots[first..], end..n);
     }
     // `l` row-major (row i at i·p): row i holds L's entries of the i-th kept column.
-    let mut l = vec![0.0; p * p];
+    refill(l, p * p, 0.0);
     for (i, &a) in pivots.iter().enumerate() {
         for (j, &b) in pivots.iter().enumerate().take(i + 1) {
             l[i * p + j] = m[b * ld + a];
         }
     }
-    Some(Greedy {
-        scale,
-        zero,
-        gm,
-        kp,
-        l,
-        inv_d,
-        drops,
-    })
+    true
 }
 
 /// The identifiable subset and `(J̃_KᵀJ̃_K)⁻¹` from the normal matrix `a = JᵀJ` (P × P) and
@@ -550,8 +599,8 @@ pub(crate) fn kept_by_cholesky(
     let p = a.ncols();
     // 1. Greedy Cholesky in priority order.
     let gr = greedy_cholesky(a, priority)?;
-    let (scale, zero, gm, kp) = (gr.scale, gr.zero, gr.gm, gr.kp);
-    let (l, inv_d, drops) = (gr.l, gr.inv_d, gr.drops);
+    let (scale, zero, gm, kp) = (&gr.scale[..], &gr.zero[..], &gr.gm[..], &gr.kp[..]);
+    let (l, inv_d, drops) = (&gr.l[..], &gr.inv_d[..], &gr.drops[..]);
     let r = kp.len();
     if r == 0 {
         return None;
@@ -561,7 +610,7 @@ pub(crate) fn kept_by_cholesky(
     //    order, symmetric, row i at i·r), by the documented sums of
     //    [`crate::linalg::lower_inverse_gram`]; the bound on σ_min.
     let (mut li, mut ginv) = (vec![0.0; r * r], vec![0.0; r * r]);
-    crate::linalg::lower_inverse_gram(&l, p, &inv_d, r, &mut li, &mut ginv);
+    crate::linalg::lower_inverse_gram(l, p, inv_d, r, &mut li, &mut ginv);
     let frob = li.iter().map(|v| v * v).sum::<f64>().sqrt();
     let sigma_lower = 1.0 / frob;
     if !(sigma_lower >= CHOL_MIN_SIGMA && sigma_lower > 10.0 * opts.rank_rtol * (p as f64).sqrt()) {
@@ -584,12 +633,12 @@ pub(crate) fn kept_by_cholesky(
     let mut total = 0.0;
     let mut null_cols: Vec<DVector<f64>> = Vec::with_capacity(p - r);
     let mut c = vec![0.0; r];
-    for dpos in &drops {
+    for dpos in drops {
         let gd = &gm[dpos * p..(dpos + 1) * p];
         // c_i = Σ_j ginv_ij·gd_kj in j order, for all i at once (ginv is exactly symmetric:
         // row i is column i).
         c.fill(sum0);
-        for (row, &k) in ginv.chunks_exact(r).zip(&kp) {
+        for (row, &k) in ginv.chunks_exact(r).zip(kp) {
             let gk = gd[k];
             for (ci, v) in c.iter_mut().zip(row) {
                 *ci += v * gk;
@@ -644,7 +693,7 @@ pub(crate) fn kept_by_cholesky(
     let kept: Vec<usize> = order.iter().map(|&i| kp[i]).collect();
     let inv = DMatrix::from_fn(r, r, |i, j| ginv[order[i] * r + order[j]]);
     Some(Kept {
-        scale,
+        scale: scale.to_vec(),
         kept,
         dropped,
         inv,

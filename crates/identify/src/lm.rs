@@ -1131,6 +1131,28 @@ fn solve_free(
     })
 }
 
+/// The scratch of [`iterate`] (the column-scaled system, the damped matrix of either path,
+/// the step and its products), kept by a thread between solves.
+#[derive(Default)]
+struct IterWork {
+    sa: DMatrix<f64>,
+    sg: DVector<f64>,
+    work: DMatrix<f64>,
+    pad: Vec<f64>,
+    step: DVector<f64>,
+    dx: Vec<f64>,
+    a_step: DVector<f64>,
+}
+
+thread_local! {
+    /// This thread's [`IterWork`] between solves (`None` while a solve holds it).
+    static ITER_WORK: std::cell::RefCell<Option<IterWork>> =
+        const { std::cell::RefCell::new(None) };
+}
+
+/// Trace entries reserved up front (a solve of the default options stops well before).
+const TRACE_RESERVE: usize = 64;
+
 /// The damped iteration of the module docs on every unknown of `problem`, from `model` and
 /// the system `start` (`JᵀJ`, `Jᵀe`, cost) there.
 fn iterate<P: LeastSquares>(
@@ -1164,9 +1186,25 @@ fn iterate<P: LeastSquares>(
             }
         })
         .collect();
+    // The scratch of this thread's last solve (no allocation per solve, issue 43); every
+    // buffer is zeroed or written in full before it is read, as if new.
+    let mut ws = ITER_WORK
+        .try_with(|slot| slot.borrow_mut().take())
+        .ok()
+        .flatten()
+        .unwrap_or_default();
+    let IterWork {
+        sa,
+        sg,
+        work,
+        pad,
+        step: step_kept,
+        dx,
+        a_step: a_step_kept,
+    } = &mut ws;
     let mut sys = Scaled {
-        a: DMatrix::zeros(pf, pf),
-        g: DVector::zeros(pf),
+        a: linalg::zeroed_matrix(std::mem::take(sa), pf, pf),
+        g: linalg::zeroed_vector(std::mem::take(sg), pf),
     };
     sys.set(&a, &g, &scale);
     problem.add_prior_scaled(&model, &scale, &mut sys.a, &mut sys.g);
@@ -1186,13 +1224,14 @@ fn iterate<P: LeastSquares>(
         _ => 0.0,
     };
 
-    // (`work`: the reference path's damped matrix, sized on first use.)
-    let mut work = DMatrix::zeros(0, 0);
-    let mut pad = Vec::new();
-    let mut step = DVector::zeros(pf);
-    let mut dx = vec![0.0; pf];
-    let mut a_step = DVector::zeros(pf);
-    let mut trace = Vec::new();
+    // (`work`: the reference path's damped matrix, sized on first use; `pad`: the fast
+    // path's, zeroed when its size changes, see `damped_step`.)
+    pad.clear();
+    let mut step = linalg::zeroed_vector(std::mem::take(step_kept), pf);
+    dx.clear();
+    dx.resize(pf, 0.0);
+    let mut a_step = linalg::zeroed_vector(std::mem::take(a_step_kept), pf);
+    let mut trace = Vec::with_capacity(options.max_iterations.min(TRACE_RESERVE));
     let mut iterations = 0;
     let mut accepted_steps = 0;
     let mut rejections = 0;
@@ -1217,8 +1256,8 @@ fn iterate<P: LeastSquares>(
                 options.damping,
                 &mut mu,
                 floor,
-                &mut work,
-                &mut pad,
+                work,
+                pad,
                 &mut step,
                 iterations,
             )?;
@@ -1232,7 +1271,7 @@ fn iterate<P: LeastSquares>(
             for (d, (s, v)) in dx.iter_mut().zip(scale.iter().zip(step.iter())) {
                 *d = s * v;
             }
-            problem.step(&model, &dx, &mut trial)?;
+            problem.step(&model, dx, &mut trial)?;
             match path {
                 Path::Fast => {
                     linalg::mat_vec(sys.a.as_slice(), pf, step.as_slice(), a_step.as_mut_slice())
@@ -1332,6 +1371,13 @@ fn iterate<P: LeastSquares>(
     if accepted_steps > 0 {
         problem.unscaled(&mut a, &mut g);
     }
+    // The scratch back to the thread for its next solve.
+    (*sa, *sg, *step_kept, *a_step_kept) = (sys.a, sys.g, step, a_step);
+    let _ = ITER_WORK.try_with(|slot| {
+        if let Ok(mut slot) = slot.try_borrow_mut() {
+            *slot = Some(ws);
+        }
+    });
     Ok(LsSolution {
         model,
         damping: options.damping,

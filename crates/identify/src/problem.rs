@@ -259,12 +259,11 @@ pub(crate) fn check_poses_and_points(
 
 /// Checks that the start model's parameters are finite.
 pub(crate) fn check_start(robot: &Robot) -> Result<(), IdentifyError> {
-    let p = robot.params();
-    if let Some(k) = p.iter().position(|v| !v.is_finite()) {
+    if let Some(k) = (0..robot.n_params()).find(|&k| !robot.param(k).is_finite()) {
         return Err(IdentifyError::NonFinite {
             what: "start parameter",
             index: k,
-            detail: format!("{} = {}", robot.layout().get(k).name, p[k]),
+            detail: format!("{} = {}", robot.layout().get(k).name, robot.param(k)),
         });
     }
     Ok(())
@@ -326,21 +325,37 @@ pub(crate) fn check_counts(
 /// Number of distinct poses (lexicographic sort, then neighbours closer than `tol` in every
 /// joint are merged). O(m log m).
 fn count_distinct(poses_rad: &[f64], n: usize, tol: f64) -> usize {
-    let mut rows: Vec<&[f64]> = poses_rad.chunks_exact(n).collect();
-    rows.sort_by(|a, b| {
-        a.iter()
-            .zip(b.iter())
-            .map(|(x, y)| x.total_cmp(y))
-            .find(|o| o.is_ne())
-            .unwrap_or(std::cmp::Ordering::Equal)
-    });
-    let mut distinct = usize::from(!rows.is_empty());
-    for w in rows.windows(2) {
-        if w[0].iter().zip(w[1]).any(|(a, b)| (a - b).abs() > tol) {
-            distinct += 1;
+    let row = |j: usize| &poses_rad[j * n..(j + 1) * n];
+    let count = |order: &mut Vec<usize>| {
+        // The rows sorted lexicographically (by index: the buffer is this thread's).
+        order.clear();
+        order.extend(0..poses_rad.len() / n);
+        order.sort_by(|&a, &b| {
+            row(a)
+                .iter()
+                .zip(row(b))
+                .map(|(x, y)| x.total_cmp(y))
+                .find(|o| o.is_ne())
+                .unwrap_or(std::cmp::Ordering::Equal)
+        });
+        let mut distinct = usize::from(!order.is_empty());
+        for w in order.windows(2) {
+            if row(w[0])
+                .iter()
+                .zip(row(w[1]))
+                .any(|(a, b)| (a - b).abs() > tol)
+            {
+                distinct += 1;
+            }
         }
+        distinct
+    };
+    thread_local! {
+        static ORDER: std::cell::RefCell<Vec<usize>> = const { std::cell::RefCell::new(Vec::new()) };
     }
-    distinct
+    ORDER
+        .try_with(|o| count(&mut o.borrow_mut()))
+        .unwrap_or_else(|_| count(&mut Vec::new()))
 }
 
 /// Checks a weight vector.
@@ -487,12 +502,16 @@ pub(crate) struct NormalWork {
 /// whose shape depends on the vector width); `b` is padded to whole tiles.
 const TILE: usize = 4;
 
+/// The buffers of a dropped [`NormalWork`]: its packed `A`, `g` and blocks.
+type NormalBuffers = (Vec<f64>, Vec<f64>, Vec<[[f64; L]; 3]>);
+
 thread_local! {
-    /// Block buffers of dropped [`NormalWork`]s, reused by the next ones on the thread: a
-    /// solve makes several, and a campaign thread runs thousands of solves, so this saves
-    /// an allocation and the zeroing of some 40 KB per buffer. What they held never reaches
-    /// a result (see the `b` field of [`NormalWork`]).
-    static BLOCK_POOL: std::cell::RefCell<Vec<Vec<[[f64; L]; 3]>>> =
+    /// Buffers of dropped [`NormalWork`]s, reused by the next ones on the thread: a solve
+    /// makes several, and a campaign thread runs thousands of solves, so this saves their
+    /// allocations (issue 43) and the zeroing of some 40 KB per block buffer. What the
+    /// blocks held never reaches a result (see the `b` field of [`NormalWork`]); `A` and `g`
+    /// are zeroed when reused.
+    static BLOCK_POOL: std::cell::RefCell<Vec<NormalBuffers>> =
         const { std::cell::RefCell::new(Vec::new()) };
 }
 
@@ -502,13 +521,17 @@ const POOL_SIZE: usize = 4;
 
 impl Drop for NormalWork {
     fn drop(&mut self) {
-        let b = std::mem::take(&mut self.b);
-        if b.capacity() > 0 {
+        let bufs = (
+            std::mem::take(&mut self.a),
+            std::mem::take(&mut self.g),
+            std::mem::take(&mut self.b),
+        );
+        if bufs.0.capacity() > 0 || bufs.2.capacity() > 0 {
             // (`try_with`: the pool may already be gone when the thread exits.)
             let _ = BLOCK_POOL.try_with(|pool| {
                 let mut pool = pool.borrow_mut();
                 if pool.len() < POOL_SIZE {
-                    pool.push(b);
+                    pool.push(bufs);
                 }
             });
         }
@@ -525,14 +548,19 @@ fn tri(k: usize, l: usize) -> usize {
 impl NormalWork {
     /// Buffers for `pf` free parameters (the block buffer from this thread's pool).
     pub(crate) fn new(pf: usize) -> Self {
+        let (mut a, mut g, b) = BLOCK_POOL
+            .with(|pool| pool.borrow_mut().pop())
+            .unwrap_or_default();
+        a.clear();
+        a.resize(pf * (pf + 1) / 2, 0.0);
+        g.clear();
+        g.resize(pf, 0.0);
         NormalWork {
             pf,
             pp: (pf + 1).div_ceil(TILE) * TILE,
-            a: vec![0.0; pf * (pf + 1) / 2],
-            g: vec![0.0; pf],
-            b: BLOCK_POOL
-                .with(|pool| pool.borrow_mut().pop())
-                .unwrap_or_default(),
+            a,
+            g,
+            b,
         }
     }
 

@@ -12,4 +12,5 @@ mod noise;
 mod noise_free;
 mod oracle;
 mod registration;
+mod reuse;
 mod serde;

@@ -867,33 +867,33 @@ impl Robot {
     /// the capacity: what a solver's iterations reuse).
     pub fn params_into(&self, out: &mut Vec<f64>) {
         out.clear();
-        out.extend(
-            self.layout
-                .params()
-                .iter()
-                .enumerate()
-                .map(|(k, p)| match p.kind {
-                    ParamKind::Theta(i) => self.links[i].theta_rad,
-                    ParamKind::D(i) => self.links[i].d_mm,
-                    ParamKind::A(i) => self.links[i].a_mm,
-                    ParamKind::Alpha(i) => self.links[i].alpha_rad,
-                    ParamKind::Beta(i) => self.links[i].beta_rad,
-                    ParamKind::Scale(i) => self.links[i].scale,
-                    ParamKind::BaseRx => self.base.r_rad[0],
-                    ParamKind::BaseRy => self.base.r_rad[1],
-                    ParamKind::BaseRz => self.base.r_rad[2],
-                    ParamKind::BaseDx => self.base.d_mm[0],
-                    ParamKind::BaseDy => self.base.d_mm[1],
-                    ParamKind::BaseDz => self.base.d_mm[2],
-                    ParamKind::ToolX => self.tool_mm.x,
-                    ParamKind::ToolY => self.tool_mm.y,
-                    ParamKind::ToolZ => self.tool_mm.z,
-                    ParamKind::Extended(_) => {
-                        let e = self.extended.as_ref().expect("extended layout");
-                        e.model.values()[k - e.first]
-                    }
-                }),
-        );
+        out.extend((0..self.layout.len()).map(|k| self.param(k)));
+    }
+
+    /// Parameter `k` (layout order) in internal units, as [`Robot::params`] has it, without
+    /// allocation. Panics past the layout.
+    pub fn param(&self, k: usize) -> f64 {
+        match self.layout.params()[k].kind {
+            ParamKind::Theta(i) => self.links[i].theta_rad,
+            ParamKind::D(i) => self.links[i].d_mm,
+            ParamKind::A(i) => self.links[i].a_mm,
+            ParamKind::Alpha(i) => self.links[i].alpha_rad,
+            ParamKind::Beta(i) => self.links[i].beta_rad,
+            ParamKind::Scale(i) => self.links[i].scale,
+            ParamKind::BaseRx => self.base.r_rad[0],
+            ParamKind::BaseRy => self.base.r_rad[1],
+            ParamKind::BaseRz => self.base.r_rad[2],
+            ParamKind::BaseDx => self.base.d_mm[0],
+            ParamKind::BaseDy => self.base.d_mm[1],
+            ParamKind::BaseDz => self.base.d_mm[2],
+            ParamKind::ToolX => self.tool_mm.x,
+            ParamKind::ToolY => self.tool_mm.y,
+            ParamKind::ToolZ => self.tool_mm.z,
+            ParamKind::Extended(_) => {
+                let e = self.extended.as_ref().expect("extended layout");
+                e.model.values()[k - e.first]
+            }
+        }
     }
 
     /// Sets every parameter from a vector in internal units, in layout order.
@@ -1125,10 +1125,23 @@ impl Robot {
         point_in_flange_mm: &Vector3<f64>,
         orientation_scale_mm: f64,
     ) -> DMatrix<f64> {
+        let entry =
+            self.geometric_jacobian_entries(q_rad, point_in_flange_mm, orientation_scale_mm);
+        DMatrix::from_fn(6, self.n_joints(), entry)
+    }
+
+    /// Entry `(row, i)` of [`Robot::geometric_jacobian`] at `q_rad`, as a function (the one
+    /// formula behind the allocating and the fixed-size Jacobian).
+    fn geometric_jacobian_entries(
+        &self,
+        q_rad: &[f64],
+        point_in_flange_mm: &Vector3<f64>,
+        orientation_scale_mm: f64,
+    ) -> impl Fn(usize, usize) -> f64 + '_ {
         let mut axes = [(Vector3::zeros(), Vector3::zeros()); MAX_JOINTS];
         let f = self.joint_axes(q_rad, &mut axes);
         let p = f.transform_point(point_in_flange_mm);
-        DMatrix::from_fn(6, self.n_joints(), |row, i| {
+        move |row, i| {
             let (z, o) = axes[i];
             match (self.prismatic_rate(i), row < 3) {
                 (None, true) => z.cross(&(p - o))[row],
@@ -1136,7 +1149,7 @@ impl Robot {
                 (Some(v), true) => z[row] * v,
                 (Some(_), false) => 0.0,
             }
-        })
+        }
     }
 
     /// `J Jᵀ` (6 × 6) of [`Robot::geometric_jacobian`], summed over the joints in order,
@@ -1162,11 +1175,21 @@ impl Robot {
 
     /// Condition number σ_max/σ_min of [`Robot::geometric_jacobian`] for the flange origin
     /// (∞ at a singularity). Pose samplers use it to keep away from singular configurations.
+    ///
+    /// A six-joint arm's Jacobian is a fixed-size 6 × 6 matrix (the same SVD on the stack: no
+    /// heap allocation per pose screened, issue 43); other joint counts take the allocating
+    /// [`Robot::geometric_jacobian`].
     pub fn singularity_condition(&self, q_rad: &[f64], orientation_scale_mm: f64) -> f64 {
-        let j = self.geometric_jacobian(q_rad, &Vector3::zeros(), orientation_scale_mm);
-        let sv = j.singular_values();
-        let max = sv.max();
-        let min = sv.min();
+        let (max, min) = if self.n_joints() == 6 {
+            let entry =
+                self.geometric_jacobian_entries(q_rad, &Vector3::zeros(), orientation_scale_mm);
+            let sv = Matrix6::from_fn(entry).singular_values();
+            (sv.max(), sv.min())
+        } else {
+            let j = self.geometric_jacobian(q_rad, &Vector3::zeros(), orientation_scale_mm);
+            let sv = j.singular_values();
+            (sv.max(), sv.min())
+        };
         if min > 0.0 { max / min } else { f64::INFINITY }
     }
 

@@ -506,3 +506,54 @@ fn a_csv_given_as_a_robot_file_is_named_as_such() {
         .to_string();
     assert!(e.contains("the file is empty"), "{e}");
 }
+
+/// The six-joint condition number (a fixed-size SVD on the stack, issue 43) is bit for bit
+/// the SVD of the allocating Jacobian, near the wrist singularity too; `param(k)` reads
+/// what `params()` writes.
+#[test]
+fn six_joint_condition_is_the_allocating_svds_and_param_reads_params() {
+    let nominal = kr1000();
+    let mut u = Uniform(0x2545_F491_4F6C_DD1D);
+    for k in 0..400 {
+        let r = perturbed(&nominal, &u.vec(34));
+        let mut q = in_limit_pose(&r, &u.vec(6));
+        if k % 4 == 0 {
+            q[4] = 1e-7 * k as f64;
+        }
+        let sv = r
+            .geometric_jacobian(&q, &Vector3::zeros(), 1000.0)
+            .singular_values();
+        let expected = if sv.min() > 0.0 {
+            sv.max() / sv.min()
+        } else {
+            f64::INFINITY
+        };
+        let got = r.singularity_condition(&q, 1000.0);
+        assert_eq!(
+            got.to_bits(),
+            expected.to_bits(),
+            "pose {k}: {got} vs {expected}"
+        );
+        let p = r.params();
+        for (i, v) in p.iter().enumerate() {
+            assert_eq!(r.param(i).to_bits(), v.to_bits(), "parameter {i}");
+        }
+    }
+}
+
+/// A [`PoseTrig`] built from the buffers a dropped one left on the thread (a larger pose
+/// set) equals one built on a fresh thread.
+#[test]
+fn pose_trig_from_reused_buffers_is_a_fresh_ones() {
+    let r = kr1000();
+    let mut u = Uniform(0x9E37_79B9_7F4A_7C15);
+    let pose_set = |u: &mut Uniform, m: usize| -> Vec<f64> {
+        (0..m).flat_map(|_| in_limit_pose(&r, &u.vec(6))).collect()
+    };
+    let (big, small) = (pose_set(&mut u, 37), pose_set(&mut u, 5));
+    let fresh = std::thread::scope(|s| s.spawn(|| PoseTrig::for_robot(&r, &small)).join().unwrap());
+    drop(PoseTrig::for_robot(&r, &big));
+    let reused = PoseTrig::for_robot(&r, &small);
+    assert_eq!(reused, fresh);
+    assert_eq!(reused.n_poses(), 5);
+}

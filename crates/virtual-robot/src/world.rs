@@ -377,7 +377,10 @@ impl Setup {
                 .collect(),
             points: [id.points, val.points].concat(),
             cursor: 0,
-            ..PointCache::default()
+            // The ring at its full size at once (no regrowth while a trial measures).
+            recent_q: Vec::with_capacity(RECENT_POINTS * n),
+            recent_points: Vec::with_capacity(RECENT_POINTS),
+            recent_next: 0,
         };
         let (id_deg, id_rad) = (id.deg, id.rad);
         let (val_deg, val_rad) = (val.deg, val.rad);

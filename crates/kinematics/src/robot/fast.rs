@@ -82,33 +82,57 @@ impl PoseTrig {
             n_joints > 0 && poses_rad.len().is_multiple_of(n_joints),
             "pose buffer is not a multiple of the joint count"
         );
-        let mut sin = vec![0.0; poses_rad.len()];
-        let mut cos = vec![0.0; poses_rad.len()];
-        sin_cos_slice(poses_rad, &mut sin, &mut cos);
-        let sc: Vec<[f64; 2]> = sin.iter().zip(&cos).map(|(s, c)| [*s, *c]).collect();
+        // The buffers of a dropped one on this thread, refilled (no allocation once a
+        // thread has built pose sets of this size: issue 43).
+        let bufs = TRIG_POOL
+            .try_with(|pool| pool.borrow_mut().pop())
+            .ok()
+            .flatten()
+            .unwrap_or_default();
+        let mut trig = PoseTrig {
+            n_joints,
+            sc: bufs.sc,
+            lane_sin: bufs.lane_sin,
+            lane_cos: bufs.lane_cos,
+            n_ext: 0,
+            lane_w: bufs.lane_w,
+            weights_of: 0,
+        };
+        trig.lane_w.clear();
+        let fill = |sin: &mut Vec<f64>, cos: &mut Vec<f64>, sc: &mut Vec<[f64; 2]>| {
+            sin.clear();
+            sin.resize(poses_rad.len(), 0.0);
+            cos.clear();
+            cos.resize(poses_rad.len(), 0.0);
+            sin_cos_slice(poses_rad, sin, cos);
+            sc.clear();
+            sc.extend(sin.iter().zip(cos.iter()).map(|(s, c)| [*s, *c]));
+        };
+        let done = SIN_COS.try_with(|buf| {
+            let (sin, cos) = &mut *buf.borrow_mut();
+            fill(sin, cos, &mut trig.sc);
+        });
+        if done.is_err() {
+            fill(&mut Vec::new(), &mut Vec::new(), &mut trig.sc);
+        }
+        let sc = &trig.sc;
         let m = sc.len() / n_joints;
         let blocks = m.div_ceil(POSE_LANES);
-        let mut lane_sin = vec![[0.0; POSE_LANES]; blocks * n_joints];
-        let mut lane_cos = vec![[0.0; POSE_LANES]; blocks * n_joints];
+        trig.lane_sin.clear();
+        trig.lane_sin.resize(blocks * n_joints, [0.0; POSE_LANES]);
+        trig.lane_cos.clear();
+        trig.lane_cos.resize(blocks * n_joints, [0.0; POSE_LANES]);
         for b in 0..blocks {
             for t in 0..POSE_LANES {
                 let j = (b * POSE_LANES + t).min(m - 1);
                 for i in 0..n_joints {
                     let [s, c] = sc[j * n_joints + i];
-                    lane_sin[b * n_joints + i][t] = s;
-                    lane_cos[b * n_joints + i][t] = c;
+                    trig.lane_sin[b * n_joints + i][t] = s;
+                    trig.lane_cos[b * n_joints + i][t] = c;
                 }
             }
         }
-        PoseTrig {
-            n_joints,
-            sc,
-            lane_sin,
-            lane_cos,
-            n_ext: 0,
-            lane_w: Vec::new(),
-            weights_of: 0,
-        }
+        trig
     }
 
     /// [`PoseTrig::new`] for `robot`: for an extended robot ([`Robot::with_extended`]) the
@@ -141,7 +165,7 @@ impl PoseTrig {
             let blocks = trig.n_blocks();
             let mut w = vec![0.0; ne];
             let mut frames = [Frame::identity(); MAX_JOINTS + 1];
-            trig.lane_w = vec![[0.0; POSE_LANES]; blocks * ne];
+            trig.lane_w.resize(blocks * ne, [0.0; POSE_LANES]);
             for j in 0..m {
                 ext.model
                     .weights_trig_in(&ext.torque_robot, trig.pose(j), &mut frames, &mut w);
@@ -191,6 +215,51 @@ impl PoseTrig {
             weights: &self.lane_w[block * self.n_ext..(block + 1) * self.n_ext],
             weights_of: self.weights_of,
         }
+    }
+}
+
+/// The buffers of a [`PoseTrig`], kept by a thread for the next one.
+#[derive(Default)]
+struct TrigBuffers {
+    sc: Vec<[f64; 2]>,
+    lane_sin: Vec<[f64; POSE_LANES]>,
+    lane_cos: Vec<[f64; POSE_LANES]>,
+    lane_w: Vec<[f64; POSE_LANES]>,
+}
+
+thread_local! {
+    /// Buffers of dropped [`PoseTrig`]s, refilled by the next ones on the thread (a trial
+    /// builds one per solve and per model evaluation on a pose set).
+    static TRIG_POOL: std::cell::RefCell<Vec<TrigBuffers>> =
+        const { std::cell::RefCell::new(Vec::new()) };
+    /// The sines and cosines of [`PoseTrig::new`] before they are paired.
+    static SIN_COS: std::cell::RefCell<(Vec<f64>, Vec<f64>)> =
+        const { std::cell::RefCell::new((Vec::new(), Vec::new())) };
+}
+
+/// Buffers of [`PoseTrig`]s a thread keeps (a trial holds at most three at once: the
+/// validation poses', a solve's and a model evaluation's).
+const TRIG_POOL_SIZE: usize = 4;
+
+impl Drop for PoseTrig {
+    fn drop(&mut self) {
+        if self.sc.capacity() == 0 {
+            return;
+        }
+        let bufs = TrigBuffers {
+            sc: std::mem::take(&mut self.sc),
+            lane_sin: std::mem::take(&mut self.lane_sin),
+            lane_cos: std::mem::take(&mut self.lane_cos),
+            lane_w: std::mem::take(&mut self.lane_w),
+        };
+        // (`try_with`: the pool may already be gone when the thread exits.)
+        let _ = TRIG_POOL.try_with(|pool| {
+            if let Ok(mut pool) = pool.try_borrow_mut()
+                && pool.len() < TRIG_POOL_SIZE
+            {
+                pool.push(bufs);
+            }
+        });
     }
 }
 
