@@ -142,7 +142,8 @@ pub fn covariance_at_solution(
 ) -> Result<Option<Covariance>, IdentifyError> {
     let (poses, weights) = (problem.poses_rad(), problem.weights());
     // Parameters the solver held (exactly redundant at the start) are not estimated.
-    let solved = solution.solved(problem);
+    let mut solved = crate::scratch::indices(problem.free().len());
+    solution.solved_into(problem, &mut solved);
     let free = &solved[..];
     let source = match &solution.system {
         Some(sys)
@@ -177,6 +178,7 @@ pub fn covariance_at_solution(
         omitted.sort_unstable();
         c.omitted = omitted.iter().map(|&k| layout.get(k).name).collect();
     }
+    crate::scratch::give_back_indices(solved);
     Ok(cov)
 }
 
@@ -357,8 +359,15 @@ fn covariance_on(
             what: "covariance",
         });
     }
+    let units = infos.iter().map(|i| i.unit).collect();
+    // The scratch back to the thread's pools (a rank decided by the SVD gave owned buffers:
+    // they join the pools too).
+    crate::scratch::give_back_indices(kept);
+    crate::scratch::give_back_indices(priority);
+    crate::scratch::give_back(scale);
+    crate::scratch::give_back_matrix(cs);
     Ok(Some(Covariance {
-        units: infos.iter().map(|i| i.unit).collect(),
+        units,
         omitted: dropped.iter().map(|&k| layout.get(free[k]).name).collect(),
         parameters: names,
         indices,

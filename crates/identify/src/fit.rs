@@ -207,7 +207,10 @@ pub fn identify(problem: &Problem, options: &IdentifyOptions) -> Result<Fit, Ide
             }
         })
         .collect();
-    let posterior = posterior(&problem, &sol.robot, &sol.solved(&problem));
+    // (Without a prior there is none: the solved set is not built.)
+    let posterior = problem
+        .prior()
+        .and_then(|_| posterior(&problem, &sol.robot, &sol.solved(&problem)));
     Ok(Fit {
         params: sol.params,
         free: problem.free_names(),

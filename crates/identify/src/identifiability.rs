@@ -51,6 +51,7 @@ use crate::error::IdentifyError;
 use crate::problem::{
     NormalWork, check_free, check_poses, check_start, check_weights, weighted_jacobian,
 };
+use crate::scratch;
 
 /// A column whose squared norm is below this fraction of the largest squared column norm is
 /// treated as zero (the parameter does not move the measured point): the analysis here counts
@@ -236,7 +237,9 @@ fn priority_rank(kind: ParamKind) -> u8 {
 /// [`keep_priority`] restricted to `free` (distinct indices): positions into `free`, most
 /// preferred first.
 pub(crate) fn free_priority(layout: &ParamLayout, free: &[usize]) -> Vec<usize> {
-    let mut pos: Vec<usize> = (0..free.len()).collect();
+    // (From the thread's pool: the solver's rank test gives it back.)
+    let mut pos = scratch::indices(free.len());
+    pos.extend(0..free.len());
     pos.sort_by_key(|&c| (priority_rank(layout.get(free[c]).kind), free[c]));
     pos
 }
@@ -609,11 +612,14 @@ pub(crate) fn kept_by_cholesky(
     // 2. L⁻¹ (`li` column-major: column c at c·r) and (J̃_KᵀJ̃_K)⁻¹ = L⁻ᵀL⁻¹ (priority
     //    order, symmetric, row i at i·r), by the documented sums of
     //    [`crate::linalg::lower_inverse_gram`]; the bound on σ_min.
-    let (mut li, mut ginv) = (vec![0.0; r * r], vec![0.0; r * r]);
+    // (Buffers from the thread's pools, given back on the way out.)
+    let (mut li, mut ginv) = (scratch::zeros(r * r), scratch::zeros(r * r));
     crate::linalg::lower_inverse_gram(l, p, inv_d, r, &mut li, &mut ginv);
     let frob = li.iter().map(|v| v * v).sum::<f64>().sqrt();
+    scratch::give_back(li);
     let sigma_lower = 1.0 / frob;
     if !(sigma_lower >= CHOL_MIN_SIGMA && sigma_lower > 10.0 * opts.rank_rtol * (p as f64).sqrt()) {
+        scratch::give_back(ginv);
         return None;
     }
     let sum0: f64 = std::iter::empty::<f64>().sum();
@@ -628,11 +634,16 @@ pub(crate) fn kept_by_cholesky(
     };
     let rows = jac.nrows();
     let js = jac.as_slice();
-    let mut res = Vec::with_capacity(rows);
-    let mut terms: Vec<(usize, f64)> = Vec::with_capacity(r + 1);
+    // (Only dropped columns need these: none allocated without.)
+    let mut res = Vec::new();
+    let mut terms: Vec<(usize, f64)> = Vec::new();
     let mut total = 0.0;
     let mut null_cols: Vec<DVector<f64>> = Vec::with_capacity(p - r);
-    let mut c = vec![0.0; r];
+    let mut c = if drops.is_empty() {
+        Vec::new()
+    } else {
+        vec![0.0; r]
+    };
     for dpos in drops {
         let gd = &gm[dpos * p..(dpos + 1) * p];
         // c_i = Σ_j ginv_ij·gd_kj in j order, for all i at once (ginv is exactly symmetric:
@@ -658,6 +669,7 @@ pub(crate) fn kept_by_cholesky(
     }
     // (NaN fails too.)
     if total.sqrt().partial_cmp(&(0.1 * opts.rank_rtol)) != Some(std::cmp::Ordering::Less) {
+        scratch::give_back(ginv);
         return None;
     }
 
@@ -684,16 +696,27 @@ pub(crate) fn kept_by_cholesky(
     let mut expected: Vec<usize> = (0..p).filter(|k| !kp.contains(k)).collect();
     expected.sort_unstable();
     if dropped != expected || margin.is_nan() || margin < CHOL_MIN_MARGIN {
+        scratch::give_back(ginv);
         return None;
     }
 
-    // The inverse in ascending order of the kept positions.
-    let mut order: Vec<usize> = (0..r).collect();
+    // The inverse in ascending order of the kept positions (`Kept`'s buffers from the
+    // pools: the covariance gives them back).
+    let mut order = scratch::indices(r);
+    order.extend(0..r);
     order.sort_by_key(|&i| kp[i]);
-    let kept: Vec<usize> = order.iter().map(|&i| kp[i]).collect();
-    let inv = DMatrix::from_fn(r, r, |i, j| ginv[order[i] * r + order[j]]);
+    let mut kept = scratch::indices(r);
+    kept.extend(order.iter().map(|&i| kp[i]));
+    let mut inv = scratch::zero_matrix(r, r);
+    for j in 0..r {
+        for i in 0..r {
+            inv[(i, j)] = ginv[order[i] * r + order[j]];
+        }
+    }
+    scratch::give_back_indices(order);
+    scratch::give_back(ginv);
     Some(Kept {
-        scale: scale.to_vec(),
+        scale: scratch::copy(scale),
         kept,
         dropped,
         inv,
@@ -746,15 +769,17 @@ pub(crate) fn redundant_positions(
     // redundant columns (relative squared distance from the span of the columns of higher
     // priority < 1e-11) and zero ones are dropped. Anything closer to the thresholds goes to
     // the SVD on the stacked Jacobian.
-    match greedy_cholesky(a, &priority) {
-        Some(gr) => Ok((0..pf).filter(|k| !gr.kp.contains(k)).collect()),
+    let dropped = match greedy_cholesky(a, &priority) {
+        Some(gr) => (0..pf).filter(|k| !gr.kp.contains(k)).collect(),
         None => {
             let trig = PoseTrig::for_robot(robot, poses_rad);
             let mut j = DMatrix::zeros(3 * m, pf);
             NormalWork::stacked_jacobian(robot, &trig, weights, free, &mut j);
-            Ok(analyze_matrix(j, &priority, opts)?.dropped)
+            analyze_matrix(j, &priority, opts)?.dropped
         }
-    }
+    };
+    scratch::give_back_indices(priority);
+    Ok(dropped)
 }
 
 /// Analyses the identifiability of the parameters `free` (indices into the robot's parameter

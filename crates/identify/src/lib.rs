@@ -73,6 +73,7 @@ pub mod params;
 pub mod prior;
 mod problem;
 pub mod registration;
+mod scratch;
 pub mod simd;
 pub mod tool_registration;
 

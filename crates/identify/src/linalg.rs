@@ -6,8 +6,6 @@
 //! reductions split across lanes, so a vectorised build gives the same bits as a scalar
 //! one; sums that are reductions (the back substitution) run sequentially.
 
-use nalgebra::{DMatrix, DVector};
-
 /// In-place Cholesky factorisation `A = L Lᵀ` of the symmetric matrix in `a` (column-major,
 /// n × n; only the lower triangle is read). On success the lower triangle holds L (the
 /// strict upper triangle is left as it was). Returns `false` when a pivot is not positive
@@ -352,23 +350,6 @@ pub(crate) fn mat_vec(a: &[f64], n: usize, x: &[f64], y: &mut [f64]) {
             *yk += akl * xl;
         }
     }
-}
-
-/// `m` as an `r × c` matrix of zeros in `m`'s allocation (reallocated only when it is too
-/// small): a reused buffer is as a new `DMatrix::zeros(r, c)`.
-pub(crate) fn zeroed_matrix(m: DMatrix<f64>, r: usize, c: usize) -> DMatrix<f64> {
-    let mut v: Vec<f64> = m.data.into();
-    v.clear();
-    v.resize(r * c, 0.0);
-    DMatrix::from_vec(r, c, v)
-}
-
-/// [`zeroed_matrix`] for a vector of length `n`.
-pub(crate) fn zeroed_vector(m: DVector<f64>, n: usize) -> DVector<f64> {
-    let mut v: Vec<f64> = m.data.into();
-    v.clear();
-    v.resize(n, 0.0);
-    DVector::from_vec(v)
 }
 
 #[cfg(test)]

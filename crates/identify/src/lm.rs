@@ -43,6 +43,7 @@ use crate::error::IdentifyError;
 use crate::identifiability::{IdentifiabilityOptions, ZERO_COLUMN_RTOL_SQ, redundant_positions};
 use crate::linalg;
 use crate::problem::{NormalWork, Problem, assemble_normal, weighted_rss, weighted_rss_trig};
+use crate::scratch;
 
 /// When the damped matrix fails to factorise, μ is raised to at least this fraction of
 /// max diag(Ã) (and by ×10 each further failure) [1e-12: a thousand times the rounding level
@@ -436,12 +437,20 @@ impl LmSolution {
     /// The free parameters of `problem` that were solved (all but [`LmSolution::held`]),
     /// parameter indices ascending.
     pub fn solved(&self, problem: &Problem) -> Vec<usize> {
-        problem
-            .free()
-            .iter()
-            .copied()
-            .filter(|k| !self.held.contains(k))
-            .collect()
+        let mut out = Vec::with_capacity(problem.free().len());
+        self.solved_into(problem, &mut out);
+        out
+    }
+
+    /// [`LmSolution::solved`] appended to `out`.
+    pub(crate) fn solved_into(&self, problem: &Problem, out: &mut Vec<usize>) {
+        out.extend(
+            problem
+                .free()
+                .iter()
+                .copied()
+                .filter(|k| !self.held.contains(k)),
+        );
     }
 }
 
@@ -454,6 +463,18 @@ pub(crate) struct FinalSystem {
     pub free: Vec<usize>,
     pub weights: Option<Vec<f64>>,
     pub poses: Vec<f64>,
+}
+
+impl Drop for FinalSystem {
+    /// Its buffers back to the thread's pools (the sines and cosines to [`PoseTrig`]'s).
+    fn drop(&mut self) {
+        scratch::give_back_matrix(std::mem::replace(&mut self.a, DMatrix::zeros(0, 0)));
+        scratch::give_back_indices(std::mem::take(&mut self.free));
+        scratch::give_back(std::mem::take(&mut self.poses));
+        if let Some(w) = self.weights.take() {
+            scratch::give_back(w);
+        }
+    }
 }
 
 /// The column-scaled system `S a S`, `S g` (S = diag(s)) into `sa`, `sg`.
@@ -810,8 +831,8 @@ fn solve_speculating(
     if !speculate {
         asm.spare = None;
     }
-    let mut a = DMatrix::zeros(pf, pf);
-    let mut g = DVector::zeros(pf);
+    let mut a = scratch::zero_matrix(pf, pf);
+    let mut g = scratch::zero_vector(pf);
     let cost = asm.assemble(problem.robot(), &mut a, &mut g);
     if options.redundant == Redundant::Hold {
         let dropped = redundant_positions(
@@ -826,15 +847,23 @@ fn solve_speculating(
         // stops on its gradient test at once.
         if !dropped.is_empty() && dropped.len() < pf {
             let held: Vec<usize> = dropped.iter().map(|&d| free[d]).collect();
-            let kept: Vec<usize> = (0..pf).filter(|c| !dropped.contains(c)).collect();
+            let mut kept = scratch::indices(pf);
+            kept.extend((0..pf).filter(|c| !dropped.contains(c)));
             let solved: Vec<usize> = kept.iter().map(|&c| free[c]).collect();
             let reduced = problem.with_free(solved);
             // The start system of the solved columns is a block of the one just assembled.
-            let start = (
-                a.select_rows(kept.iter()).select_columns(kept.iter()),
-                g.select_rows(kept.iter()),
-                cost,
-            );
+            let pk = kept.len();
+            let (mut a_k, mut g_k) = (scratch::zero_matrix(pk, pk), scratch::zero_vector(pk));
+            for (j, &cj) in kept.iter().enumerate() {
+                g_k[j] = g[cj];
+                for (i, &ci) in kept.iter().enumerate() {
+                    a_k[(i, j)] = a[(ci, cj)];
+                }
+            }
+            scratch::give_back_indices(kept);
+            scratch::give_back_matrix(a);
+            scratch::give_back_vector(g);
+            let start = (a_k, g_k, cost);
             let mut asm = asm.on_subset(reduced.free());
             let mut sol = solve_free(path, &reduced, options, &mut asm, start)?;
             sol.held = held;
@@ -1090,19 +1119,16 @@ fn solve_free(
     start: (DMatrix<f64>, DVector<f64>, f64),
 ) -> Result<LmSolution, IdentifyError> {
     let free = problem.free();
-    let sol = iterate(
-        path,
-        &mut PointLs {
-            asm,
-            free,
-            prior: problem.prior(),
-            trial_data: 0.0,
-            x: Default::default(),
-        },
-        problem.robot().clone(),
-        options,
-        start,
-    )?;
+    let mut ls = PointLs {
+        asm,
+        free,
+        prior: problem.prior(),
+        trial_data: 0.0,
+        x: std::cell::RefCell::new(scratch::with_capacity(problem.robot().n_params())),
+    };
+    let sol = iterate(path, &mut ls, problem.robot().clone(), options, start);
+    scratch::give_back(ls.x.into_inner());
+    let sol = sol?;
     let system = (path == Path::Fast).then(|| {
         // Without an accepted step the normal matrix is still the start system (on a subset
         // of the free parameters, a block of the one assembled on all of them: the same
@@ -1110,9 +1136,9 @@ fn solve_free(
         Arc::new(FinalSystem {
             trig: std::mem::take(&mut asm.trig),
             a: sol.normal_matrix,
-            free: free.to_vec(),
-            weights: problem.weights().map(<[f64]>::to_vec),
-            poses: problem.poses_rad().to_vec(),
+            free: scratch::copy_indices(free),
+            weights: problem.weights().map(scratch::copy),
+            poses: scratch::copy(problem.poses_rad()),
         })
     });
     Ok(LmSolution {
@@ -1129,25 +1155,6 @@ fn solve_free(
         gradient_cosine: sol.gradient_cosine,
         held: Vec::new(),
     })
-}
-
-/// The scratch of [`iterate`] (the column-scaled system, the damped matrix of either path,
-/// the step and its products), kept by a thread between solves.
-#[derive(Default)]
-struct IterWork {
-    sa: DMatrix<f64>,
-    sg: DVector<f64>,
-    work: DMatrix<f64>,
-    pad: Vec<f64>,
-    step: DVector<f64>,
-    dx: Vec<f64>,
-    a_step: DVector<f64>,
-}
-
-thread_local! {
-    /// This thread's [`IterWork`] between solves (`None` while a solve holds it).
-    static ITER_WORK: std::cell::RefCell<Option<IterWork>> =
-        const { std::cell::RefCell::new(None) };
 }
 
 /// Trace entries reserved up front (a solve of the default options stops well before).
@@ -1186,25 +1193,10 @@ fn iterate<P: LeastSquares>(
             }
         })
         .collect();
-    // The scratch of this thread's last solve (no allocation per solve, issue 43); every
-    // buffer is zeroed or written in full before it is read, as if new.
-    let mut ws = ITER_WORK
-        .try_with(|slot| slot.borrow_mut().take())
-        .ok()
-        .flatten()
-        .unwrap_or_default();
-    let IterWork {
-        sa,
-        sg,
-        work,
-        pad,
-        step: step_kept,
-        dx,
-        a_step: a_step_kept,
-    } = &mut ws;
+    // Scratch from the thread's pools (no allocation per solve, issue 43), zeroed as new.
     let mut sys = Scaled {
-        a: linalg::zeroed_matrix(std::mem::take(sa), pf, pf),
-        g: linalg::zeroed_vector(std::mem::take(sg), pf),
+        a: scratch::zero_matrix(pf, pf),
+        g: scratch::zero_vector(pf),
     };
     sys.set(&a, &g, &scale);
     problem.add_prior_scaled(&model, &scale, &mut sys.a, &mut sys.g);
@@ -1226,11 +1218,11 @@ fn iterate<P: LeastSquares>(
 
     // (`work`: the reference path's damped matrix, sized on first use; `pad`: the fast
     // path's, zeroed when its size changes, see `damped_step`.)
-    pad.clear();
-    let mut step = linalg::zeroed_vector(std::mem::take(step_kept), pf);
-    dx.clear();
-    dx.resize(pf, 0.0);
-    let mut a_step = linalg::zeroed_vector(std::mem::take(a_step_kept), pf);
+    let mut work = DMatrix::zeros(0, 0);
+    let mut pad = scratch::with_capacity(0);
+    let mut step = scratch::zero_vector(pf);
+    let mut dx = scratch::zeros(pf);
+    let mut a_step = scratch::zero_vector(pf);
     let mut trace = Vec::with_capacity(options.max_iterations.min(TRACE_RESERVE));
     let mut iterations = 0;
     let mut accepted_steps = 0;
@@ -1256,8 +1248,8 @@ fn iterate<P: LeastSquares>(
                 options.damping,
                 &mut mu,
                 floor,
-                work,
-                pad,
+                &mut work,
+                &mut pad,
                 &mut step,
                 iterations,
             )?;
@@ -1271,7 +1263,7 @@ fn iterate<P: LeastSquares>(
             for (d, (s, v)) in dx.iter_mut().zip(scale.iter().zip(step.iter())) {
                 *d = s * v;
             }
-            problem.step(&model, dx, &mut trial)?;
+            problem.step(&model, &dx, &mut trial)?;
             match path {
                 Path::Fast => {
                     linalg::mat_vec(sys.a.as_slice(), pf, step.as_slice(), a_step.as_mut_slice())
@@ -1371,13 +1363,14 @@ fn iterate<P: LeastSquares>(
     if accepted_steps > 0 {
         problem.unscaled(&mut a, &mut g);
     }
-    // The scratch back to the thread for its next solve.
-    (*sa, *sg, *step_kept, *a_step_kept) = (sys.a, sys.g, step, a_step);
-    let _ = ITER_WORK.try_with(|slot| {
-        if let Ok(mut slot) = slot.try_borrow_mut() {
-            *slot = Some(ws);
-        }
-    });
+    // The scratch back to the thread's pools for its next solve (`g` was the caller's).
+    scratch::give_back_matrix(sys.a);
+    scratch::give_back_vector(sys.g);
+    scratch::give_back_vector(step);
+    scratch::give_back_vector(a_step);
+    scratch::give_back_vector(g);
+    scratch::give_back(dx);
+    scratch::give_back(pad);
     Ok(LsSolution {
         model,
         damping: options.damping,

@@ -4,6 +4,7 @@
 //! of the poses and the recovery of the minimal set are scored on the same points.
 
 use std::borrow::Cow;
+use std::cell::RefCell;
 
 use evaluate::ParameterRecovery;
 use identify::{Covariance, Fit, Observability, Problem};
@@ -134,21 +135,50 @@ fn observability(
     free: &[usize],
 ) -> Option<Observability> {
     let problem = Problem::new(nominal, poses_rad, points_mm, free.to_vec()).ok()?;
-    let (mut a, mut g) = (DMatrix::zeros(0, 0), DVector::zeros(0));
-    problem.normal_equations(&mut a, &mut g);
-    let p = a.nrows();
-    let d: Vec<f64> = (0..p).map(|k| a[(k, k)].sqrt()).collect();
-    if d.iter().any(|&x| !(x.is_finite() && x > 0.0)) {
-        return None;
+    // The normal equations, the scaled matrix and the singular values in this thread's
+    // buffers of the last trial (the same size every trial of a campaign: no allocation
+    // but nalgebra's inside the eigenvalues).
+    thread_local! {
+        static BUFFERS: RefCell<ObservabilityBuffers> = RefCell::default();
     }
-    let scaled = DMatrix::from_fn(p, p, |i, j| a[(i, j)] / (d[i] * d[j]));
-    let mut sv: Vec<f64> = scaled
-        .symmetric_eigenvalues()
-        .iter()
-        .map(|&l| l.max(0.0).sqrt())
-        .collect();
-    sv.sort_by(|x, y| y.total_cmp(x));
-    Observability::from_singular_values(&sv, problem.n_poses())
+    let compute = |bufs: &mut ObservabilityBuffers| {
+        let ObservabilityBuffers { a, g, scaled, sv } = bufs;
+        problem.normal_equations(a, g);
+        let p = a.nrows();
+        if (0..p).any(|k| !(a[(k, k)].sqrt().is_finite() && a[(k, k)].sqrt() > 0.0)) {
+            return None;
+        }
+        let d = |k: usize| a[(k, k)].sqrt();
+        if scaled.shape() != (p, p) {
+            *scaled = DMatrix::zeros(p, p);
+        }
+        for j in 0..p {
+            for i in 0..p {
+                scaled[(i, j)] = a[(i, j)] / (d(i) * d(j));
+            }
+        }
+        sv.clear();
+        sv.extend(
+            scaled
+                .symmetric_eigenvalues()
+                .iter()
+                .map(|&l| l.max(0.0).sqrt()),
+        );
+        sv.sort_by(|x, y| y.total_cmp(x));
+        Observability::from_singular_values(sv, problem.n_poses())
+    };
+    BUFFERS
+        .try_with(|b| compute(&mut b.borrow_mut()))
+        .unwrap_or_else(|_| compute(&mut ObservabilityBuffers::default()))
+}
+
+/// [`observability`]'s buffers, kept by a thread between trials.
+#[derive(Default)]
+struct ObservabilityBuffers {
+    a: DMatrix<f64>,
+    g: DVector<f64>,
+    scaled: DMatrix<f64>,
+    sv: Vec<f64>,
 }
 
 /// Scores the estimate against the truth on the minimal set of the identified model

@@ -1,0 +1,116 @@
+//! Per-thread pools of buffers (issue 43: no allocation per solve in the steady state). A
+//! solve takes its buffers here, and the parts of its result that only the next steps of
+//! the same identification read (the final system kept for the covariance) come back here
+//! when they are dropped, for the next solve on the thread to refill. A buffer taken is
+//! empty or cleared and resized with zeros, as a new one would be: what it held before
+//! never reaches a result.
+
+use std::cell::RefCell;
+use std::thread::LocalKey;
+
+use nalgebra::{DMatrix, DVector};
+
+/// Buffers a pool keeps at most (a trial's solves hold about ten at once).
+const POOL_SIZE: usize = 24;
+
+type Pool<T> = RefCell<Vec<Vec<T>>>;
+
+thread_local! {
+    static F64: Pool<f64> = const { RefCell::new(Vec::new()) };
+    static USIZE: Pool<usize> = const { RefCell::new(Vec::new()) };
+}
+
+/// An empty buffer with room for `len` if the pool has one (the smallest that fits, else
+/// the largest, which grows), a new one otherwise.
+fn take<T>(pool: &'static LocalKey<Pool<T>>, len: usize) -> Vec<T> {
+    let mut v = pool
+        .try_with(|p| {
+            let mut p = p.try_borrow_mut().ok()?;
+            let fits = (0..p.len())
+                .filter(|&i| p[i].capacity() >= len)
+                .min_by_key(|&i| p[i].capacity());
+            let i = fits.or_else(|| (0..p.len()).max_by_key(|&i| p[i].capacity()))?;
+            Some(p.swap_remove(i))
+        })
+        .ok()
+        .flatten()
+        .unwrap_or_default();
+    v.clear();
+    v.reserve(len);
+    v
+}
+
+/// Gives `v` back to the pool (dropped when the pool is full or gone).
+fn give<T>(pool: &'static LocalKey<Pool<T>>, v: Vec<T>) {
+    if v.capacity() == 0 {
+        return;
+    }
+    let _ = pool.try_with(|p| {
+        if let Ok(mut p) = p.try_borrow_mut()
+            && p.len() < POOL_SIZE
+        {
+            p.push(v);
+        }
+    });
+}
+
+/// `len` zeros.
+pub(crate) fn zeros(len: usize) -> Vec<f64> {
+    let mut v = take(&F64, len);
+    v.resize(len, 0.0);
+    v
+}
+
+/// An empty buffer with room for `len` values.
+pub(crate) fn with_capacity(len: usize) -> Vec<f64> {
+    take(&F64, len)
+}
+
+/// A copy of `src`.
+pub(crate) fn copy(src: &[f64]) -> Vec<f64> {
+    let mut v = take(&F64, src.len());
+    v.extend_from_slice(src);
+    v
+}
+
+/// A copy of the indices `src`.
+pub(crate) fn copy_indices(src: &[usize]) -> Vec<usize> {
+    let mut v = take(&USIZE, src.len());
+    v.extend_from_slice(src);
+    v
+}
+
+/// An empty index buffer with room for `len`.
+pub(crate) fn indices(len: usize) -> Vec<usize> {
+    take(&USIZE, len)
+}
+
+/// An `r × c` matrix of zeros.
+pub(crate) fn zero_matrix(r: usize, c: usize) -> DMatrix<f64> {
+    DMatrix::from_vec(r, c, zeros(r * c))
+}
+
+/// A vector of `n` zeros.
+pub(crate) fn zero_vector(n: usize) -> DVector<f64> {
+    DVector::from_vec(zeros(n))
+}
+
+/// Gives a buffer back.
+pub(crate) fn give_back(v: Vec<f64>) {
+    give(&F64, v);
+}
+
+/// Gives an index buffer back.
+pub(crate) fn give_back_indices(v: Vec<usize>) {
+    give(&USIZE, v);
+}
+
+/// Gives a matrix's buffer back.
+pub(crate) fn give_back_matrix(m: DMatrix<f64>) {
+    give(&F64, m.data.into());
+}
+
+/// Gives a vector's buffer back.
+pub(crate) fn give_back_vector(v: DVector<f64>) {
+    give(&F64, v.data.into());
+}
