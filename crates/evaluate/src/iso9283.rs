@@ -326,9 +326,10 @@ pub fn point_stats(commanded_mm: [f64; 3], attained_mm: &[[f64; 3]]) -> Result<P
         mean[1] - commanded_mm[1],
         mean[2] - commanded_mm[2],
     ];
-    let l: Vec<f64> = attained_mm.iter().map(|x| dist(x, &mean)).collect();
-    let l_mean = l.iter().sum::<f64>() / nf;
-    let s_l = (l.iter().map(|v| (v - l_mean).powi(2)).sum::<f64>() / (nf - 1.0)).sqrt();
+    // The distances l_j, computed in each of the two passes (no buffer per point).
+    let l = || attained_mm.iter().map(|x| dist(x, &mean));
+    let l_mean = l().sum::<f64>() / nf;
+    let s_l = (l().map(|v| (v - l_mean).powi(2)).sum::<f64>() / (nf - 1.0)).sqrt();
     Ok(PointStats {
         cycles: n,
         mean_mm: mean,
@@ -381,17 +382,14 @@ impl IsoReport {
         after_mm: [&[[f64; 3]]; 5],
     ) -> Result<Self> {
         let targets = cube.test_points_mm();
-        let mut rows = Vec::with_capacity(5);
-        for i in 0..5 {
-            rows.push(IsoPointRow {
+        let row = |i: usize| -> Result<IsoPointRow> {
+            Ok(IsoPointRow {
                 commanded_mm: targets[i],
                 before: point_stats(targets[i], before_mm[i])?,
                 after: point_stats(targets[i], after_mm[i])?,
-            });
-        }
-        let points: [IsoPointRow; 5] = rows
-            .try_into()
-            .unwrap_or_else(|_| unreachable!("exactly five rows were pushed"));
+            })
+        };
+        let points = [row(0)?, row(1)?, row(2)?, row(3)?, row(4)?];
         Ok(Self {
             cube: Some(cube),
             points,

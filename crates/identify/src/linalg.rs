@@ -284,15 +284,26 @@ pub(crate) fn lower_inverse_gram(
     )
 }
 
+thread_local! {
+    /// The batch buffer of [`inv_impl`], kept by the thread between calls.
+    static BATCH: std::cell::RefCell<Vec<[[f64; INV_LANES / 2]; 2]>> =
+        const { std::cell::RefCell::new(Vec::new()) };
+}
+
 #[inline(always)]
 fn inv_impl(l: &[f64], p: usize, inv_d: &[f64], r: usize, li: &mut [f64], ginv: &mut [f64]) {
     const H: usize = INV_LANES / 2;
-    // xb[i] = L⁻¹_{i, c0..c0+16} of the current batch, as two halves (one vector each).
-    let mut xb = vec![[[0.0; H]; 2]; r];
+    // xb[i] = L⁻¹_{i, c0..c0+16} of the current batch, as two halves (one vector each)
+    // (the thread's buffer, zeroed; given back at the end).
+    let mut xb = BATCH
+        .try_with(|b| std::mem::take(&mut *b.borrow_mut()))
+        .unwrap_or_default();
+    xb.clear();
+    xb.resize(r, [[0.0; H]; 2]);
     // L⁻¹ row-major with the row stride padded to whole vectors (row t at t·rr), zero
-    // past column r.
+    // past column r (from the thread's pool).
     let rr = r.div_ceil(H) * H;
-    let mut lt = vec![0.0; r * rr];
+    let mut lt = crate::scratch::zeros(r * rr);
     for c0 in (0..r).step_by(INV_LANES) {
         for i in c0..r {
             let row = &l[i * p + c0..i * p + i];
@@ -339,6 +350,8 @@ fn inv_impl(l: &[f64], p: usize, inv_d: &[f64], r: usize, li: &mut [f64], ginv: 
             }
         }
     }
+    let _ = BATCH.try_with(|b| *b.borrow_mut() = xb);
+    crate::scratch::give_back(lt);
 }
 
 /// `y = A x` for a full (both triangles stored) n × n matrix, column by column.

@@ -103,13 +103,54 @@ pub(super) fn iso_trial(
     scenario: &crate::scenario::Scenario,
     trial: u64,
 ) -> Result<(IsoReport, usize), CampaignError> {
+    thread_local! {
+        static BUFFERS: std::cell::RefCell<IsoBuffers> = std::cell::RefCell::default();
+    }
+    BUFFERS
+        .try_with(|b| {
+            let mut b = b.borrow_mut();
+            iso_measure(plan, (identified, model), world, scenario, trial, &mut b)
+        })
+        .unwrap_or_else(|_| {
+            let mut b = IsoBuffers::default();
+            iso_measure(plan, (identified, model), world, scenario, trial, &mut b)
+        })
+}
+
+/// [`iso_trial`]'s buffers (compensated joints, attained points), kept by a thread between
+/// trials (issue 43: no allocation per trial for the test's series).
+#[derive(Default)]
+struct IsoBuffers {
+    q_after: [Vec<f64>; 5],
+    before: [Vec<[f64; 3]>; 5],
+    after: [Vec<[f64; 3]>; 5],
+}
+
+/// [`iso_trial`] in the buffers `b`.
+fn iso_measure(
+    plan: &IsoPlan,
+    (identified, model): (&Robot, Option<&calibrate::residual::ResidualModel>),
+    world: &mut World,
+    scenario: &crate::scenario::Scenario,
+    trial: u64,
+    b: &mut IsoBuffers,
+) -> Result<(IsoReport, usize), CampaignError> {
     let ik = scenario.compensation.ik_options();
     // Compensated joints of P1…P5; a target the identified model cannot reach keeps its
     // commanded joints and is counted.
     let mut failures = 0;
-    let mut q_after: Vec<Vec<f64>> = Vec::with_capacity(5);
-    for (t, q) in plan.targets.iter().zip(&plan.q_cmd_rad) {
-        let mut qc = q.clone();
+    let IsoBuffers {
+        q_after,
+        before,
+        after,
+    } = b;
+    for ((t, q), qc) in plan
+        .targets
+        .iter()
+        .zip(&plan.q_cmd_rad)
+        .zip(q_after.iter_mut())
+    {
+        qc.clone_from(q);
         let target = IkTarget {
             point_in_flange_mm: identified.tool_mm(),
             ..*t
@@ -117,22 +158,23 @@ pub(super) fn iso_trial(
         // Without compensation the "after" cycles command the same joints.
         let reached = !scenario.compensation.enabled
             || match model {
-                None => identified.solve_ik(&target, &mut qc, &ik).is_ok(),
+                None => identified.solve_ik(&target, qc, &ik).is_ok(),
                 // The hybrid the gate kept (scenario `residual_model`).
-                Some(m) => super::hybrid::compensate(identified, m, &target, &mut qc, &ik),
+                Some(m) => super::hybrid::compensate(identified, m, &target, qc, &ik),
             };
         if !reached {
             failures += 1;
             qc.clone_from(q);
         }
-        q_after.push(qc);
     }
     let cycles = scenario.iso.cycles;
-    let mut before: [Vec<[f64; 3]>; 5] = std::array::from_fn(|_| Vec::with_capacity(cycles));
-    let mut after: [Vec<[f64; 3]>; 5] = std::array::from_fn(|_| Vec::with_capacity(cycles));
+    for series in before.iter_mut().chain(after.iter_mut()) {
+        series.clear();
+        series.reserve(cycles);
+    }
     for (joints, out) in [
-        (&plan.q_cmd_rad[..], &mut before),
-        (&q_after[..], &mut after),
+        (&plan.q_cmd_rad[..], &mut *before),
+        (&q_after[..], &mut *after),
     ] {
         for _ in 0..cycles {
             for &i in &evaluate::ISO_CYCLE_ORDER {

@@ -19,6 +19,8 @@ pub use context::Context;
 pub use iso::IsoPlan;
 pub use result::{FitSummary, Gain, ResidualTrial, STALL_GRADIENT_COSINE, TrialResult};
 
+use std::borrow::Cow;
+
 use evaluate::Table4;
 use kinematics::{PoseTrig, Robot};
 use nalgebra::Vector3;
@@ -242,8 +244,9 @@ pub fn run_trial(ctx: &Context, trial: u64) -> Result<TrialResult, CampaignError
     };
     let table4 = Table4::from_errors(&before, &after).map_err(eval)?;
 
-    // Geometry recovery: identified vs true geometry on the validation poses.
-    let truth_robot = world.effective_true_robot().clone();
+    // Geometry recovery: identified vs true geometry on the validation poses (the truth
+    // borrowed from the world until the ISO test measures again).
+    let truth_robot = world.effective_true_robot();
     let predicted_error_mm = (0..val_trig.n_poses())
         .map(|j| {
             let sc = val_trig.pose(j);
@@ -263,11 +266,13 @@ pub fn run_trial(ctx: &Context, trial: u64) -> Result<TrialResult, CampaignError
             let truth = match ctx.id_nominal.extended() {
                 Some(model) => {
                     let names: Vec<String> = model.kinds().iter().map(|k| k.name()).collect();
-                    world
-                        .extended_truth(&names)
-                        .map_err(|source| CampaignError::ExtendedTruth { trial, source })?
+                    Cow::Owned(
+                        world
+                            .extended_truth(&names)
+                            .map_err(|source| CampaignError::ExtendedTruth { trial, source })?,
+                    )
                 }
-                None => truth_robot.clone(),
+                None => Cow::Borrowed(truth_robot),
             };
             p.recovery(ctx, &truth).map_err(ident)?
         }
