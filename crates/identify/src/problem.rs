@@ -354,7 +354,14 @@ fn count_distinct(poses_rad: &[f64], n: usize, tol: f64) -> usize {
         static ORDER: std::cell::RefCell<Vec<usize>> = const { std::cell::RefCell::new(Vec::new()) };
     }
     ORDER
-        .try_with(|o| count(&mut o.borrow_mut()))
+        .try_with(|o| {
+            let mut o = o.borrow_mut();
+            let n = count(&mut o);
+            if !kinematics::keep_buffer::<usize>(o.capacity()) {
+                *o = Vec::new();
+            }
+            n
+        })
         .unwrap_or_else(|_| count(&mut Vec::new()))
 }
 
@@ -502,16 +509,13 @@ pub(crate) struct NormalWork {
 /// whose shape depends on the vector width); `b` is padded to whole tiles.
 const TILE: usize = 4;
 
-/// The buffers of a dropped [`NormalWork`]: its packed `A`, `g` and blocks.
-type NormalBuffers = (Vec<f64>, Vec<f64>, Vec<[[f64; L]; 3]>);
-
 thread_local! {
-    /// Buffers of dropped [`NormalWork`]s, reused by the next ones on the thread: a solve
-    /// makes several, and a campaign thread runs thousands of solves, so this saves their
-    /// allocations (issue 43) and the zeroing of some 40 KB per block buffer. What the
-    /// blocks held never reaches a result (see the `b` field of [`NormalWork`]); `A` and `g`
-    /// are zeroed when reused.
-    static BLOCK_POOL: std::cell::RefCell<Vec<NormalBuffers>> =
+    /// Block buffers of dropped [`NormalWork`]s, reused by the next ones on the thread: a
+    /// solve makes several, and a campaign thread runs thousands of solves, so this saves
+    /// an allocation and the zeroing of some 40 KB per buffer (a large pose set's, tens of
+    /// MB, is reused by its next solve). What they held never reaches a result (see the `b`
+    /// field of [`NormalWork`]). The packed `A` and `g` go to [`crate::scratch`]'s pools.
+    static BLOCK_POOL: std::cell::RefCell<Vec<Vec<[[f64; L]; 3]>>> =
         const { std::cell::RefCell::new(Vec::new()) };
 }
 
@@ -521,17 +525,15 @@ const POOL_SIZE: usize = 4;
 
 impl Drop for NormalWork {
     fn drop(&mut self) {
-        let bufs = (
-            std::mem::take(&mut self.a),
-            std::mem::take(&mut self.g),
-            std::mem::take(&mut self.b),
-        );
-        if bufs.0.capacity() > 0 || bufs.2.capacity() > 0 {
+        crate::scratch::give_back(std::mem::take(&mut self.a));
+        crate::scratch::give_back(std::mem::take(&mut self.g));
+        let b = std::mem::take(&mut self.b);
+        if b.capacity() > 0 {
             // (`try_with`: the pool may already be gone when the thread exits.)
             let _ = BLOCK_POOL.try_with(|pool| {
                 let mut pool = pool.borrow_mut();
                 if pool.len() < POOL_SIZE {
-                    pool.push(bufs);
+                    pool.push(b);
                 }
             });
         }
@@ -548,19 +550,14 @@ fn tri(k: usize, l: usize) -> usize {
 impl NormalWork {
     /// Buffers for `pf` free parameters (the block buffer from this thread's pool).
     pub(crate) fn new(pf: usize) -> Self {
-        let (mut a, mut g, b) = BLOCK_POOL
-            .with(|pool| pool.borrow_mut().pop())
-            .unwrap_or_default();
-        a.clear();
-        a.resize(pf * (pf + 1) / 2, 0.0);
-        g.clear();
-        g.resize(pf, 0.0);
         NormalWork {
             pf,
             pp: (pf + 1).div_ceil(TILE) * TILE,
-            a,
-            g,
-            b,
+            a: crate::scratch::zeros(pf * (pf + 1) / 2),
+            g: crate::scratch::zeros(pf),
+            b: BLOCK_POOL
+                .with(|pool| pool.borrow_mut().pop())
+                .unwrap_or_default(),
         }
     }
 

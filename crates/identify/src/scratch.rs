@@ -23,6 +23,10 @@ thread_local! {
 /// An empty buffer with room for `len` if the pool has one (the smallest that fits, else
 /// the largest, which grows), a new one otherwise.
 fn take<T>(pool: &'static LocalKey<Pool<T>>, len: usize) -> Vec<T> {
+    if !kinematics::keep_buffer::<T>(len.max(1)) {
+        // Too large to be kept (see `give`): a fresh one.
+        return Vec::with_capacity(len);
+    }
     let mut v = pool
         .try_with(|p| {
             let mut p = p.try_borrow_mut().ok()?;
@@ -40,9 +44,10 @@ fn take<T>(pool: &'static LocalKey<Pool<T>>, len: usize) -> Vec<T> {
     v
 }
 
-/// Gives `v` back to the pool (dropped when the pool is full or gone).
+/// Gives `v` back to the pool (dropped when the pool is full or gone, or `v` larger than
+/// [`kinematics::KEPT_BUFFER_MAX_BYTES`]).
 fn give<T>(pool: &'static LocalKey<Pool<T>>, v: Vec<T>) {
-    if v.capacity() == 0 {
+    if !kinematics::keep_buffer::<T>(v.capacity()) {
         return;
     }
     let _ = pool.try_with(|p| {

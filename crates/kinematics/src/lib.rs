@@ -44,3 +44,16 @@ pub use robot::{
 };
 pub use sampling::PoseSampler;
 pub use trig::joint_sin_cos;
+
+/// The largest buffer (bytes) a thread keeps for reuse between solves and trials (issue 43:
+/// no allocation per trial in the steady state): 256 KiB, a trial of about 5,000 poses.
+/// Larger ones are freed as before: their allocation is negligible next to the work that
+/// fills them, and keeping them would raise the peak memory of large identifications (a
+/// 200,000-pose trial's sines and cosines are tens of MB). With some forty buffers kept,
+/// a thread holds at most about 10 MB this way.
+pub const KEPT_BUFFER_MAX_BYTES: usize = 1 << 18;
+
+/// Whether a thread keeps a buffer of `capacity` elements of `T` ([`KEPT_BUFFER_MAX_BYTES`]).
+pub fn keep_buffer<T>(capacity: usize) -> bool {
+    capacity > 0 && capacity.saturating_mul(std::mem::size_of::<T>()) <= KEPT_BUFFER_MAX_BYTES
+}

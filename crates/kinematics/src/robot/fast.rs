@@ -84,11 +84,18 @@ impl PoseTrig {
         );
         // The buffers of a dropped one on this thread, refilled (no allocation once a
         // thread has built pose sets of this size: issue 43).
-        let bufs = TRIG_POOL
-            .try_with(|pool| pool.borrow_mut().pop())
-            .ok()
-            .flatten()
-            .unwrap_or_default();
+        // (A pose set too large to keep takes fresh buffers, as `Drop` will not keep them:
+        // growing a kept one would only add a copy.)
+        let lanes = poses_rad.len().div_ceil(n_joints * POSE_LANES) * n_joints;
+        let bufs = if crate::keep_buffer::<[f64; POSE_LANES]>(lanes) {
+            TRIG_POOL
+                .try_with(|pool| pool.borrow_mut().pop())
+                .ok()
+                .flatten()
+                .unwrap_or_default()
+        } else {
+            TrigBuffers::default()
+        };
         let mut trig = PoseTrig {
             n_joints,
             sc: bufs.sc,
@@ -111,6 +118,9 @@ impl PoseTrig {
         let done = SIN_COS.try_with(|buf| {
             let (sin, cos) = &mut *buf.borrow_mut();
             fill(sin, cos, &mut trig.sc);
+            if !crate::keep_buffer::<f64>(sin.capacity()) {
+                (*sin, *cos) = (Vec::new(), Vec::new());
+            }
         });
         if done.is_err() {
             fill(&mut Vec::new(), &mut Vec::new(), &mut trig.sc);
@@ -243,7 +253,8 @@ const TRIG_POOL_SIZE: usize = 4;
 
 impl Drop for PoseTrig {
     fn drop(&mut self) {
-        if self.sc.capacity() == 0 {
+        // (The lane buffers are the largest: `crate::keep_buffer` decides on them.)
+        if !crate::keep_buffer::<[f64; POSE_LANES]>(self.lane_sin.capacity()) {
             return;
         }
         let bufs = TrigBuffers {
