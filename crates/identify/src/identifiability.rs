@@ -431,8 +431,8 @@ thread_local! {
 
 impl Drop for Greedy {
     fn drop(&mut self) {
-        // (`try_with`: gone at thread exit; the value left behind is empty, and finds the
-        // slot taken, so this does not recurse.)
+        // (`try_with`: gone at thread exit. `mem::take` leaves an empty value whose fields
+        // drop without this running again.)
         let _ = GREEDY.try_with(|slot| {
             if let Ok(mut slot) = slot.try_borrow_mut()
                 && slot.is_none()
@@ -449,7 +449,7 @@ impl Drop for Greedy {
 /// same operations, hence the same bits, at every level: no FMA).
 fn greedy_cholesky(a: &DMatrix<f64>, priority: &[usize]) -> Option<Greedy> {
     let mut gr = GREEDY
-        .try_with(|slot| slot.borrow_mut().take())
+        .try_with(|slot| slot.try_borrow_mut().ok()?.take())
         .ok()
         .flatten()
         .unwrap_or_default();

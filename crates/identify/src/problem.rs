@@ -556,7 +556,9 @@ impl NormalWork {
             a: crate::scratch::zeros(pf * (pf + 1) / 2),
             g: crate::scratch::zeros(pf),
             b: BLOCK_POOL
-                .with(|pool| pool.borrow_mut().pop())
+                .try_with(|pool| pool.try_borrow_mut().ok()?.pop())
+                .ok()
+                .flatten()
                 .unwrap_or_default(),
         }
     }

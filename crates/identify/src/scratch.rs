@@ -40,7 +40,8 @@ fn take<T>(pool: &'static LocalKey<Pool<T>>, len: usize) -> Vec<T> {
         .flatten()
         .unwrap_or_default();
     v.clear();
-    v.reserve(len);
+    // (Exactly: doubling could take a buffer past what `give` keeps.)
+    v.reserve_exact(len);
     v
 }
 

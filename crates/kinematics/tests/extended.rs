@@ -485,3 +485,49 @@ fn lane_kernels_evaluate_an_extended_robot_bit_for_bit() {
         }
     }
 }
+
+/// A [`kinematics::PoseTrig`] of an extended robot built from the buffers a dropped geometric
+/// one left on the thread (and a geometric one after an extended one) equals one built on a
+/// fresh thread: the extended weights are refilled, or emptied (issue 43's kept buffers).
+#[test]
+fn pose_trig_of_reused_buffers_carries_the_right_weights() {
+    let mut s = 43;
+    let (nominal, ext) = extended_robot("kr1000-titan.json", &mut s);
+    let poses: Vec<f64> = (0..11).flat_map(|_| pose(&nominal, &mut s)).collect();
+    let fresh = |r: &Robot| {
+        std::thread::scope(|sc| {
+            sc.spawn(|| kinematics::PoseTrig::for_robot(r, &poses))
+                .join()
+                .unwrap()
+        })
+    };
+    let (fresh_ext, fresh_geo) = (fresh(&ext), fresh(&nominal));
+    drop(kinematics::PoseTrig::for_robot(&nominal, &poses[..6 * 3]));
+    assert_eq!(kinematics::PoseTrig::for_robot(&ext, &poses), fresh_ext);
+    drop(kinematics::PoseTrig::for_robot(&ext, &poses));
+    assert_eq!(kinematics::PoseTrig::for_robot(&nominal, &poses), fresh_geo);
+    assert_ne!(
+        fresh_ext, fresh_geo,
+        "the weights are part of the comparison"
+    );
+}
+
+/// Buffers dropped while a thread's kept ones are being destroyed (a `PoseTrig` held in a
+/// thread-local of its own) neither panic nor recurse.
+#[test]
+fn pose_trig_dropped_at_thread_exit() {
+    thread_local! {
+        static HELD: std::cell::RefCell<Option<kinematics::PoseTrig>> =
+            const { std::cell::RefCell::new(None) };
+    }
+    let nominal = robot("kr1000-titan.json");
+    std::thread::scope(|sc| {
+        sc.spawn(|| {
+            let q = vec![0.1; 6 * 4];
+            drop(kinematics::PoseTrig::for_robot(&nominal, &q));
+            HELD.with(|h| *h.borrow_mut() = Some(kinematics::PoseTrig::for_robot(&nominal, &q)));
+        })
+        .join()
+        .unwrap()
+    });
+}

@@ -136,8 +136,8 @@ fn observability(
 ) -> Option<Observability> {
     let problem = Problem::new(nominal, poses_rad, points_mm, free.to_vec()).ok()?;
     // The normal equations, the scaled matrix and the singular values in this thread's
-    // buffers of the last trial (the same size every trial of a campaign: no allocation
-    // but nalgebra's inside the eigenvalues).
+    // buffers of the last trial (the same size every trial of a campaign; what still
+    // allocates: the problem's free set and nalgebra's copies inside the eigenvalues).
     thread_local! {
         static BUFFERS: RefCell<ObservabilityBuffers> = RefCell::default();
     }

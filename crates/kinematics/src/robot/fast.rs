@@ -85,11 +85,10 @@ impl PoseTrig {
         // The buffers of a dropped one on this thread, refilled (no allocation once a
         // thread has built pose sets of this size: issue 43).
         // (A pose set too large to keep takes fresh buffers, as `Drop` will not keep them:
-        // growing a kept one would only add a copy.)
-        let lanes = poses_rad.len().div_ceil(n_joints * POSE_LANES) * n_joints;
-        let bufs = if crate::keep_buffer::<[f64; POSE_LANES]>(lanes) {
+        // growing a kept one would only add a copy. `sc` is the largest geometric buffer.)
+        let bufs = if crate::keep_buffer::<[f64; 2]>(poses_rad.len()) {
             TRIG_POOL
-                .try_with(|pool| pool.borrow_mut().pop())
+                .try_with(|pool| pool.try_borrow_mut().ok()?.pop())
                 .ok()
                 .flatten()
                 .unwrap_or_default()
@@ -107,31 +106,32 @@ impl PoseTrig {
         };
         trig.lane_w.clear();
         let fill = |sin: &mut Vec<f64>, cos: &mut Vec<f64>, sc: &mut Vec<[f64; 2]>| {
-            sin.clear();
-            sin.resize(poses_rad.len(), 0.0);
-            cos.clear();
-            cos.resize(poses_rad.len(), 0.0);
+            refill(sin, poses_rad.len(), 0.0);
+            refill(cos, poses_rad.len(), 0.0);
             sin_cos_slice(poses_rad, sin, cos);
             sc.clear();
+            sc.reserve_exact(poses_rad.len());
             sc.extend(sin.iter().zip(cos.iter()).map(|(s, c)| [*s, *c]));
         };
         let done = SIN_COS.try_with(|buf| {
-            let (sin, cos) = &mut *buf.borrow_mut();
+            let Ok(mut buf) = buf.try_borrow_mut() else {
+                return false;
+            };
+            let (sin, cos) = &mut *buf;
             fill(sin, cos, &mut trig.sc);
             if !crate::keep_buffer::<f64>(sin.capacity()) {
                 (*sin, *cos) = (Vec::new(), Vec::new());
             }
+            true
         });
-        if done.is_err() {
+        if done != Ok(true) {
             fill(&mut Vec::new(), &mut Vec::new(), &mut trig.sc);
         }
         let sc = &trig.sc;
         let m = sc.len() / n_joints;
         let blocks = m.div_ceil(POSE_LANES);
-        trig.lane_sin.clear();
-        trig.lane_sin.resize(blocks * n_joints, [0.0; POSE_LANES]);
-        trig.lane_cos.clear();
-        trig.lane_cos.resize(blocks * n_joints, [0.0; POSE_LANES]);
+        refill(&mut trig.lane_sin, blocks * n_joints, [0.0; POSE_LANES]);
+        refill(&mut trig.lane_cos, blocks * n_joints, [0.0; POSE_LANES]);
         for b in 0..blocks {
             for t in 0..POSE_LANES {
                 let j = (b * POSE_LANES + t).min(m - 1);
@@ -175,7 +175,7 @@ impl PoseTrig {
             let blocks = trig.n_blocks();
             let mut w = vec![0.0; ne];
             let mut frames = [Frame::identity(); MAX_JOINTS + 1];
-            trig.lane_w.resize(blocks * ne, [0.0; POSE_LANES]);
+            refill(&mut trig.lane_w, blocks * ne, [0.0; POSE_LANES]);
             for j in 0..m {
                 ext.model
                     .weights_trig_in(&ext.torque_robot, trig.pose(j), &mut frames, &mut w);
@@ -251,10 +251,25 @@ thread_local! {
 /// validation poses', a solve's and a model evaluation's).
 const TRIG_POOL_SIZE: usize = 4;
 
+/// `v` cleared and resized to `len` copies of `x`, grown to exactly `len` if too small (no
+/// doubling past what a kept buffer may hold, `crate::KEPT_BUFFER_MAX_BYTES`).
+fn refill<T: Clone>(v: &mut Vec<T>, len: usize, x: T) {
+    v.clear();
+    v.reserve_exact(len);
+    v.resize(len, x);
+}
+
 impl Drop for PoseTrig {
     fn drop(&mut self) {
-        // (The lane buffers are the largest: `crate::keep_buffer` decides on them.)
-        if !crate::keep_buffer::<[f64; POSE_LANES]>(self.lane_sin.capacity()) {
+        // Kept only if every buffer may be (`crate::keep_buffer`; the extended weights may
+        // be empty).
+        let fits = |bytes: usize| bytes <= crate::KEPT_BUFFER_MAX_BYTES;
+        let lanes = std::mem::size_of::<[f64; POSE_LANES]>();
+        if !(crate::keep_buffer::<[f64; 2]>(self.sc.capacity())
+            && fits(self.lane_sin.capacity() * lanes)
+            && fits(self.lane_cos.capacity() * lanes)
+            && fits(self.lane_w.capacity() * lanes))
+        {
             return;
         }
         let bufs = TrigBuffers {
