@@ -326,43 +326,29 @@ pub(crate) fn check_counts(
 /// joint are merged). O(m log m).
 fn count_distinct(poses_rad: &[f64], n: usize, tol: f64) -> usize {
     let row = |j: usize| &poses_rad[j * n..(j + 1) * n];
-    let count = |order: &mut Vec<usize>| {
-        // The rows sorted lexicographically (by index: the buffer is this thread's).
-        order.clear();
-        order.extend(0..poses_rad.len() / n);
-        order.sort_by(|&a, &b| {
-            row(a)
-                .iter()
-                .zip(row(b))
-                .map(|(x, y)| x.total_cmp(y))
-                .find(|o| o.is_ne())
-                .unwrap_or(std::cmp::Ordering::Equal)
-        });
-        let mut distinct = usize::from(!order.is_empty());
-        for w in order.windows(2) {
-            if row(w[0])
-                .iter()
-                .zip(row(w[1]))
-                .any(|(a, b)| (a - b).abs() > tol)
-            {
-                distinct += 1;
-            }
+    // The rows sorted lexicographically, by index (a buffer of the thread's pool).
+    let mut order = crate::scratch::indices(poses_rad.len() / n);
+    order.extend(0..poses_rad.len() / n);
+    order.sort_by(|&a, &b| {
+        row(a)
+            .iter()
+            .zip(row(b))
+            .map(|(x, y)| x.total_cmp(y))
+            .find(|o| o.is_ne())
+            .unwrap_or(std::cmp::Ordering::Equal)
+    });
+    let mut distinct = usize::from(!order.is_empty());
+    for w in order.windows(2) {
+        if row(w[0])
+            .iter()
+            .zip(row(w[1]))
+            .any(|(a, b)| (a - b).abs() > tol)
+        {
+            distinct += 1;
         }
-        distinct
-    };
-    thread_local! {
-        static ORDER: std::cell::RefCell<Vec<usize>> = const { std::cell::RefCell::new(Vec::new()) };
     }
-    ORDER
-        .try_with(|o| {
-            let mut o = o.borrow_mut();
-            let n = count(&mut o);
-            if !kinematics::keep_buffer::<usize>(o.capacity()) {
-                *o = Vec::new();
-            }
-            n
-        })
-        .unwrap_or_else(|_| count(&mut Vec::new()))
+    crate::scratch::give_back_indices(order);
+    distinct
 }
 
 /// Checks a weight vector.
