@@ -389,3 +389,39 @@ fn sharded_campaign_run_and_merge_give_the_single_run_outputs() {
     let e = unfinished.run(&Silent).unwrap_err().to_string();
     assert!(e.contains("checkpoint.json") && !e.contains("--"), "{e}");
 }
+
+/// A trial on a thread that ran other campaigns' trials (its kept virtual robot, solver
+/// buffers and pools refilled: issue 43) is the trial a fresh thread runs, byte for byte
+/// in its JSON: the paper scenario after the noise floor's (other pose counts and errors),
+/// the track's (seven joints, one prismatic) and the extended model's, and the reverse.
+#[test]
+fn a_trial_after_other_campaigns_is_a_fresh_threads() {
+    let contexts: Vec<Context> = [
+        "paper-kr1000",
+        "noise-floor",
+        "kr1000-track",
+        "paper-kr1000-extended",
+    ]
+    .into_iter()
+    .map(|name| Context::new(load(name)).unwrap())
+    .collect();
+    let json = |ctx: &Context, trial| {
+        serde_json::to_string(&campaign::run_trial(ctx, trial).unwrap()).unwrap()
+    };
+    let fresh: Vec<String> = std::thread::scope(|s| {
+        contexts
+            .iter()
+            .map(|ctx| s.spawn(move || json(ctx, 2)).join().unwrap())
+            .collect()
+    });
+    std::thread::scope(|s| {
+        s.spawn(|| {
+            for order in [[3, 2, 1, 0], [0, 1, 2, 3]] {
+                for &k in &order {
+                    json(&contexts[k], 5);
+                    assert_eq!(json(&contexts[k], 2), fresh[k], "campaign {k}");
+                }
+            }
+        });
+    });
+}

@@ -164,7 +164,10 @@ impl Base {
 /// `p = T_base · T_1(q_1) ··· T_N(q_N) · [t, 1]ᵀ`, with
 /// `T_i = Rz(θ_i + q_i) · Tz(d_i) · Tx(a_i) · Rx(α_i) · Ry(β_i)`.
 /// Joint values `q` are radians, lengths mm.
-#[derive(Clone, Debug, PartialEq)]
+///
+/// `clone_from` refills a robot in place (no allocation when the target's links have the
+/// room and neither robot is extended): what a campaign's kept virtual robot does per trial.
+#[derive(Debug, PartialEq)]
 pub struct Robot {
     /// The model file's descriptive parts, shared between copies (one reference count: a
     /// copy of a robot, which the solvers and the virtual robot make per trial, allocates
@@ -192,6 +195,64 @@ pub struct Robot {
     extended: Option<Box<ExtendedPart>>,
     /// The robot file's optional tool orientation (rx, ry, rz, rad; `R = Rz·Ry·Rx`).
     tool_rotation_rad: Option<[f64; 3]>,
+}
+
+impl Clone for Robot {
+    fn clone(&self) -> Self {
+        let mut r = Robot {
+            described: Arc::clone(&self.described),
+            links: Vec::new(),
+            base: self.base,
+            base_frame: self.base_frame,
+            base_axes: self.base_axes,
+            tool_mm: self.tool_mm,
+            layout: self.layout.clone(),
+            beta_index: self.beta_index,
+            scale_index: self.scale_index,
+            has_prismatic: self.has_prismatic,
+            ik_hold: self.ik_hold,
+            base_index: self.base_index,
+            extended: None,
+            tool_rotation_rad: self.tool_rotation_rad,
+        };
+        r.clone_from(self);
+        r
+    }
+
+    /// Every field copied, the links into the vector `self` has (the derived `clone_from`
+    /// would allocate a new one).
+    fn clone_from(&mut self, source: &Self) {
+        let Robot {
+            described,
+            links,
+            base,
+            base_frame,
+            base_axes,
+            tool_mm,
+            layout,
+            beta_index,
+            scale_index,
+            has_prismatic,
+            ik_hold,
+            base_index,
+            extended,
+            tool_rotation_rad,
+        } = source;
+        self.described.clone_from(described);
+        self.links.clone_from(links);
+        self.base = *base;
+        self.base_frame = *base_frame;
+        self.base_axes = *base_axes;
+        self.tool_mm = *tool_mm;
+        self.layout.clone_from(layout);
+        self.beta_index = *beta_index;
+        self.scale_index = *scale_index;
+        self.has_prismatic = *has_prismatic;
+        self.ik_hold = *ik_hold;
+        self.base_index = *base_index;
+        self.extended.clone_from(extended);
+        self.tool_rotation_rad = *tool_rotation_rad;
+    }
 }
 
 /// What a robot carries from its model file without computing with it (a [`Robot`]'s

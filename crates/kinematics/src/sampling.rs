@@ -137,9 +137,35 @@ impl PoseSampler {
         robot: &Robot,
         count: usize,
         rng: &mut R,
+        screen: impl FnMut(&[f64], &[[f64; 2]]) -> Result<T, E>,
+        rejected: impl FnMut(Rejection<E>),
+    ) -> Result<Sampled<T>, Exhausted>
+    where
+        R: Rng + ?Sized,
+    {
+        let mut out = Sampled {
+            deg: Vec::new(),
+            rad: Vec::new(),
+            kept: Vec::new(),
+            draws: 0,
+        };
+        self.sample_screened_into(robot, count, rng, screen, rejected, &mut out)?;
+        Ok(out)
+    }
+
+    /// [`PoseSampler::sample_screened`] into `out` (cleared first; its vectors keep their
+    /// room, so a sampler refilling the same `out` allocates nothing once it has the room:
+    /// a campaign's kept virtual robot). The same draws and poses. On `Err`, `out` holds the
+    /// poses accepted before giving up.
+    pub fn sample_screened_into<R, T, E>(
+        &self,
+        robot: &Robot,
+        count: usize,
+        rng: &mut R,
         mut screen: impl FnMut(&[f64], &[[f64; 2]]) -> Result<T, E>,
         mut rejected: impl FnMut(Rejection<E>),
-    ) -> Result<Sampled<T>, Exhausted>
+        out: &mut Sampled<T>,
+    ) -> Result<(), Exhausted>
     where
         R: Rng + ?Sized,
     {
@@ -151,12 +177,13 @@ impl PoseSampler {
         }
         let min_wrist_rad = self.min_abs_wrist_deg.to_radians();
         let wrist = robot.wrist_joint();
-        let mut out = Sampled {
-            deg: Vec::with_capacity(count * n),
-            rad: Vec::with_capacity(count * n),
-            kept: Vec::with_capacity(count),
-            draws: 0,
-        };
+        out.deg.clear();
+        out.rad.clear();
+        out.kept.clear();
+        out.draws = 0;
+        out.deg.reserve_exact(count * n);
+        out.rad.reserve_exact(count * n);
+        out.kept.reserve_exact(count);
         let max_draws = (count as u64).saturating_mul(self.max_draws_per_pose);
         let mut qd = [0.0; MAX_JOINTS];
         let mut qr = [0.0; MAX_JOINTS];
@@ -204,7 +231,7 @@ impl PoseSampler {
             out.rad.extend_from_slice(q);
             out.kept.push(kept);
         }
-        Ok(out)
+        Ok(())
     }
 }
 

@@ -287,6 +287,27 @@ pub(crate) fn sample(
     point: &dyn Fn(&[f64], &CmdTrig) -> Vector3<f64>,
     rng: &mut ChaCha8Rng,
 ) -> Result<Sampled, SimError> {
+    let mut out = Sampled::default();
+    sample_into(
+        field, count, cfg, nominal, tracker, unmodelled, point, rng, &mut out,
+    )?;
+    Ok(out)
+}
+
+/// [`sample`] into `out` (its vectors refilled in place: no allocation once they have the
+/// room). On `Err`, `out` is left partly filled.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn sample_into(
+    field: &str,
+    count: usize,
+    cfg: &PoseSampling,
+    nominal: &Robot,
+    tracker: &Tracker,
+    unmodelled: Option<&Unmodelled>,
+    point: &dyn Fn(&[f64], &CmdTrig) -> Vector3<f64>,
+    rng: &mut ChaCha8Rng,
+    out: &mut Sampled,
+) -> Result<(), SimError> {
     let mut stats = SamplingStats {
         wanted: count,
         ..SamplingStats::default()
@@ -311,19 +332,23 @@ pub(crate) fn sample(
         Rejection::Screen(Reject::Range) => stats.rejected_range += 1,
         Rejection::Condition => stats.rejected_condition += 1,
     };
-    match cfg
+    // The sampler fills `out`'s own vectors (moved in and back: no copy).
+    let mut s = kinematics::sampling::Sampled {
+        deg: std::mem::take(&mut out.deg),
+        rad: std::mem::take(&mut out.rad),
+        kept: std::mem::take(&mut out.points),
+        draws: 0,
+    };
+    let result = cfg
         .sampler()
-        .sample_screened(nominal, count, rng, screen, tally)
-    {
-        Ok(s) => {
-            stats.accepted = s.kept.len();
+        .sample_screened_into(nominal, count, rng, screen, tally, &mut s);
+    (out.deg, out.rad, out.points) = (s.deg, s.rad, s.kept);
+    match result {
+        Ok(()) => {
+            stats.accepted = out.points.len();
             stats.draws = s.draws;
-            Ok(Sampled {
-                deg: s.deg,
-                rad: s.rad,
-                points: s.kept,
-                stats,
-            })
+            out.stats = stats;
+            Ok(())
         }
         Err(e) => {
             stats.accepted = e.accepted;

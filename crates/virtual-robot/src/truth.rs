@@ -197,8 +197,16 @@ impl InjectedErrors {
 
     /// The unscaled error vector in internal units (rad, mm), layout order: random draws,
     /// then explicit values. Assumes [`InjectedErrors::validate`] passed.
-    pub(crate) fn draw_internal(&self, layout: &ParamLayout, rng: &mut ChaCha8Rng) -> Vec<f64> {
-        let mut delta = vec![0.0; layout.len()];
+    /// Written into `delta` (cleared and resized with zeros: no allocation once it has the
+    /// room).
+    pub(crate) fn draw_internal(
+        &self,
+        layout: &ParamLayout,
+        rng: &mut ChaCha8Rng,
+        delta: &mut Vec<f64>,
+    ) {
+        delta.clear();
+        delta.resize(layout.len(), 0.0);
         if let Some(r) = &self.random {
             for (k, info) in layout.params().iter().enumerate() {
                 let sigma = match info.kind {
@@ -229,7 +237,6 @@ impl InjectedErrors {
                 delta[k] = layout.get(k).from_display(*v);
             }
         }
-        delta
     }
 }
 
@@ -271,25 +278,29 @@ fn mean_error_impl(robot: &Robot, trig: &PoseTrig, nominal_points: &[Vector3<f64
 /// safeguarded by bisection inside the bracket found so far; the mean error is nearly
 /// proportional to s, so about 3 evaluations reach the 1e-11 relative tolerance. `delta` is
 /// left unscaled.
+///
+/// `p_nom` is `nominal`'s parameter vector; `scratch` holds the robot and the parameter
+/// vector each evaluation writes (overwritten: no allocation once they have the room).
 pub(crate) fn solve_scale(
-    nominal: &Robot,
+    (nominal, p_nom): (&Robot, &[f64]),
     delta: &[f64],
     trig: &PoseTrig,
     nominal_points: &[Vector3<f64>],
     target_mm: f64,
+    (scratch, params): (&mut Robot, &mut Vec<f64>),
 ) -> Result<ScaleOutcome, SimError> {
-    let p_nom = nominal.params();
-    let mut scratch = nominal.clone();
-    let mut params = p_nom.clone();
+    scratch.clone_from(nominal);
+    params.clear();
+    params.extend_from_slice(p_nom);
     let mut eval = |s: f64| -> f64 {
-        for ((p, p0), d) in params.iter_mut().zip(&p_nom).zip(delta) {
+        for ((p, p0), d) in params.iter_mut().zip(p_nom).zip(delta) {
             *p = p0 + s * d;
         }
         // Lengths match by construction.
-        if scratch.set_params(&params).is_err() {
+        if scratch.set_params(params).is_err() {
             return f64::NAN;
         }
-        mean_error_mm(&scratch, trig, nominal_points)
+        mean_error_mm(scratch, trig, nominal_points)
     };
     let m = nominal_points.len();
     let unscaled = eval(1.0);

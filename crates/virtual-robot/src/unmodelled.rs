@@ -40,6 +40,7 @@
 //! `counterbalance_fraction`, one per joint.)
 
 use std::collections::BTreeMap;
+use std::sync::Arc;
 
 use kinematics::{ExtendedKind, Frame, Gravity, MAX_JOINTS, MassModelSpec, ParamLayout, Robot};
 use nalgebra::Vector3;
@@ -521,27 +522,51 @@ struct GearRad {
 }
 
 /// The unmodelled-error model of one trial (built from a validated [`UnmodelledConfig`]).
-#[derive(Clone, Debug, PartialEq)]
+/// What does not depend on the trial (the compliance model, the drift rates) is shared
+/// between the trials' copies; only the gear terms (their random phases) are a trial's own.
+#[derive(Debug, PartialEq)]
 pub struct Unmodelled {
-    compliance: Option<ComplianceModel>,
+    compliance: Option<Arc<ComplianceModel>>,
     gears: Vec<GearRad>,
     scatter_sigma_mm: f64,
-    drift_per_move: Option<Vec<f64>>,
+    drift_per_move: Option<Arc<[f64]>>,
+}
+
+impl Clone for Unmodelled {
+    fn clone(&self) -> Self {
+        let mut u = Unmodelled {
+            compliance: None,
+            gears: Vec::new(),
+            scatter_sigma_mm: 0.0,
+            drift_per_move: None,
+        };
+        u.clone_from(self);
+        u
+    }
+
+    /// The shared parts by reference count, the gear terms into `self`'s vector (no
+    /// allocation once it has the room).
+    fn clone_from(&mut self, source: &Self) {
+        self.compliance.clone_from(&source.compliance);
+        self.gears.clone_from(&source.gears);
+        self.scatter_sigma_mm = source.scatter_sigma_mm;
+        self.drift_per_move.clone_from(&source.drift_per_move);
+    }
 }
 
 impl Unmodelled {
     /// Builds the model from a configuration validated against `robot` (as
-    /// [`crate::Setup::new`] does once for all trials); random gear phases are drawn from
-    /// `gear_rng`.
-    pub(crate) fn new(
-        cfg: &UnmodelledConfig,
-        robot: &Robot,
-        gear_rng: &mut ChaCha8Rng,
-    ) -> Result<Self, ConfigError> {
+    /// [`crate::Setup::new`] does once for all trials) with the configured gear phases:
+    /// what every trial shares; a trial's copy draws its random phases
+    /// ([`Unmodelled::draw_phases`]).
+    pub(crate) fn configured(cfg: &UnmodelledConfig, robot: &Robot) -> Result<Self, ConfigError> {
         debug_assert!(cfg.validate(robot).is_ok(), "validated configuration");
         let n = robot.n_joints();
         let compliance = if cfg.compliance.enabled {
-            Some(ComplianceModel::from_validated(&cfg.compliance, n))
+            Some(Arc::new(ComplianceModel::from_validated(
+                &cfg.compliance,
+                n,
+            )))
         } else {
             None
         };
@@ -550,11 +575,7 @@ impl Unmodelled {
                 .terms
                 .iter()
                 .map(|t| {
-                    let phase_deg = if cfg.gears.random_phase {
-                        360.0 * gear_rng.random::<f64>()
-                    } else {
-                        t.phase_deg
-                    };
+                    let phase_deg = t.phase_deg;
                     GearRad {
                         joint: t.joint - 1,
                         amplitude_rad: (t.amplitude_arcsec / 3600.0).to_radians() * cfg.gears.scale,
@@ -575,7 +596,7 @@ impl Unmodelled {
                     rates[k] = layout.get(k).from_display(*v);
                 }
             }
-            Some(rates)
+            Some(Arc::from(rates))
         } else {
             None
         };
@@ -591,9 +612,22 @@ impl Unmodelled {
         })
     }
 
+    /// With `cfg.gears.random_phase`, draws every gear term's phase from `gear_rng`
+    /// (uniform in [0°, 360°), in the terms' order); otherwise leaves the configured ones
+    /// (what [`crate::Setup::world_into`] does to its copy of the setup's model).
+    pub(crate) fn draw_phases(&mut self, cfg: &UnmodelledConfig, gear_rng: &mut ChaCha8Rng) {
+        if !(cfg.gears.enabled && cfg.gears.random_phase) {
+            return;
+        }
+        for g in &mut self.gears {
+            g.phase_deg = 360.0 * gear_rng.random::<f64>();
+            g.phase_rad = g.phase_deg.to_radians();
+        }
+    }
+
     /// The compliance model, if enabled.
     pub fn compliance(&self) -> Option<&ComplianceModel> {
-        self.compliance.as_ref()
+        self.compliance.as_deref()
     }
 
     /// The values (internal units: rad/(N·m), rad) that the non-geometric parameters `kinds`
@@ -608,7 +642,7 @@ impl Unmodelled {
             .map(|kind| match *kind {
                 ExtendedKind::Compliance(j) => self
                     .compliance
-                    .as_ref()
+                    .as_deref()
                     .and_then(|c| c.gain.get(j).copied())
                     .unwrap_or(0.0),
                 ExtendedKind::GearSin { joint, harmonic }

@@ -11,7 +11,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::config::VirtualRobotConfig;
 use crate::error::{NotMeasurable, SimError};
-use crate::poses::{PoseSet, Sampled, sample};
+use crate::poses::{PoseSet, Sampled, sample, sample_into};
 use crate::rng::{MAX_TRIAL, Purpose, stream};
 use crate::sampling::{SamplingReport, SamplingStats};
 use crate::tracker::Tracker;
@@ -93,6 +93,13 @@ pub struct World {
     drift_params: Vec<f64>,
     drift_robot: Robot,
     cache: PointCache,
+    /// [`solve_scale`]'s robot and parameter vector, and the residual fold's parameters:
+    /// kept so that a refilled world ([`Setup::world_into`]) allocates nothing.
+    scratch_robot: Robot,
+    scratch_params: Vec<f64>,
+    /// The validation poses' points before they join the identification poses' in the
+    /// cache.
+    scratch_points: Vec<Vector3<f64>>,
 }
 
 /// The point the robot reaches without scatter, drift or residual (robot base frame).
@@ -198,6 +205,14 @@ pub struct Setup {
     scale_trig: PoseTrig,
     scale_points: Vec<Vector3<f64>>,
     scale_stats: Option<SamplingStats>,
+    /// The nominal parameter vector (layout order, internal units).
+    nominal_params: Vec<f64>,
+    /// The robot the identification poses are drawn for
+    /// ([`crate::PoseSampling::identification_robot`]; `None`: the nominal).
+    narrowed: Option<Robot>,
+    /// The unmodelled errors with the configured gear phases; each trial copies it and
+    /// draws its phases.
+    unmodelled: Unmodelled,
 }
 
 impl Setup {
@@ -238,6 +253,9 @@ impl Setup {
             scale_trig,
             scale_points,
             scale_stats,
+            nominal_params: nominal.params(),
+            narrowed: cfg.poses.identification_robot(nominal),
+            unmodelled: Unmodelled::configured(&cfg.unmodelled, nominal)?,
         })
     }
 
@@ -259,6 +277,45 @@ impl Setup {
     /// Builds trial `trial`: draws the truth (and scales it), builds the unmodelled errors
     /// and samples the pose sets, each from its own stream ([`crate::stream`]).
     pub fn world(&self, trial: u64) -> Result<World, SimError> {
+        let nominal = &self.nominal;
+        let mut world = World {
+            seed: self.seed,
+            trial,
+            config: Arc::clone(&self.config),
+            nominal: nominal.clone(),
+            true_robot: nominal.clone(),
+            effective_robot: nominal.clone(),
+            errors_rad_mm: Vec::new(),
+            scale: None,
+            scale_poses_rad: Arc::clone(&self.scale_poses_rad),
+            tracker: self.tracker.clone(),
+            unmodelled: self.unmodelled.clone(),
+            tracker_rng: stream(self.seed, trial, Purpose::TrackerNoise),
+            scatter_rng: stream(self.seed, trial, Purpose::Repeatability),
+            moves: 0,
+            id_deg: Vec::new(),
+            id_rad: Vec::new(),
+            val_deg: Vec::new(),
+            val_rad: Vec::new(),
+            report: SamplingReport::default(),
+            true_params: Vec::new(),
+            drift_params: Vec::new(),
+            drift_robot: nominal.clone(),
+            cache: PointCache::default(),
+            scratch_robot: nominal.clone(),
+            scratch_params: Vec::new(),
+            scratch_points: Vec::new(),
+        };
+        self.world_into(trial, &mut world)?;
+        Ok(world)
+    }
+
+    /// [`Setup::world`] written into `world`, a world of this setup or any other: every part
+    /// of it is overwritten, its vectors and robots refilled in place, so a thread that
+    /// keeps one world for its trials allocates nothing here once the world has the room
+    /// (the same trial in a fresh world and a refilled one is the same, bit for bit). On
+    /// `Err` the world is left partly written: build or refill it again before use.
+    pub fn world_into(&self, trial: u64, world: &mut World) -> Result<(), SimError> {
         if trial > MAX_TRIAL {
             return Err(SimError::Trial {
                 trial,
@@ -267,153 +324,193 @@ impl Setup {
         }
         let (seed, cfg, nominal, tracker) = (self.seed, &self.config, &self.nominal, &self.tracker);
         let layout = nominal.layout();
-        let p_nom = nominal.params();
+        let p_nom = &self.nominal_params;
+        world.seed = seed;
+        world.trial = trial;
+        world.config.clone_from(&self.config);
+        world.scale_poses_rad.clone_from(&self.scale_poses_rad);
+        world.nominal.clone_from(nominal);
+        world.tracker.clone_from(tracker);
 
         // Truth: draw, then scale on the seed's fixed pose set.
-        let mut delta = cfg
-            .truth
-            .draw_internal(layout, &mut stream(seed, trial, Purpose::Truth));
+        let delta = &mut world.errors_rad_mm;
+        cfg.truth
+            .draw_internal(layout, &mut stream(seed, trial, Purpose::Truth), delta);
         let mut report = SamplingReport {
             scale: self.scale_stats,
             ..SamplingReport::default()
         };
-        let mut scale = None;
+        world.scale = None;
         if let Some(target) = &cfg.truth.scale_to {
             let outcome = solve_scale(
-                nominal,
-                &delta,
+                (nominal, p_nom),
+                delta,
                 &self.scale_trig,
                 &self.scale_points,
                 target.mean_error_mm,
+                (&mut world.scratch_robot, &mut world.scratch_params),
             )?;
-            for d in &mut delta {
+            for d in delta.iter_mut() {
                 *d *= outcome.factor;
             }
-            scale = Some(outcome);
+            world.scale = Some(outcome);
         }
-        let true_params: Vec<f64> = p_nom.iter().zip(&delta).map(|(p, d)| p + d).collect();
-        let true_robot = nominal
-            .with_params(&true_params)
+        world.true_params.clear();
+        world
+            .true_params
+            .extend(p_nom.iter().zip(delta.iter()).map(|(p, d)| p + d));
+        world.true_robot.clone_from(nominal);
+        world
+            .true_robot
+            .set_params(&world.true_params)
             .map_err(|e| SimError::Scale {
                 message: e.to_string(),
             })?;
-        let effective_robot = fold_residual(&true_robot, tracker.residual_frame());
-        let unmodelled = Unmodelled::new(
+        fold_residual_into(
+            &world.true_robot,
+            tracker.residual_frame(),
+            &mut world.effective_robot,
+            &mut world.scratch_params,
+        );
+        world.unmodelled.clone_from(&self.unmodelled);
+        world.unmodelled.draw_phases(
             &cfg.unmodelled,
-            nominal,
             &mut stream(seed, trial, Purpose::GearPhases),
-        )?;
+        );
 
-        // Pose sets, checked on where the true robot puts the point.
-        let reached = |q: &[f64], t: &CmdTrig| reached_point_trig(&true_robot, &unmodelled, q, t);
-        let mut sets = Vec::with_capacity(2);
-        let narrowed = cfg.poses.identification_robot(nominal);
-        for (field, set, purpose) in [
-            (
-                "poses.identification",
-                &cfg.poses.identification,
-                Purpose::IdentificationPoses,
-            ),
-            (
-                "poses.validation",
-                &cfg.poses.validation,
-                Purpose::ValidationPoses,
-            ),
-        ] {
-            sets.push(match set {
-                PoseSet::Count(count) => sample(
-                    field,
-                    *count,
-                    &cfg.poses,
-                    match (purpose, &narrowed) {
-                        (Purpose::IdentificationPoses, Some(r)) => r,
-                        _ => nominal,
-                    },
-                    tracker,
-                    Some(&unmodelled),
-                    &reached,
-                    &mut stream(seed, trial, purpose),
-                )?,
-                PoseSet::ListDeg(rows) => {
-                    let deg: Vec<f64> = rows.iter().flatten().copied().collect();
-                    let rad: Vec<f64> = deg.iter().map(|d| d.to_radians()).collect();
-                    let mut points = Vec::with_capacity(rows.len());
-                    for (index, q) in rad.chunks_exact(nominal.n_joints()).enumerate() {
-                        let p = reached_point(&true_robot, &unmodelled, q);
-                        tracker
-                            .check_visible(&p)
-                            .map_err(|source| SimError::NotMeasurable {
-                                field: field.to_string(),
-                                index,
-                                source,
+        // Pose sets, checked on where the true robot puts the point; written into the
+        // world's vectors (moved out and back).
+        let n = nominal.n_joints();
+        let mut id = Sampled {
+            deg: std::mem::take(&mut world.id_deg),
+            rad: std::mem::take(&mut world.id_rad),
+            points: std::mem::take(&mut world.cache.points),
+            stats: SamplingStats::default(),
+        };
+        let mut val = Sampled {
+            deg: std::mem::take(&mut world.val_deg),
+            rad: std::mem::take(&mut world.val_rad),
+            points: std::mem::take(&mut world.scratch_points),
+            stats: SamplingStats::default(),
+        };
+        {
+            let (true_robot, unmodelled) = (&world.true_robot, &world.unmodelled);
+            let reached = |q: &[f64], t: &CmdTrig| reached_point_trig(true_robot, unmodelled, q, t);
+            for (field, set, purpose, out) in [
+                (
+                    "poses.identification",
+                    &cfg.poses.identification,
+                    Purpose::IdentificationPoses,
+                    &mut id,
+                ),
+                (
+                    "poses.validation",
+                    &cfg.poses.validation,
+                    Purpose::ValidationPoses,
+                    &mut val,
+                ),
+            ] {
+                match set {
+                    PoseSet::Count(count) => sample_into(
+                        field,
+                        *count,
+                        &cfg.poses,
+                        match (purpose, &self.narrowed) {
+                            (Purpose::IdentificationPoses, Some(r)) => r,
+                            _ => nominal,
+                        },
+                        tracker,
+                        Some(unmodelled),
+                        &reached,
+                        &mut stream(seed, trial, purpose),
+                        out,
+                    )?,
+                    PoseSet::ListDeg(rows) => {
+                        out.deg.clear();
+                        out.deg.extend(rows.iter().flatten().copied());
+                        out.rad.clear();
+                        out.rad.extend(out.deg.iter().map(|d| d.to_radians()));
+                        out.points.clear();
+                        for (index, q) in out.rad.chunks_exact(n).enumerate() {
+                            let p = reached_point(true_robot, unmodelled, q);
+                            tracker.check_visible(&p).map_err(|source| {
+                                SimError::NotMeasurable {
+                                    field: field.to_string(),
+                                    index,
+                                    source,
+                                }
                             })?;
-                        points.push(p);
-                    }
-                    let stats = SamplingStats {
-                        wanted: rows.len(),
-                        accepted: rows.len(),
-                        ..SamplingStats::default()
-                    };
-                    Sampled {
-                        deg,
-                        rad,
-                        points,
-                        stats,
+                            out.points.push(p);
+                        }
+                        out.stats = SamplingStats {
+                            wanted: rows.len(),
+                            accepted: rows.len(),
+                            ..SamplingStats::default()
+                        };
                     }
                 }
-            });
+            }
         }
-        let val = sets.pop().unwrap_or_default();
-        let id = sets.pop().unwrap_or_default();
         report.identification = id.stats;
         report.validation = val.stats;
-        let n = nominal.n_joints();
-        let cache = PointCache {
-            key: id
-                .rad
+        let cache = &mut world.cache;
+        cache.key.clear();
+        cache.key.extend(
+            id.rad
                 .chunks_exact(n)
                 .chain(val.rad.chunks_exact(n))
-                .map(|q| q[0].to_bits())
-                .collect(),
-            points: [id.points, val.points].concat(),
-            cursor: 0,
-            // The ring at its full size at once (no regrowth while a trial measures).
-            recent_q: Vec::with_capacity(RECENT_POINTS * n),
-            recent_points: Vec::with_capacity(RECENT_POINTS),
-            recent_next: 0,
-        };
-        let (id_deg, id_rad) = (id.deg, id.rad);
-        let (val_deg, val_rad) = (val.deg, val.rad);
+                .map(|q| q[0].to_bits()),
+        );
+        cache.points = id.points;
+        cache.points.extend_from_slice(&val.points);
+        cache.cursor = 0;
+        // The ring at its full size at once (no regrowth while a trial measures).
+        cache.recent_q.clear();
+        cache.recent_q.reserve_exact(RECENT_POINTS * n);
+        cache.recent_points.clear();
+        cache.recent_points.reserve_exact(RECENT_POINTS);
+        cache.recent_next = 0;
+        (world.id_deg, world.id_rad) = (id.deg, id.rad);
+        (world.val_deg, world.val_rad) = (val.deg, val.rad);
+        world.scratch_points = val.points;
 
-        Ok(World {
-            seed,
-            trial,
-            config: Arc::clone(&self.config),
-            nominal: nominal.clone(),
-            drift_robot: true_robot.clone(),
-            drift_params: true_params.clone(),
-            true_params,
-            true_robot,
-            effective_robot,
-            errors_rad_mm: delta,
-            scale,
-            scale_poses_rad: Arc::clone(&self.scale_poses_rad),
-            tracker: tracker.clone(),
-            unmodelled,
-            tracker_rng: stream(seed, trial, Purpose::TrackerNoise),
-            scatter_rng: stream(seed, trial, Purpose::Repeatability),
-            moves: 0,
-            id_deg,
-            id_rad,
-            val_deg,
-            val_rad,
-            report,
-            cache,
-        })
+        world.drift_robot.clone_from(&world.true_robot);
+        world.drift_params.clone_from(&world.true_params);
+        world.tracker_rng = stream(seed, trial, Purpose::TrackerNoise);
+        world.scatter_rng = stream(seed, trial, Purpose::Repeatability);
+        world.moves = 0;
+        world.report = report;
+        Ok(())
     }
 }
 
 impl World {
+    /// The largest of the world's buffers (pose sets, points, parameter vectors), bytes of
+    /// capacity: what a thread that keeps a world for its next trial
+    /// ([`Setup::world_into`]) weighs against its budget for kept buffers.
+    pub fn largest_buffer_bytes(&self) -> usize {
+        let f = std::mem::size_of::<f64>();
+        let v = std::mem::size_of::<Vector3<f64>>();
+        [
+            self.id_deg.capacity() * f,
+            self.id_rad.capacity() * f,
+            self.val_deg.capacity() * f,
+            self.val_rad.capacity() * f,
+            self.errors_rad_mm.capacity() * f,
+            self.true_params.capacity() * f,
+            self.drift_params.capacity() * f,
+            self.scratch_params.capacity() * f,
+            self.scratch_points.capacity() * v,
+            self.cache.points.capacity() * v,
+            self.cache.key.capacity() * std::mem::size_of::<u64>(),
+            self.cache.recent_q.capacity() * f,
+            self.cache.recent_points.capacity() * v,
+        ]
+        .into_iter()
+        .max()
+        .unwrap_or(0)
+    }
+
     /// Builds trial `trial` of `seed`: `Setup::new(nominal, cfg, seed)?.world(trial)`.
     /// Validates `cfg` against `nominal`, draws the truth (and scales it), builds the
     /// tracker and the unmodelled errors, and samples the pose sets.
@@ -811,15 +908,22 @@ impl World {
     }
 }
 
-/// `robot` with its base replaced by `residual ∘ base` (ZYX angles re-extracted).
-fn fold_residual(robot: &Robot, residual: Option<Frame>) -> Robot {
+/// `robot` with its base replaced by `residual ∘ base` (ZYX angles re-extracted), written
+/// into `out` (`params`: scratch for the parameter vector).
+fn fold_residual_into(
+    robot: &Robot,
+    residual: Option<Frame>,
+    out: &mut Robot,
+    params: &mut Vec<f64>,
+) {
+    out.clone_from(robot);
     let Some(res) = residual else {
-        return robot.clone();
+        return;
     };
     let base = res.compose(&robot.base_frame());
     let (rx, ry, rz) = Rotation3::from_matrix_unchecked(base.rot).euler_angles();
     let layout = robot.layout();
-    let mut p = robot.params();
+    robot.params_into(params);
     for (name, v) in [
         ("base_rx", rx),
         ("base_ry", ry),
@@ -829,8 +933,10 @@ fn fold_residual(robot: &Robot, residual: Option<Frame>) -> Robot {
         ("base_dz", base.pos_mm.z),
     ] {
         if let Ok(k) = layout.index_of(name) {
-            p[k] = v;
+            params[k] = v;
         }
     }
-    robot.with_params(&p).unwrap_or_else(|_| robot.clone())
+    if out.set_params(params).is_err() {
+        out.clone_from(robot);
+    }
 }

@@ -410,3 +410,48 @@ fn an_extended_nominal_model_is_refused() {
         "{text}"
     );
 }
+
+/// A world refilled in place (`Setup::world_into`) is the world `Setup::world` builds, bit
+/// for bit, whatever it held before: a world of another setup (other pose counts, errors
+/// off), of another trial, or one whose measurements drifted and filled its caches; and
+/// its simulation (poses, measurements with drift, gears, scatter and noise, the truth)
+/// renders to the same bytes. A list of poses refills as well.
+#[test]
+fn a_refilled_world_is_a_fresh_one() {
+    let robot = kr1000();
+    let everything_setup = Setup::new(&robot, &everything(), 2024).unwrap();
+    let mut small = ideal();
+    small.poses.identification = PoseSet::Count(5);
+    small.poses.validation = PoseSet::Count(70);
+    let other = Setup::new(&robot, &small, 7).unwrap();
+    let mut listed = everything();
+    listed.truth.scale_to = None;
+    listed.poses.validation = PoseSet::ListDeg(vec![
+        vec![0.0, 10.0, 0.0, 0.0, 30.0, 0.0],
+        vec![-15.0, 30.0, 20.0, 5.0, -40.0, 10.0],
+    ]);
+    let listed_setup = Setup::new(&robot, &listed, 5).unwrap();
+    let mut kept = other.world(1).unwrap();
+    kept.simulate().unwrap();
+    for (setup, trial) in [
+        (&everything_setup, 3),
+        (&everything_setup, 4),
+        (&listed_setup, 0),
+        (&everything_setup, 3),
+    ] {
+        setup.world_into(trial, &mut kept).unwrap();
+        let fresh = setup.world(trial).unwrap();
+        assert_eq!(kept.truth(), fresh.truth(), "trial {trial}");
+        assert_eq!(
+            kept.identification_poses_rad(),
+            fresh.identification_poses_rad()
+        );
+        assert_eq!(kept.validation_poses_rad(), fresh.validation_poses_rad());
+        let a = render(&kept.simulate().unwrap());
+        let b = render(&setup.simulate(trial).unwrap());
+        assert_eq!(a, b, "trial {trial}");
+    }
+    // The refilled truth is trial 3's, not its start's: another trial's differs.
+    everything_setup.world_into(4, &mut kept).unwrap();
+    assert_ne!(kept.truth(), everything_setup.world(3).unwrap().truth());
+}

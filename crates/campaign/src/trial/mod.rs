@@ -20,6 +20,7 @@ pub use iso::IsoPlan;
 pub use result::{FitSummary, Gain, ResidualTrial, STALL_GRADIENT_COSINE, TrialResult};
 
 use std::borrow::Cow;
+use std::cell::RefCell;
 
 use evaluate::Table4;
 use kinematics::{PoseTrig, Robot};
@@ -132,6 +133,33 @@ fn compensated_errors(
     Ok((after, failures, unmeasurable))
 }
 
+thread_local! {
+    /// The virtual robot of the thread's last trial, refilled by its next one
+    /// ([`virtual_robot::Setup::world_into`]: every part overwritten, so a world of another
+    /// campaign serves as well).
+    static KEPT_WORLD: RefCell<Option<World>> = const { RefCell::new(None) };
+}
+
+/// The thread's kept world, if it has one (taken: a trial that fails drops it).
+fn take_kept_world() -> Option<World> {
+    KEPT_WORLD
+        .try_with(|w| w.try_borrow_mut().ok().and_then(|mut w| w.take()))
+        .ok()
+        .flatten()
+}
+
+/// Keeps `world` for the thread's next trial, when its buffers are within
+/// [`kinematics::KEPT_BUFFER_MAX_BYTES`] (a larger one is dropped, as before).
+fn keep_world(world: World) {
+    if world.largest_buffer_bytes() <= kinematics::KEPT_BUFFER_MAX_BYTES {
+        let _ = KEPT_WORLD.try_with(|w| {
+            if let Ok(mut w) = w.try_borrow_mut() {
+                *w = Some(world);
+            }
+        });
+    }
+}
+
 /// Runs trial `trial` of the campaign.
 pub fn run_trial(ctx: &Context, trial: u64) -> Result<TrialResult, CampaignError> {
     let nominal = ctx.nominal();
@@ -140,7 +168,14 @@ pub fn run_trial(ctx: &Context, trial: u64) -> Result<TrialResult, CampaignError
     let sim = |source| CampaignError::Sim { trial, source };
     let ident = |source| CampaignError::Identify { trial, source };
     let eval = |source| CampaignError::Evaluate { trial, source };
-    let mut world: World = ctx.setup.world(trial).map_err(sim)?;
+    // The thread's world of its last trial, refilled (no allocation), or a new one.
+    let mut world: World = match take_kept_world() {
+        Some(mut w) => {
+            ctx.setup.world_into(trial, &mut w).map_err(sim)?;
+            w
+        }
+        None => ctx.setup.world(trial).map_err(sim)?,
+    };
 
     // Identification measurements.
     let all_id: Vec<f64> = match &ctx.design {
@@ -291,6 +326,8 @@ pub fn run_trial(ctx: &Context, trial: u64) -> Result<TrialResult, CampaignError
         }
         None => (None, 0),
     };
+
+    keep_world(world);
 
     Ok(TrialResult {
         trial,
