@@ -191,12 +191,14 @@ pub fn identify(problem: &Problem, options: &IdentifyOptions) -> Result<Fit, Ide
         )
     };
     let layout = start.layout();
-    let x0 = start.params();
     let estimates = free
         .iter()
         .map(|&k| {
             let info = layout.get(k);
-            let (s, v) = (info.to_display(x0[k]), info.to_display(sol.params[k]));
+            let (s, v) = (
+                info.to_display(start.param(k)),
+                info.to_display(sol.params[k]),
+            );
             ParamEstimate {
                 name: info.name,
                 unit: info.unit,

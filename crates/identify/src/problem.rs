@@ -5,6 +5,7 @@ use kinematics::{MAX_PARAMS, POSE_LANES, ParamName, PoseTrig, Robot};
 use nalgebra::{DMatrix, DVector, Vector3};
 
 use crate::error::IdentifyError;
+use crate::scratch;
 use crate::simd::{SimdLevel, simd_level};
 
 /// Two poses whose joint values all differ by less than this (rad) count as the same pose when
@@ -66,6 +67,18 @@ impl<'a> Problem<'a> {
             free,
             prior: None,
         })
+    }
+
+    /// [`Problem::new`] with the free set copied from a slice into a buffer of the thread's
+    /// (given back when the problem is dropped: no allocation in the steady state, what a
+    /// campaign's trial builds its problems with).
+    pub fn from_slices(
+        robot: &'a Robot,
+        poses_rad: &'a [f64],
+        points_mm: &'a [Vector3<f64>],
+        free: &[usize],
+    ) -> Result<Self, IdentifyError> {
+        Problem::new(robot, poses_rad, points_mm, scratch::copy_indices(free))
     }
 
     /// The same problem with a Gaussian prior on the parameters (`crate::prior`: the cost
@@ -210,9 +223,16 @@ impl<'a> Problem<'a> {
             poses_rad: self.poses_rad,
             points_mm: self.points_mm,
             weights: self.weights,
-            free: self.free.clone(),
+            free: scratch::copy_indices(&self.free),
             prior: self.prior,
         }
+    }
+}
+
+impl Drop for Problem<'_> {
+    /// The free set back to the thread's buffers (`crate::scratch`) for the next problem.
+    fn drop(&mut self) {
+        scratch::give_back_indices(std::mem::take(&mut self.free));
     }
 }
 

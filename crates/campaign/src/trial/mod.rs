@@ -113,19 +113,20 @@ fn compensated_errors(
         }
         return Ok((after, failures, unmeasurable));
     }
-    let mut q_c = vec![0.0; nominal.n_joints()];
+    let mut q_c = [0.0; kinematics::MAX_JOINTS];
+    let q_c = &mut q_c[..nominal.n_joints()];
     for &(j, q, _) in measured {
         let target = identify::compensation_target_trig(nominal, fit_robot, val_trig.pose(j));
         q_c.copy_from_slice(q);
         let reached = match model {
-            None => fit_robot.solve_ik(&target, &mut q_c, &ik).is_ok(),
-            Some(m) => hybrid::compensate(fit_robot, m, &target, &mut q_c, &ik),
+            None => fit_robot.solve_ik(&target, q_c, &ik).is_ok(),
+            Some(m) => hybrid::compensate(fit_robot, m, &target, q_c, &ik),
         };
         if !reached {
             failures += 1;
             continue;
         }
-        match world.measure(&q_c) {
+        match world.measure(q_c) {
             Ok(p) => after.push(to_arr(p - target.position_mm)),
             Err(_) => unmeasurable += 1,
         }

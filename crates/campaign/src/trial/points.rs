@@ -63,8 +63,9 @@ pub(super) fn identify_points(
         )
         .map_err(ident)?;
     let problem =
-        Problem::new(&ctx.id_nominal, &id_poses, &id_points, free.clone()).map_err(ident)?;
+        Problem::from_slices(&ctx.id_nominal, &id_poses, &id_points, &free).map_err(ident)?;
     let fit = identify::identify(&problem, &ctx.id_options).map_err(ident)?;
+    drop(problem);
     Ok(PointIdentification {
         fit,
         poses_rad: id_poses,
@@ -119,7 +120,7 @@ fn reexpress(
     lm: &identify::LmOptions,
 ) -> Result<Vec<f64>, identify::IdentifyError> {
     let points = model.points(poses_rad);
-    let problem = Problem::new(nominal, poses_rad, &points, free.to_vec())?;
+    let problem = Problem::from_slices(nominal, poses_rad, &points, free)?;
     Ok(identify::solve(&problem, lm)?.params)
 }
 
@@ -134,27 +135,34 @@ fn observability(
     points_mm: &[Vector3<f64>],
     free: &[usize],
 ) -> Option<Observability> {
-    let problem = Problem::new(nominal, poses_rad, points_mm, free.to_vec()).ok()?;
+    let problem = Problem::from_slices(nominal, poses_rad, points_mm, free).ok()?;
     // The normal equations, the scaled matrix and the singular values in this thread's
     // buffers of the last trial (the same size every trial of a campaign; what still
-    // allocates: the problem's free set and nalgebra's copies inside the eigenvalues).
+    // allocates: nalgebra's copies inside the eigenvalues).
     thread_local! {
         static BUFFERS: RefCell<ObservabilityBuffers> = RefCell::default();
     }
     let compute = |bufs: &mut ObservabilityBuffers| {
-        let ObservabilityBuffers { a, g, scaled, sv } = bufs;
+        let ObservabilityBuffers {
+            a,
+            g,
+            d,
+            scaled,
+            sv,
+        } = bufs;
         problem.normal_equations(a, g);
         let p = a.nrows();
-        if (0..p).any(|k| !(a[(k, k)].sqrt().is_finite() && a[(k, k)].sqrt() > 0.0)) {
+        d.clear();
+        d.extend((0..p).map(|k| a[(k, k)].sqrt()));
+        if d.iter().any(|&dk| !(dk.is_finite() && dk > 0.0)) {
             return None;
         }
-        let d = |k: usize| a[(k, k)].sqrt();
         if scaled.shape() != (p, p) {
             *scaled = DMatrix::zeros(p, p);
         }
         for j in 0..p {
             for i in 0..p {
-                scaled[(i, j)] = a[(i, j)] / (d(i) * d(j));
+                scaled[(i, j)] = a[(i, j)] / (d[i] * d[j]);
             }
         }
         sv.clear();
@@ -177,6 +185,8 @@ fn observability(
 struct ObservabilityBuffers {
     a: DMatrix<f64>,
     g: DVector<f64>,
+    /// √diag(a): the column norms of the Jacobian.
+    d: Vec<f64>,
     scaled: DMatrix<f64>,
     sv: Vec<f64>,
 }
@@ -218,7 +228,7 @@ fn recovery(
         // The estimate's re-expression, then its covariance with the trial's measurements
         // at that solution (reusing the normal matrix the solver assembled there).
         let est_points = fit.robot.points(poses);
-        let est_problem = Problem::new(nominal, poses, &est_points, free.to_vec())?;
+        let est_problem = Problem::from_slices(nominal, poses, &est_points, free)?;
         let est = identify::solve(&est_problem, lm)?;
         let cov = identify::covariance_at_solution(
             &est_problem,
