@@ -43,6 +43,7 @@
 
 use std::str::FromStr;
 
+use kinematics::kept::{keep_with, take_kept};
 use kinematics::{ParamKind, ParamLayout, PoseTrig, Robot};
 use nalgebra::{DMatrix, DVector, linalg::SVD};
 use serde::{Deserialize, Serialize};
@@ -426,21 +427,16 @@ struct Greedy {
 thread_local! {
     /// The buffers of the last [`Greedy`] dropped on this thread, refilled by the next
     /// ([`greedy_cholesky`] runs in every solve: no allocation per call, issue 43).
-    static GREEDY: std::cell::RefCell<Option<Greedy>> = const { std::cell::RefCell::new(None) };
+    static GREEDY: kinematics::kept::Kept<Greedy> = const { kinematics::kept::Kept::new() };
 }
 
 impl Drop for Greedy {
     fn drop(&mut self) {
-        // (`try_with`: gone at thread exit. `mem::take` leaves an empty value whose fields
-        // drop without this running again.)
-        let _ = GREEDY.try_with(|slot| {
-            if let Ok(mut slot) = slot.try_borrow_mut()
-                && slot.is_none()
-                && self.gm.capacity() > 0
-            {
-                *slot = Some(std::mem::take(self));
-            }
-        });
+        // (Moved out only when kept: `mem::take` leaves an empty value, dropped here without
+        // coming back.)
+        if self.gm.capacity() > 0 {
+            keep_with(&GREEDY, || std::mem::take(self));
+        }
     }
 }
 
@@ -448,11 +444,7 @@ impl Drop for Greedy {
 /// band left to the SVD, or `a` is not finite. Compiled for the run-time SIMD level (the
 /// same operations, hence the same bits, at every level: no FMA).
 fn greedy_cholesky(a: &DMatrix<f64>, priority: &[usize]) -> Option<Greedy> {
-    let mut gr = GREEDY
-        .try_with(|slot| slot.try_borrow_mut().ok()?.take())
-        .ok()
-        .flatten()
-        .unwrap_or_default();
+    let mut gr = take_kept(&GREEDY).unwrap_or_default();
     kinematics::simd::vectorised(
         #[inline(always)]
         || greedy_impl(a, priority, &mut gr),

@@ -286,8 +286,8 @@ pub(crate) fn lower_inverse_gram(
 
 thread_local! {
     /// The batch buffer of [`inv_impl`], kept by the thread between calls.
-    static BATCH: std::cell::RefCell<Vec<[[f64; INV_LANES / 2]; 2]>> =
-        const { std::cell::RefCell::new(Vec::new()) };
+    static BATCH: kinematics::kept::Kept<Vec<[[f64; INV_LANES / 2]; 2]>> =
+        const { kinematics::kept::Kept::new() };
 }
 
 #[inline(always)]
@@ -295,9 +295,7 @@ fn inv_impl(l: &[f64], p: usize, inv_d: &[f64], r: usize, li: &mut [f64], ginv: 
     const H: usize = INV_LANES / 2;
     // xb[i] = L⁻¹_{i, c0..c0+16} of the current batch, as two halves (one vector each)
     // (the thread's buffer, zeroed; given back at the end).
-    let mut xb = BATCH
-        .try_with(|b| std::mem::take(&mut *b.borrow_mut()))
-        .unwrap_or_default();
+    let mut xb = kinematics::kept::take_kept(&BATCH).unwrap_or_default();
     xb.clear();
     xb.resize(r, [[0.0; H]; 2]);
     // L⁻¹ row-major with the row stride padded to whole vectors (row t at t·rr), zero
@@ -350,7 +348,7 @@ fn inv_impl(l: &[f64], p: usize, inv_d: &[f64], r: usize, li: &mut [f64], ginv: 
             }
         }
     }
-    let _ = BATCH.try_with(|b| *b.borrow_mut() = xb);
+    kinematics::kept::keep(&BATCH, xb);
     crate::scratch::give_back(lt);
 }
 

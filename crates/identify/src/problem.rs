@@ -1,6 +1,7 @@
 //! The identification problem: start model, poses, measured points, weights, free parameters;
 //! and the allocation-free assembly of its residual, cost and normal equations.
 
+use kinematics::kept::{Pool, give_pooled, take_pooled};
 use kinematics::{MAX_PARAMS, POSE_LANES, ParamName, PoseTrig, Robot};
 use nalgebra::{DMatrix, DVector, Vector3};
 
@@ -521,8 +522,7 @@ thread_local! {
     /// an allocation and the zeroing of some 40 KB per buffer (a large pose set's, tens of
     /// MB, is reused by its next solve). What they held never reaches a result (see the `b`
     /// field of [`NormalWork`]). The packed `A` and `g` go to [`crate::scratch`]'s pools.
-    static BLOCK_POOL: std::cell::RefCell<Vec<Vec<[[f64; L]; 3]>>> =
-        const { std::cell::RefCell::new(Vec::new()) };
+    static BLOCK_POOL: Pool<Vec<[[f64; L]; 3]>> = const { Pool::new() };
 }
 
 /// Buffers kept in [`BLOCK_POOL`] per thread (a solve holds at most four at once: a normal
@@ -533,15 +533,8 @@ impl Drop for NormalWork {
     fn drop(&mut self) {
         crate::scratch::give_back(std::mem::take(&mut self.a));
         crate::scratch::give_back(std::mem::take(&mut self.g));
-        let b = std::mem::take(&mut self.b);
-        if b.capacity() > 0 {
-            // (`try_with`: the pool may already be gone when the thread exits.)
-            let _ = BLOCK_POOL.try_with(|pool| {
-                let mut pool = pool.borrow_mut();
-                if pool.len() < POOL_SIZE {
-                    pool.push(b);
-                }
-            });
+        if self.b.capacity() > 0 {
+            give_pooled(&BLOCK_POOL, POOL_SIZE, || std::mem::take(&mut self.b));
         }
     }
 }
@@ -561,11 +554,7 @@ impl NormalWork {
             pp: (pf + 1).div_ceil(TILE) * TILE,
             a: crate::scratch::zeros(pf * (pf + 1) / 2),
             g: crate::scratch::zeros(pf),
-            b: BLOCK_POOL
-                .try_with(|pool| pool.try_borrow_mut().ok()?.pop())
-                .ok()
-                .flatten()
-                .unwrap_or_default(),
+            b: take_pooled(&BLOCK_POOL).unwrap_or_default(),
         }
     }
 

@@ -15,6 +15,7 @@ mod error;
 mod extended;
 mod frame;
 mod ik;
+pub mod kept;
 mod model;
 mod params;
 mod robot;
@@ -45,18 +46,4 @@ pub use robot::{
 pub use sampling::PoseSampler;
 pub use trig::joint_sin_cos;
 
-/// The largest buffer (bytes) a thread keeps for reuse between solves and trials (issue 43:
-/// no allocation per trial in the steady state): 256 KiB, a trial of about 2,700 poses of
-/// six joints. Larger ones are freed as before: their allocation is negligible next to the work that
-/// fills them, and keeping them would raise the peak memory of large identifications (a
-/// 200,000-pose trial's sines and cosines are tens of MB). With about seventy buffers
-/// kept (`identify`'s pools of 24 and 24, four `PoseTrig`s of four, a few more), a thread
-/// holds at most about 18 MB this way. The normal equations' block buffers are the exception:
-/// kept at any size, four a thread, as before (a large pose set's is reused by its next
-/// solve rather than allocated again).
-pub const KEPT_BUFFER_MAX_BYTES: usize = 1 << 18;
-
-/// Whether a thread keeps a buffer of `capacity` elements of `T` ([`KEPT_BUFFER_MAX_BYTES`]).
-pub fn keep_buffer<T>(capacity: usize) -> bool {
-    capacity > 0 && capacity.saturating_mul(std::mem::size_of::<T>()) <= KEPT_BUFFER_MAX_BYTES
-}
+pub use kept::{KEPT_BUFFER_MAX_BYTES, keep_buffer};

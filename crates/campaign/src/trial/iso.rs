@@ -3,6 +3,7 @@
 //! and the test of one trial's identified model on it.
 
 use evaluate::{IsoCube, IsoReport};
+use kinematics::kept::{Kept, with_kept};
 use kinematics::{IkTarget, Robot};
 use nalgebra::Vector3;
 use virtual_robot::{Tracker, World};
@@ -104,17 +105,11 @@ pub(super) fn iso_trial(
     trial: u64,
 ) -> Result<(IsoReport, usize), CampaignError> {
     thread_local! {
-        static BUFFERS: std::cell::RefCell<IsoBuffers> = std::cell::RefCell::default();
+        static BUFFERS: Kept<IsoBuffers> = const { Kept::new() };
     }
-    BUFFERS
-        .try_with(|b| {
-            let mut b = b.borrow_mut();
-            iso_measure(plan, (identified, model), world, scenario, trial, &mut b)
-        })
-        .unwrap_or_else(|_| {
-            let mut b = IsoBuffers::default();
-            iso_measure(plan, (identified, model), world, scenario, trial, &mut b)
-        })
+    with_kept(&BUFFERS, |b| {
+        iso_measure(plan, (identified, model), world, scenario, trial, b)
+    })
 }
 
 /// [`iso_trial`]'s buffers (compensated joints, attained points), kept by a thread between

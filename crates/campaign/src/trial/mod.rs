@@ -20,9 +20,9 @@ pub use iso::IsoPlan;
 pub use result::{FitSummary, Gain, ResidualTrial, STALL_GRADIENT_COSINE, TrialResult};
 
 use std::borrow::Cow;
-use std::cell::RefCell;
 
 use evaluate::Table4;
+use kinematics::kept::{Kept, keep, take_kept};
 use kinematics::{PoseTrig, Robot};
 use nalgebra::Vector3;
 use virtual_robot::World;
@@ -138,27 +138,7 @@ thread_local! {
     /// The virtual robot of the thread's last trial, refilled by its next one
     /// ([`virtual_robot::Setup::world_into`]: every part overwritten, so a world of another
     /// campaign serves as well).
-    static KEPT_WORLD: RefCell<Option<World>> = const { RefCell::new(None) };
-}
-
-/// The thread's kept world, if it has one (taken: a trial that fails drops it).
-fn take_kept_world() -> Option<World> {
-    KEPT_WORLD
-        .try_with(|w| w.try_borrow_mut().ok().and_then(|mut w| w.take()))
-        .ok()
-        .flatten()
-}
-
-/// Keeps `world` for the thread's next trial, when its buffers are within
-/// [`kinematics::KEPT_BUFFER_MAX_BYTES`] (a larger one is dropped, as before).
-fn keep_world(world: World) {
-    if world.largest_buffer_bytes() <= kinematics::KEPT_BUFFER_MAX_BYTES {
-        let _ = KEPT_WORLD.try_with(|w| {
-            if let Ok(mut w) = w.try_borrow_mut() {
-                *w = Some(world);
-            }
-        });
-    }
+    static KEPT_WORLD: Kept<World> = const { Kept::new() };
 }
 
 /// Runs trial `trial` of the campaign.
@@ -170,7 +150,8 @@ pub fn run_trial(ctx: &Context, trial: u64) -> Result<TrialResult, CampaignError
     let ident = |source| CampaignError::Identify { trial, source };
     let eval = |source| CampaignError::Evaluate { trial, source };
     // The thread's world of its last trial, refilled (no allocation), or a new one.
-    let mut world: World = match take_kept_world() {
+    // (Taken: a trial that fails drops it.)
+    let mut world: World = match take_kept(&KEPT_WORLD) {
         Some(mut w) => {
             ctx.setup.world_into(trial, &mut w).map_err(sim)?;
             w
@@ -328,7 +309,11 @@ pub fn run_trial(ctx: &Context, trial: u64) -> Result<TrialResult, CampaignError
         None => (None, 0),
     };
 
-    keep_world(world);
+    // Kept for the thread's next trial when its buffers are within
+    // `kinematics::KEPT_BUFFER_MAX_BYTES` (a larger one is dropped, as before).
+    if world.largest_buffer_bytes() <= kinematics::KEPT_BUFFER_MAX_BYTES {
+        keep(&KEPT_WORLD, world);
+    }
 
     Ok(TrialResult {
         trial,

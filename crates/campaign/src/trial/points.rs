@@ -4,11 +4,11 @@
 //! of the poses and the recovery of the minimal set are scored on the same points.
 
 use std::borrow::Cow;
-use std::cell::RefCell;
 
 use evaluate::ParameterRecovery;
 use identify::{Covariance, Fit, Observability, Problem};
 use kinematics::Robot;
+use kinematics::kept::{Kept, with_kept};
 use nalgebra::{DMatrix, DVector, Vector3};
 use virtual_robot::World;
 
@@ -140,7 +140,7 @@ fn observability(
     // buffers of the last trial (the same size every trial of a campaign; what still
     // allocates: nalgebra's copies inside the eigenvalues).
     thread_local! {
-        static BUFFERS: RefCell<ObservabilityBuffers> = RefCell::default();
+        static BUFFERS: Kept<ObservabilityBuffers> = const { Kept::new() };
     }
     let compute = |bufs: &mut ObservabilityBuffers| {
         let ObservabilityBuffers {
@@ -175,9 +175,7 @@ fn observability(
         sv.sort_by(|x, y| y.total_cmp(x));
         Observability::from_singular_values(sv, problem.n_poses())
     };
-    BUFFERS
-        .try_with(|b| compute(&mut b.borrow_mut()))
-        .unwrap_or_else(|_| compute(&mut ObservabilityBuffers::default()))
+    with_kept(&BUFFERS, compute)
 }
 
 /// [`observability`]'s buffers, kept by a thread between trials.

@@ -30,6 +30,7 @@ use nalgebra::Vector3;
 
 use super::{Link, PRISMATIC_SLOT, Robot, prismatic_mm};
 use crate::frame::Frame;
+use crate::kept::{Kept, Pool, give_pooled, take_pooled, with_kept};
 use crate::model::MAX_JOINTS;
 use crate::trig::{sin_cos_slice, sin_cos_small_lanes};
 
@@ -87,11 +88,7 @@ impl PoseTrig {
         // (A pose set too large to keep takes fresh buffers, as `Drop` will not keep them:
         // growing a kept one would only add a copy. `sc` is the largest geometric buffer.)
         let bufs = if crate::keep_buffer::<[f64; 2]>(poses_rad.len()) {
-            TRIG_POOL
-                .try_with(|pool| pool.try_borrow_mut().ok()?.pop())
-                .ok()
-                .flatten()
-                .unwrap_or_default()
+            take_pooled(&TRIG_POOL).unwrap_or_default()
         } else {
             TrigBuffers::default()
         };
@@ -113,20 +110,12 @@ impl PoseTrig {
             sc.reserve_exact(poses_rad.len());
             sc.extend(sin.iter().zip(cos.iter()).map(|(s, c)| [*s, *c]));
         };
-        let done = SIN_COS.try_with(|buf| {
-            let Ok(mut buf) = buf.try_borrow_mut() else {
-                return false;
-            };
-            let (sin, cos) = &mut *buf;
+        with_kept(&SIN_COS, |(sin, cos)| {
             fill(sin, cos, &mut trig.sc);
             if !crate::keep_buffer::<f64>(sin.capacity()) {
                 (*sin, *cos) = (Vec::new(), Vec::new());
             }
-            true
         });
-        if done != Ok(true) {
-            fill(&mut Vec::new(), &mut Vec::new(), &mut trig.sc);
-        }
         let sc = &trig.sc;
         let m = sc.len() / n_joints;
         let blocks = m.div_ceil(POSE_LANES);
@@ -240,11 +229,9 @@ struct TrigBuffers {
 thread_local! {
     /// Buffers of dropped [`PoseTrig`]s, refilled by the next ones on the thread (a trial
     /// builds one per solve and per model evaluation on a pose set).
-    static TRIG_POOL: std::cell::RefCell<Vec<TrigBuffers>> =
-        const { std::cell::RefCell::new(Vec::new()) };
+    static TRIG_POOL: Pool<TrigBuffers> = const { Pool::new() };
     /// The sines and cosines of [`PoseTrig::new`] before they are paired.
-    static SIN_COS: std::cell::RefCell<(Vec<f64>, Vec<f64>)> =
-        const { std::cell::RefCell::new((Vec::new(), Vec::new())) };
+    static SIN_COS: Kept<(Vec<f64>, Vec<f64>)> = const { Kept::new() };
 }
 
 /// Buffers of [`PoseTrig`]s a thread keeps (a trial holds at most three at once: the
@@ -272,19 +259,11 @@ impl Drop for PoseTrig {
         {
             return;
         }
-        let bufs = TrigBuffers {
+        give_pooled(&TRIG_POOL, TRIG_POOL_SIZE, || TrigBuffers {
             sc: std::mem::take(&mut self.sc),
             lane_sin: std::mem::take(&mut self.lane_sin),
             lane_cos: std::mem::take(&mut self.lane_cos),
             lane_w: std::mem::take(&mut self.lane_w),
-        };
-        // (`try_with`: the pool may already be gone when the thread exits.)
-        let _ = TRIG_POOL.try_with(|pool| {
-            if let Ok(mut pool) = pool.try_borrow_mut()
-                && pool.len() < TRIG_POOL_SIZE
-            {
-                pool.push(bufs);
-            }
         });
     }
 }
