@@ -76,6 +76,28 @@ pub struct Covariance {
 }
 
 impl Covariance {
+    /// Gives the covariance's buffers back to the thread for its next solves (see
+    /// [`crate::LmSolution::recycle`]).
+    pub fn recycle(self) {
+        let Covariance {
+            parameters,
+            indices,
+            units,
+            omitted,
+            covariance,
+            std_errors,
+            correlation,
+            ..
+        } = self;
+        crate::scratch::give_back_names(parameters);
+        crate::scratch::give_back_indices(indices);
+        crate::scratch::give_back_units(units);
+        crate::scratch::give_back_names(omitted);
+        crate::scratch::give_back_matrix(covariance);
+        crate::scratch::give_back(std_errors);
+        crate::scratch::give_back_matrix(correlation);
+    }
+
     /// Standard error of the named parameter (display units), if covered.
     pub fn std_error(&self, name: &str) -> Option<f64> {
         self.parameters
@@ -173,10 +195,13 @@ pub fn covariance_at_solution(
     // The held parameters are redundant too: named among the omitted ones, layout order.
     if let Some(c) = cov.as_mut().filter(|_| !solution.held.is_empty()) {
         let layout = solution.robot.layout();
-        let mut omitted: Vec<usize> = solution.held.clone();
+        let mut omitted = crate::scratch::copy_indices(&solution.held);
         omitted.extend(c.omitted.iter().filter_map(|n| layout.index_of(n).ok()));
         omitted.sort_unstable();
-        c.omitted = omitted.iter().map(|&k| layout.get(k).name).collect();
+        c.omitted.clear();
+        c.omitted
+            .extend(omitted.iter().map(|&k| layout.get(k).name));
+        crate::scratch::give_back_indices(omitted);
     }
     crate::scratch::give_back_indices(solved);
     Ok(cov)
@@ -321,26 +346,39 @@ fn covariance_on(
         )?,
     };
 
-    let indices: Vec<usize> = kept.iter().map(|&k| free[k]).collect();
-    let infos: Vec<_> = indices.iter().map(|&k| layout.get(k)).collect();
-    let factor: Vec<f64> = infos
-        .iter()
-        .zip(&kept)
-        .map(|(info, &k)| info.to_display(1.0) * scale[k])
-        .collect();
-    let cov = DMatrix::from_fn(r, r, |i, j| sigma2 * factor[i] * cs[(i, j)] * factor[j]);
-    let std_errors: Vec<f64> = (0..r).map(|i| cov[(i, i)].sqrt()).collect();
-    let correlation = DMatrix::from_fn(r, r, |i, j| {
-        let d = std_errors[i] * std_errors[j];
-        if i == j {
-            1.0
-        } else if d > 0.0 {
-            cov[(i, j)] / d
-        } else {
-            0.0
+    // (The result's buffers from the thread's pools: `Covariance::recycle` gives them back.)
+    let mut indices = crate::scratch::indices(r);
+    indices.extend(kept.iter().map(|&k| free[k]));
+    let mut factor = crate::scratch::with_capacity(r);
+    factor.extend(
+        indices
+            .iter()
+            .zip(&kept)
+            .map(|(&p, &k)| layout.get(p).to_display(1.0) * scale[k]),
+    );
+    let mut cov = crate::scratch::zero_matrix(r, r);
+    for j in 0..r {
+        for i in 0..r {
+            cov[(i, j)] = sigma2 * factor[i] * cs[(i, j)] * factor[j];
         }
-    });
-    let names: Vec<ParamName> = infos.iter().map(|i| i.name).collect();
+    }
+    let mut std_errors = crate::scratch::with_capacity(r);
+    std_errors.extend((0..r).map(|i| cov[(i, i)].sqrt()));
+    let mut correlation = crate::scratch::zero_matrix(r, r);
+    for j in 0..r {
+        for i in 0..r {
+            let d = std_errors[i] * std_errors[j];
+            correlation[(i, j)] = if i == j {
+                1.0
+            } else if d > 0.0 {
+                cov[(i, j)] / d
+            } else {
+                0.0
+            };
+        }
+    }
+    let mut names = crate::scratch::names();
+    names.extend(indices.iter().map(|&k| layout.get(k).name));
     let mut high = Vec::new();
     for i in 0..r {
         for j in i + 1..r {
@@ -353,13 +391,17 @@ fn covariance_on(
             }
         }
     }
+    crate::scratch::give_back(factor);
     if !cov.iter().all(|v| v.is_finite()) {
         return Err(IdentifyError::NonFiniteStep {
             iteration: 0,
             what: "covariance",
         });
     }
-    let units = infos.iter().map(|i| i.unit).collect();
+    let mut units = crate::scratch::units();
+    units.extend(indices.iter().map(|&k| layout.get(k).unit));
+    let mut omitted = crate::scratch::names();
+    omitted.extend(dropped.iter().map(|&k| layout.get(free[k]).name));
     // The scratch back to the thread's pools (a rank decided by the SVD gave owned buffers:
     // they join the pools too).
     crate::scratch::give_back_indices(kept);
@@ -368,7 +410,7 @@ fn covariance_on(
     crate::scratch::give_back_matrix(cs);
     Ok(Some(Covariance {
         units,
-        omitted: dropped.iter().map(|&k| layout.get(free[k]).name).collect(),
+        omitted,
         parameters: names,
         indices,
         sigma_hat: sigma2.sqrt(),

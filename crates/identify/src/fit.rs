@@ -7,11 +7,12 @@ use serde::{Deserialize, Serialize, Serializer};
 use crate::covariance::{Covariance, covariance_at_solution};
 use crate::error::IdentifyError;
 use crate::identifiability::IdentifiabilityOptions;
-use crate::lm::{Damping, LmOptions, StopReason, TraceEntry, solve_with};
+use crate::lm::{Damping, LmOptions, LmSolution, StopReason, TraceEntry, solve_with};
 use crate::problem::{Problem, weighted_rss};
 use crate::registration::{
     RegistrationPolicy, RegistrationReport, mean_point_error, not_applied, register_base,
 };
+use crate::scratch;
 
 /// Options of [`identify`]. Defaults in brackets.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -121,6 +122,30 @@ pub struct Fit {
 }
 
 impl Fit {
+    /// Gives the fit's buffers (robot, parameters, names, estimates, trace, covariance) back
+    /// to the thread for its next solves (see [`crate::LmSolution::recycle`]).
+    pub fn recycle(self) {
+        let Fit {
+            robot,
+            params,
+            free,
+            held,
+            estimates,
+            trace,
+            covariance,
+            ..
+        } = self;
+        scratch::give_back_robot(robot);
+        scratch::give_back(params);
+        scratch::give_back_names(free);
+        scratch::give_back_names(held);
+        scratch::give_back_estimates(estimates);
+        scratch::give_back_trace(trace);
+        if let Some(c) = covariance {
+            c.recycle();
+        }
+    }
+
     /// The estimate of the named free parameter.
     pub fn estimate(&self, name: &str) -> Option<&ParamEstimate> {
         self.estimates.iter().find(|e| e.name == name)
@@ -191,32 +216,51 @@ pub fn identify(problem: &Problem, options: &IdentifyOptions) -> Result<Fit, Ide
         )
     };
     let layout = start.layout();
-    let estimates = free
-        .iter()
-        .map(|&k| {
-            let info = layout.get(k);
-            let (s, v) = (
-                info.to_display(start.param(k)),
-                info.to_display(sol.params[k]),
-            );
-            ParamEstimate {
-                name: info.name,
-                unit: info.unit,
-                start: s,
-                value: v,
-                change: v - s,
-                std_error: cov.as_ref().and_then(|c| c.std_error(&info.name)),
-            }
-        })
-        .collect();
+    let mut estimates = scratch::estimates();
+    estimates.extend(free.iter().map(|&k| {
+        let info = layout.get(k);
+        let (s, v) = (
+            info.to_display(start.param(k)),
+            info.to_display(sol.params[k]),
+        );
+        ParamEstimate {
+            name: info.name,
+            unit: info.unit,
+            start: s,
+            value: v,
+            change: v - s,
+            std_error: cov.as_ref().and_then(|c| c.std_error(&info.name)),
+        }
+    }));
     // (Without a prior there is none: the solved set is not built.)
     let posterior = problem
         .prior()
         .and_then(|_| posterior(&problem, &sol.robot, &sol.solved(&problem)));
+    let weighted_rss = match problem.prior() {
+        Some(_) => weighted_rss(&sol.robot, poses, points, problem.weights()),
+        None => sol.cost,
+    };
+    let mut free_names = scratch::names();
+    free_names.extend(free.iter().map(|&k| layout.get(k).name));
+    let mut held = scratch::names();
+    held.extend(sol.held.iter().map(|&k| layout.get(k).name));
+    let LmSolution {
+        robot,
+        params,
+        trace,
+        column_scale,
+        held: held_indices,
+        system,
+        ..
+    } = sol;
+    // (What the fit does not hand on, back to the thread's buffers.)
+    scratch::give_back(column_scale);
+    scratch::give_back_indices(held_indices);
+    drop(system);
     Ok(Fit {
-        params: sol.params,
-        free: problem.free_names(),
-        held: sol.held.iter().map(|&k| layout.get(k).name).collect(),
+        params,
+        free: free_names,
+        held,
         estimates,
         damping: options.lm.damping,
         column_scaling: options.lm.column_scaling,
@@ -224,22 +268,19 @@ pub fn identify(problem: &Problem, options: &IdentifyOptions) -> Result<Fit, Ide
         accepted_steps: sol.accepted_steps,
         stop: sol.stop,
         gradient_cosine: sol.gradient_cosine,
-        trace: sol.trace,
+        trace,
         n_poses: m,
         n_equations: 3 * m,
         initial_rms_mm: (initial_rss / m as f64).sqrt(),
         rss_mm2,
         rms_mm: (rss_mm2 / m as f64).sqrt(),
-        weighted_rss: match problem.prior() {
-            Some(_) => weighted_rss(&sol.robot, poses, points, problem.weights()),
-            None => sol.cost,
-        },
+        weighted_rss,
         posterior,
         sigma_hat: cov.as_ref().map(|c| c.sigma_hat),
         dof: cov.as_ref().map_or(0, |c| c.dof),
         covariance: cov,
         registration,
-        robot: sol.robot,
+        robot,
     })
 }
 

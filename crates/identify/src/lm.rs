@@ -434,6 +434,28 @@ pub struct LmSolution {
 }
 
 impl LmSolution {
+    /// Gives the solution's buffers (robot, parameters, trace, column scale, held set) back
+    /// to the thread for its next solves (`crate::scratch`): what a caller that runs many
+    /// solves does with one it is done with, instead of dropping it (which is always
+    /// correct too).
+    pub fn recycle(self) {
+        let LmSolution {
+            robot,
+            params,
+            trace,
+            column_scale,
+            held,
+            system,
+            ..
+        } = self;
+        scratch::give_back_robot(robot);
+        scratch::give_back(params);
+        scratch::give_back_trace(trace);
+        scratch::give_back(column_scale);
+        scratch::give_back_indices(held);
+        drop(system);
+    }
+
     /// The free parameters of `problem` that were solved (all but [`LmSolution::held`]),
     /// parameter indices ascending.
     pub fn solved(&self, problem: &Problem) -> Vec<usize> {
@@ -915,6 +937,17 @@ pub trait LeastSquares {
     /// (column scale `s`), for the small-step test.
     fn scaled_norm(&self, m: &Self::Model, s: &[f64]) -> f64;
 
+    /// A copy of `m` for the solver's trial point (the default clones it; a problem may take
+    /// it from buffers it keeps, and take it back in [`LeastSquares::retire_model`]).
+    fn copy_model(&self, m: &Self::Model) -> Self::Model {
+        m.clone()
+    }
+
+    /// The solver is done with the trial-point model `m` (the default drops it).
+    fn retire_model(&self, m: Self::Model) {
+        drop(m);
+    }
+
     /// The system at `m`, the point of an accepted step whose cost [`LeastSquares::cost`]
     /// returned as `cost_trial`, column-scaled (`S a S`, `S g`) into `sa`, `sg`; returns the
     /// cost. The default assembles it into `a`, `g` and scales it; a problem that writes
@@ -1031,6 +1064,14 @@ struct PointLs<'a, 'p, 'f> {
 impl LeastSquares for PointLs<'_, '_, '_> {
     type Model = Robot;
 
+    fn copy_model(&self, m: &Robot) -> Robot {
+        scratch::robot_like(m)
+    }
+
+    fn retire_model(&self, m: Robot) {
+        scratch::give_back_robot(m);
+    }
+
     fn n_unknowns(&self) -> usize {
         self.free.len()
     }
@@ -1126,7 +1167,13 @@ fn solve_free(
         trial_data: 0.0,
         x: std::cell::RefCell::new(scratch::with_capacity(problem.robot().n_params())),
     };
-    let sol = iterate(path, &mut ls, problem.robot().clone(), options, start);
+    let sol = iterate(
+        path,
+        &mut ls,
+        scratch::robot_like(problem.robot()),
+        options,
+        start,
+    );
     scratch::give_back(ls.x.into_inner());
     let sol = sol?;
     let system = (path == Path::Fast).then(|| {
@@ -1141,9 +1188,11 @@ fn solve_free(
             poses: scratch::copy(problem.poses_rad()),
         })
     });
+    let mut params = scratch::with_capacity(sol.model.n_params());
+    sol.model.params_into(&mut params);
     Ok(LmSolution {
         system,
-        params: sol.model.params(),
+        params,
         robot: sol.model,
         iterations: sol.iterations,
         accepted_steps: sol.accepted_steps,
@@ -1172,7 +1221,7 @@ fn iterate<P: LeastSquares>(
     let pf = problem.n_unknowns();
 
     let mut model = model;
-    let mut trial = model.clone();
+    let mut trial = problem.copy_model(&model);
 
     let (mut a, mut g, mut cost) = start;
     // A Gaussian prior (`crate::prior`): its cost joins the data's, its diagonal and gradient
@@ -1182,17 +1231,16 @@ fn iterate<P: LeastSquares>(
     }
     let initial_cost = cost;
 
-    let max_col_sq = a.diagonal().iter().fold(0.0, |m: f64, &d| m.max(d));
-    let scale: Vec<f64> = (0..pf)
-        .map(|k| {
-            let d = a[(k, k)];
-            if options.column_scaling && d > ZERO_COLUMN_RTOL_SQ * max_col_sq {
-                1.0 / d.sqrt()
-            } else {
-                1.0
-            }
-        })
-        .collect();
+    let max_col_sq = (0..pf).fold(0.0, |m: f64, k| m.max(a[(k, k)]));
+    let mut scale = scratch::with_capacity(pf);
+    scale.extend((0..pf).map(|k| {
+        let d = a[(k, k)];
+        if options.column_scaling && d > ZERO_COLUMN_RTOL_SQ * max_col_sq {
+            1.0 / d.sqrt()
+        } else {
+            1.0
+        }
+    }));
     // Scratch from the thread's pools (no allocation per solve, issue 43), zeroed as new.
     let mut sys = Scaled {
         a: scratch::zero_matrix(pf, pf),
@@ -1223,7 +1271,8 @@ fn iterate<P: LeastSquares>(
     let mut step = scratch::zero_vector(pf);
     let mut dx = scratch::zeros(pf);
     let mut a_step = scratch::zero_vector(pf);
-    let mut trace = Vec::with_capacity(options.max_iterations.min(TRACE_RESERVE));
+    let mut trace = scratch::trace();
+    trace.reserve(options.max_iterations.min(TRACE_RESERVE));
     let mut iterations = 0;
     let mut accepted_steps = 0;
     let mut rejections = 0;
@@ -1371,6 +1420,7 @@ fn iterate<P: LeastSquares>(
     scratch::give_back_vector(g);
     scratch::give_back(dx);
     scratch::give_back(pad);
+    problem.retire_model(trial);
     Ok(LsSolution {
         model,
         damping: options.damping,

@@ -4,11 +4,20 @@
 //! when they are dropped, for the next solve on the thread to refill. A buffer taken is
 //! empty or cleared and resized with zeros, as a new one would be: what it held before
 //! never reaches a result.
+//!
+//! The results a solve hands back (an [`crate::LmSolution`], a [`crate::Fit`], a
+//! [`crate::Covariance`]) are built from the same pools, and a caller that runs many solves
+//! (a campaign's trials) gives them back with their `recycle` (dropping one instead is
+//! always correct, and only costs the next solve its allocations).
 
 use std::cell::RefCell;
 use std::thread::LocalKey;
 
+use kinematics::kept::{Pool as Pool2, give_pooled, take_pooled};
+use kinematics::{ParamName, Robot, Unit};
 use nalgebra::{DMatrix, DVector};
+
+use crate::{ParamEstimate, TraceEntry};
 
 /// Buffers a pool keeps at most (a trial's solves hold about ten at once).
 const POOL_SIZE: usize = 24;
@@ -119,4 +128,88 @@ pub(crate) fn give_back_matrix(m: DMatrix<f64>) {
 /// Gives a vector's buffer back.
 pub(crate) fn give_back_vector(v: DVector<f64>) {
     give(&F64, v.data.into());
+}
+
+/// Robots, names, units, traces and estimates a thread keeps at most, each (what a trial's
+/// results hold at once: the fit's, the recovery's two solves', their covariances').
+const TYPED_POOL_SIZE: usize = 8;
+
+thread_local! {
+    static ROBOTS: Pool2<Robot> = const { Pool2::new() };
+    static NAMES: Pool2<Vec<ParamName>> = const { Pool2::new() };
+    static UNITS: Pool2<Vec<Unit>> = const { Pool2::new() };
+    static TRACES: Pool2<Vec<TraceEntry>> = const { Pool2::new() };
+    static ESTIMATES: Pool2<Vec<ParamEstimate>> = const { Pool2::new() };
+}
+
+/// An empty vector from `pool` (its room kept), or a new one.
+fn empty_vec<T: 'static>(pool: &'static LocalKey<Pool2<Vec<T>>>) -> Vec<T> {
+    let mut v = take_pooled(pool).unwrap_or_default();
+    v.clear();
+    v
+}
+
+/// Gives `v` back to `pool` (dropped when it is full or gone, or `v` is empty or larger
+/// than [`kinematics::KEPT_BUFFER_MAX_BYTES`]).
+fn give_vec<T: 'static>(pool: &'static LocalKey<Pool2<Vec<T>>>, v: Vec<T>) {
+    if kinematics::keep_buffer::<T>(v.capacity()) {
+        give_pooled(pool, TYPED_POOL_SIZE, || v);
+    }
+}
+
+/// A copy of `src` in a robot the thread kept ([`Robot`]'s `clone_from`: no allocation when
+/// it has the room), or a new copy.
+pub(crate) fn robot_like(src: &Robot) -> Robot {
+    match take_pooled(&ROBOTS) {
+        Some(mut r) => {
+            r.clone_from(src);
+            r
+        }
+        None => src.clone(),
+    }
+}
+
+/// Gives a robot back.
+pub(crate) fn give_back_robot(r: Robot) {
+    give_pooled(&ROBOTS, TYPED_POOL_SIZE, || r);
+}
+
+/// An empty list of parameter names.
+pub(crate) fn names() -> Vec<ParamName> {
+    empty_vec(&NAMES)
+}
+
+/// Gives a list of names back.
+pub(crate) fn give_back_names(v: Vec<ParamName>) {
+    give_vec(&NAMES, v);
+}
+
+/// An empty list of units.
+pub(crate) fn units() -> Vec<Unit> {
+    empty_vec(&UNITS)
+}
+
+/// Gives a list of units back.
+pub(crate) fn give_back_units(v: Vec<Unit>) {
+    give_vec(&UNITS, v);
+}
+
+/// An empty trace.
+pub(crate) fn trace() -> Vec<TraceEntry> {
+    empty_vec(&TRACES)
+}
+
+/// Gives a trace back.
+pub(crate) fn give_back_trace(v: Vec<TraceEntry>) {
+    give_vec(&TRACES, v);
+}
+
+/// An empty list of estimates.
+pub(crate) fn estimates() -> Vec<ParamEstimate> {
+    empty_vec(&ESTIMATES)
+}
+
+/// Gives a list of estimates back.
+pub(crate) fn give_back_estimates(v: Vec<ParamEstimate>) {
+    give_vec(&ESTIMATES, v);
 }

@@ -57,6 +57,15 @@ impl TrialFit {
         }
     }
 
+    /// Gives the fit's buffers back to the thread for its next trial (a point fit's
+    /// [`identify::Fit::recycle`]).
+    fn recycle(self) {
+        match self {
+            TrialFit::Points(p) => p.fit.recycle(),
+            TrialFit::Frames(_) => {}
+        }
+    }
+
     /// The fit's figures.
     fn summary(&self) -> FitSummary {
         match self {
@@ -139,6 +148,34 @@ thread_local! {
     /// ([`virtual_robot::Setup::world_into`]: every part overwritten, so a world of another
     /// campaign serves as well).
     static KEPT_WORLD: Kept<World> = const { Kept::new() };
+    /// The pose buffers of the thread's last trial ([`PoseBuffers`]).
+    static POSE_BUFFERS: Kept<PoseBuffers> = const { Kept::new() };
+}
+
+/// The poses a trial copies out of its world (which is borrowed mutably while they are
+/// measured) and the identification poses it measured, kept by the thread for its next
+/// trial.
+#[derive(Default)]
+struct PoseBuffers {
+    /// The identification poses (all the world's, or the designed selection), flat, rad.
+    identification: Vec<f64>,
+    /// The validation poses, flat, rad.
+    validation: Vec<f64>,
+    /// The identification poses that could be measured, flat, rad.
+    measured_poses: Vec<f64>,
+    /// Their measured points, mm.
+    measured_points: Vec<nalgebra::Vector3<f64>>,
+}
+
+impl PoseBuffers {
+    /// The largest buffer's capacity, bytes.
+    fn largest_bytes(&self) -> usize {
+        let f = std::mem::size_of::<f64>();
+        (self.identification.capacity() * f)
+            .max(self.validation.capacity() * f)
+            .max(self.measured_poses.capacity() * f)
+            .max(self.measured_points.capacity() * std::mem::size_of::<nalgebra::Vector3<f64>>())
+    }
 }
 
 /// Runs trial `trial` of the campaign.
@@ -159,9 +196,14 @@ pub fn run_trial(ctx: &Context, trial: u64) -> Result<TrialResult, CampaignError
         None => ctx.setup.world(trial).map_err(sim)?,
     };
 
+    // The thread's pose buffers of its last trial (given back at the end).
+    let mut bufs = take_kept(&POSE_BUFFERS).unwrap_or_default();
+
     // Identification measurements.
-    let all_id: Vec<f64> = match &ctx.design {
-        None => world.identification_poses_rad().to_vec(),
+    let all_id = &mut bufs.identification;
+    all_id.clear();
+    match &ctx.design {
+        None => all_id.extend_from_slice(world.identification_poses_rad()),
         Some((criterion, count, scale)) => {
             // Designed on the nominal model from the sampled pool, before any measurement.
             let pool = world.identification_poses_rad();
@@ -187,21 +229,30 @@ pub fn run_trial(ctx: &Context, trial: u64) -> Result<TrialResult, CampaignError
             .map_err(des)?;
             let chosen = design::select(&model, &design::DesignOptions::new(*criterion, *count))
                 .map_err(des)?;
-            chosen
-                .selected
-                .iter()
-                .flat_map(|&i| pool[i * n..(i + 1) * n].iter().copied())
-                .collect()
+            all_id.extend(
+                chosen
+                    .selected
+                    .iter()
+                    .flat_map(|&i| pool[i * n..(i + 1) * n].iter().copied()),
+            );
         }
-    };
+    }
+    let all_id = &bufs.identification[..];
     // A point fit (the paper's measurement), or a frame / multi-target fit.
-    let fit = if scenario.measurement.kind == design::Measure::Point {
+    let mut fit = if scenario.measurement.kind == design::Measure::Point {
         TrialFit::Points(Box::new(points::identify_points(
-            ctx, &mut world, &all_id, trial,
+            ctx,
+            &mut world,
+            all_id,
+            (
+                std::mem::take(&mut bufs.measured_poses),
+                std::mem::take(&mut bufs.measured_points),
+            ),
+            trial,
         )?))
     } else {
         TrialFit::Frames(Box::new(frames::identify_frames(
-            ctx, &mut world, &all_id, trial,
+            ctx, &mut world, all_id, trial,
         )?))
     };
     let mut unmeasurable = fit.unmeasurable();
@@ -214,9 +265,12 @@ pub fn run_trial(ctx: &Context, trial: u64) -> Result<TrialResult, CampaignError
     };
 
     // Validation before compensation, then after.
-    let val: Vec<f64> = world.validation_poses_rad().to_vec();
+    let val = &mut bufs.validation;
+    val.clear();
+    val.extend_from_slice(world.validation_poses_rad());
+    let val = &bufs.validation[..];
     // Sines and cosines of the validation poses, once for the four models evaluated there.
-    let val_trig = PoseTrig::for_robot(nominal, &val);
+    let val_trig = PoseTrig::for_robot(nominal, val);
     let mut before = Vec::with_capacity(val.len() / n);
     let mut measured_val = Vec::with_capacity(val.len() / n);
     for (j, q) in val.chunks_exact(n).enumerate() {
@@ -309,6 +363,15 @@ pub fn run_trial(ctx: &Context, trial: u64) -> Result<TrialResult, CampaignError
         None => (None, 0),
     };
 
+    let fit_summary = fit.summary();
+    if let TrialFit::Points(p) = &mut fit {
+        bufs.measured_poses = std::mem::take(&mut p.poses_rad);
+        bufs.measured_points = std::mem::take(&mut p.points_mm);
+    }
+    fit.recycle();
+    if bufs.largest_bytes() <= kinematics::KEPT_BUFFER_MAX_BYTES {
+        keep(&POSE_BUFFERS, bufs);
+    }
     // Kept for the thread's next trial when its buffers are within
     // `kinematics::KEPT_BUFFER_MAX_BYTES` (a larger one is dropped, as before).
     if world.largest_buffer_bytes() <= kinematics::KEPT_BUFFER_MAX_BYTES {
@@ -324,7 +387,7 @@ pub fn run_trial(ctx: &Context, trial: u64) -> Result<TrialResult, CampaignError
         compensation_failures,
         iso_compensation_failures,
         pose_rejection_rate,
-        fit: fit.summary(),
+        fit: fit_summary,
         predicted_error_mm,
         recovery,
         observability,

@@ -30,19 +30,23 @@ pub(super) struct PointIdentification {
     pub free: Vec<usize>,
 }
 
-/// Measures `poses_rad` (flat) one point per pose and identifies.
+/// Measures `poses_rad` (flat) one point per pose and identifies; the measured poses and
+/// points are written into `(id_poses, id_points)` (cleared first), which the result holds.
 pub(super) fn identify_points(
     ctx: &Context,
     world: &mut World,
     poses_rad: &[f64],
+    (mut id_poses, mut id_points): (Vec<f64>, Vec<Vector3<f64>>),
     trial: u64,
 ) -> Result<PointIdentification, CampaignError> {
     let scenario = &ctx.loaded.scenario;
     let n = ctx.nominal().n_joints();
     let ident = |source| CampaignError::Identify { trial, source };
     let mut unmeasurable = 0;
-    let mut id_poses = Vec::with_capacity(poses_rad.len());
-    let mut id_points = Vec::with_capacity(poses_rad.len() / n.max(1));
+    id_poses.clear();
+    id_poses.reserve(poses_rad.len());
+    id_points.clear();
+    id_points.reserve(poses_rad.len() / n.max(1));
     for q in poses_rad.chunks_exact(n) {
         match world.measure(q) {
             Ok(p) => {
@@ -111,17 +115,42 @@ impl PointIdentification {
 }
 
 /// Re-expresses a robot's geometry in the minimal parameter set: the minimal-set model that
-/// reproduces `model`'s points on `poses` (noise-free fit from the nominal model).
+/// reproduces `model`'s points on `poses` (noise-free fit from the nominal model), and, with
+/// `measured`, its covariance with those measurements at that solution (reusing the normal
+/// matrix the solver assembled there).
 fn reexpress(
-    nominal: &Robot,
+    ctx: &Context,
     model: &Robot,
     poses_rad: &[f64],
-    free: &[usize],
-    lm: &identify::LmOptions,
-) -> Result<Vec<f64>, identify::IdentifyError> {
-    let points = model.points(poses_rad);
-    let problem = Problem::from_slices(nominal, poses_rad, &points, free)?;
-    Ok(identify::solve(&problem, lm)?.params)
+    measured: Option<&[Vector3<f64>]>,
+) -> Result<(identify::LmSolution, Option<Covariance>), identify::IdentifyError> {
+    // The model's points in the thread's buffer of the last trial.
+    with_kept(&POINTS, |points| {
+        points.clear();
+        points.extend(
+            poses_rad
+                .chunks_exact(model.n_joints())
+                .map(|q| model.point(q)),
+        );
+        let problem = Problem::from_slices(&ctx.id_nominal, poses_rad, points, &ctx.recovery_free)?;
+        let sol = identify::solve(&problem, &ctx.id_options.lm)?;
+        let cov = match measured {
+            Some(measured) => identify::covariance_at_solution(
+                &problem,
+                &sol,
+                measured,
+                &ctx.id_options.identifiability,
+                ctx.id_options.correlation_flag,
+            )?,
+            None => None,
+        };
+        Ok((sol, cov))
+    })
+}
+
+thread_local! {
+    /// The points [`reexpress`] fits, kept by the thread for its next trial.
+    static POINTS: Kept<Vec<Vector3<f64>>> = const { Kept::new() };
 }
 
 /// Observability indices O1–O5 (`docs/model.md` §6) of a trial's identification poses: on the
@@ -201,64 +230,59 @@ fn recovery(
     poses: &[f64],
     measured: &[Vector3<f64>],
 ) -> Result<Vec<ParameterRecovery>, identify::IdentifyError> {
-    let nominal = &ctx.id_nominal;
     let free = &ctx.recovery_free;
-    let lm = &ctx.id_options.lm;
-    let truth_min = reexpress(nominal, truth, poses, free, lm)?;
-    let layout = nominal.layout();
+    let (truth_min, _) = reexpress(ctx, truth, poses, None)?;
+    let layout = ctx.id_nominal.layout();
     // A fit from the nominal model that solved exactly the minimal set (its other free
     // parameters held, or none) is its own re-expression, with its own covariance.
-    let solved: Vec<usize> = fit
-        .free
-        .iter()
-        .filter(|n| !fit.held.contains(n))
-        .filter_map(|n| layout.index_of(n).ok())
-        .collect();
-    let registered = fit.registration.as_ref().is_some_and(|r| r.applied);
-    // Borrowed when the fit is its own re-expression (no copy of its covariance's names
-    // and matrices: issue 43's allocations).
-    let (est_min, cov): (Cow<[f64]>, Option<Cow<Covariance>>) = if !registered && solved == *free {
-        (
-            Cow::Borrowed(&fit.params),
-            fit.covariance.as_ref().map(Cow::Borrowed),
-        )
+    let own = fit.registration.as_ref().is_none_or(|r| !r.applied)
+        && fit
+            .free
+            .iter()
+            .filter(|n| !fit.held.contains(n))
+            .filter_map(|n| layout.index_of(n).ok())
+            .eq(free.iter().copied());
+    // Otherwise the estimate's re-expression, with its covariance.
+    let reexpressed = if own {
+        None
     } else {
-        // The estimate's re-expression, then its covariance with the trial's measurements
-        // at that solution (reusing the normal matrix the solver assembled there).
-        let est_points = fit.robot.points(poses);
-        let est_problem = Problem::from_slices(nominal, poses, &est_points, free)?;
-        let est = identify::solve(&est_problem, lm)?;
-        let cov = identify::covariance_at_solution(
-            &est_problem,
-            &est,
-            measured,
-            &ctx.id_options.identifiability,
-            ctx.id_options.correlation_flag,
-        )?;
-        (Cow::Owned(est.params), cov.map(Cow::Owned))
+        Some(reexpress(ctx, &fit.robot, poses, Some(measured))?)
     };
-    let Some(cov) = cov else {
-        return Ok(Vec::new());
+    let (est_min, cov) = match &reexpressed {
+        None => (&fit.params, fit.covariance.as_ref()),
+        Some((est, cov)) => (&est.params, cov.as_ref()),
     };
-    Ok(cov
-        .indices
-        .iter()
-        .zip(&cov.std_errors)
-        .map(|(&k, &se)| {
-            let info = layout.get(k);
-            let t = info.to_display(truth_min[k]);
-            let e = info.to_display(est_min[k]);
-            ParameterRecovery {
-                name: Cow::Borrowed(info.name.as_str()),
-                unit: Cow::Borrowed(info.unit.as_str()),
-                truth: t,
-                estimate: e,
-                error: e - t,
-                std_error: se,
-                z: if se > 0.0 { (e - t) / se } else { f64::NAN },
-            }
-        })
-        .collect())
+    let rows = match cov {
+        None => Vec::new(),
+        Some(cov) => cov
+            .indices
+            .iter()
+            .zip(&cov.std_errors)
+            .map(|(&k, &se)| {
+                let info = layout.get(k);
+                let t = info.to_display(truth_min.params[k]);
+                let e = info.to_display(est_min[k]);
+                ParameterRecovery {
+                    name: Cow::Borrowed(info.name.as_str()),
+                    unit: Cow::Borrowed(info.unit.as_str()),
+                    truth: t,
+                    estimate: e,
+                    error: e - t,
+                    std_error: se,
+                    z: if se > 0.0 { (e - t) / se } else { f64::NAN },
+                }
+            })
+            .collect(),
+    };
+    // The solutions' buffers back to the thread for the next trial.
+    truth_min.recycle();
+    if let Some((est, cov)) = reexpressed {
+        est.recycle();
+        if let Some(cov) = cov {
+            cov.recycle();
+        }
+    }
+    Ok(rows)
 }
 
 #[cfg(test)]
