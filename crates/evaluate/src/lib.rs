@@ -42,7 +42,7 @@ pub use iso9283::{
 };
 pub use recovery::{ParameterRecovery, ZSummary, score_recovery, summarize_z};
 pub use stats::{
-    AxisImprovement, AxisStats, ErrorStats, StatsImprovement, Table4, error_stats,
+    AxisImprovement, AxisStats, ErrorStats, StatsImprovement, Table4, error_stats, error_stats_in,
     error_stats_vectors, error_vectors_mm, improvement_pct, mean, norms, percentile_linear,
 };
 

@@ -85,6 +85,12 @@ pub struct ErrorStats {
 /// [`EvalError::Empty`] if `errors_mm` is empty; [`EvalError::NonFinite`] (with the row
 /// index) if any component is NaN or infinite.
 pub fn error_stats(errors_mm: &[[f64; 3]]) -> Result<ErrorStats> {
+    error_stats_in(errors_mm, &mut Vec::with_capacity(errors_mm.len()))
+}
+
+/// [`error_stats`] with the caller's buffer for the series (cleared first; no allocation
+/// once it has the room: a campaign's trials keep one).
+pub fn error_stats_in(errors_mm: &[[f64; 3]], scratch: &mut Vec<f64>) -> Result<ErrorStats> {
     const WHAT: &str = "error vectors";
     if errors_mm.is_empty() {
         return Err(EvalError::Empty { what: WHAT });
@@ -99,14 +105,13 @@ pub fn error_stats(errors_mm: &[[f64; 3]]) -> Result<ErrorStats> {
         }
     }
     // One buffer for the four series, each sorted in place once its sums are taken.
-    let mut scratch = Vec::with_capacity(errors_mm.len());
     let mut axis = |k: usize| {
         scratch.clear();
         scratch.extend(errors_mm.iter().map(|e| match k {
             3 => norm3(e),
             _ => e[k].abs(),
         }));
-        AxisStats::from_scratch(&mut scratch)
+        AxisStats::from_scratch(scratch)
     };
     Ok(ErrorStats {
         count: errors_mm.len(),
@@ -281,9 +286,18 @@ impl Table4 {
     /// # Errors
     /// As [`error_stats`] for either set.
     pub fn from_errors(before_mm: &[[f64; 3]], after_mm: &[[f64; 3]]) -> Result<Self> {
+        Self::from_errors_in(before_mm, after_mm, &mut Vec::new())
+    }
+
+    /// [`Table4::from_errors`] with the caller's buffer for the series ([`error_stats_in`]).
+    pub fn from_errors_in(
+        before_mm: &[[f64; 3]],
+        after_mm: &[[f64; 3]],
+        scratch: &mut Vec<f64>,
+    ) -> Result<Self> {
         Ok(Self {
-            before: error_stats(before_mm)?,
-            after: error_stats(after_mm)?,
+            before: error_stats_in(before_mm, scratch)?,
+            after: error_stats_in(after_mm, scratch)?,
         })
     }
 

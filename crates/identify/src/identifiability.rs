@@ -761,8 +761,13 @@ pub(crate) fn redundant_positions(
     // redundant columns (relative squared distance from the span of the columns of higher
     // priority < 1e-11) and zero ones are dropped. Anything closer to the thresholds goes to
     // the SVD on the stacked Jacobian.
+    // (From the thread's pool: the caller gives it back.)
     let dropped = match greedy_cholesky(a, &priority) {
-        Some(gr) => (0..pf).filter(|k| !gr.kp.contains(k)).collect(),
+        Some(gr) => {
+            let mut d = scratch::indices(pf);
+            d.extend((0..pf).filter(|k| !gr.kp.contains(k)));
+            d
+        }
         None => {
             let trig = PoseTrig::for_robot(robot, poses_rad);
             let mut j = DMatrix::zeros(3 * m, pf);

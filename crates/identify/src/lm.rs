@@ -868,10 +868,13 @@ fn solve_speculating(
         // Every column zero (nothing moves the points) is left to the damped solve, which
         // stops on its gradient test at once.
         if !dropped.is_empty() && dropped.len() < pf {
-            let held: Vec<usize> = dropped.iter().map(|&d| free[d]).collect();
+            let mut held = scratch::indices(dropped.len());
+            held.extend(dropped.iter().map(|&d| free[d]));
             let mut kept = scratch::indices(pf);
             kept.extend((0..pf).filter(|c| !dropped.contains(c)));
-            let solved: Vec<usize> = kept.iter().map(|&c| free[c]).collect();
+            scratch::give_back_indices(dropped);
+            let mut solved = scratch::indices(kept.len());
+            solved.extend(kept.iter().map(|&c| free[c]));
             let reduced = problem.with_free(solved);
             // The start system of the solved columns is a block of the one just assembled.
             let pk = kept.len();
@@ -891,6 +894,7 @@ fn solve_speculating(
             sol.held = held;
             return Ok(sol);
         }
+        scratch::give_back_indices(dropped);
     }
     solve_free(path, problem, options, &mut asm, (a, g, cost))
 }

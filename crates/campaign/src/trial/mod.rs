@@ -165,6 +165,8 @@ struct PoseBuffers {
     measured_poses: Vec<f64>,
     /// Their measured points, mm.
     measured_points: Vec<nalgebra::Vector3<f64>>,
+    /// Table 4's series ([`evaluate::Table4::from_errors_in`]).
+    series: Vec<f64>,
 }
 
 impl PoseBuffers {
@@ -174,6 +176,7 @@ impl PoseBuffers {
         (self.identification.capacity() * f)
             .max(self.validation.capacity() * f)
             .max(self.measured_poses.capacity() * f)
+            .max(self.series.capacity() * f)
             .max(self.measured_points.capacity() * std::mem::size_of::<nalgebra::Vector3<f64>>())
     }
 }
@@ -313,7 +316,7 @@ pub fn run_trial(ctx: &Context, trial: u64) -> Result<TrialResult, CampaignError
         }
         None => None,
     };
-    let table4 = Table4::from_errors(&before, &after).map_err(eval)?;
+    let table4 = Table4::from_errors_in(&before, &after, &mut bufs.series).map_err(eval)?;
 
     // Geometry recovery: identified vs true geometry on the validation poses (the truth
     // borrowed from the world until the ISO test measures again).
