@@ -256,7 +256,7 @@ pub fn identify(problem: &Problem, options: &IdentifyOptions) -> Result<Fit, Ide
     // (What the fit does not hand on, back to the thread's buffers.)
     scratch::give_back(column_scale);
     scratch::give_back_indices(held_indices);
-    drop(system);
+    crate::lm::give_back_system(system);
     Ok(Fit {
         params,
         free: free_names,

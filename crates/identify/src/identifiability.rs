@@ -950,18 +950,39 @@ impl ParamSet {
         weights: Option<&[f64]>,
         opts: &IdentifiabilityOptions,
     ) -> Result<Vec<usize>, IdentifyError> {
-        match self {
-            ParamSet::Paper => Ok((0..robot.n_params()).collect()),
+        let mut out = Vec::new();
+        self.resolve_into(robot, poses_rad, weights, opts, &mut out)?;
+        Ok(out)
+    }
+
+    /// [`ParamSet::resolve`] written into `out` (the paper's set without allocation once
+    /// `out` has the room: what a campaign's trials resolve; the others replace `out`). On
+    /// `Err`, `out` is unchanged.
+    pub fn resolve_into(
+        &self,
+        robot: &Robot,
+        poses_rad: &[f64],
+        weights: Option<&[f64]>,
+        opts: &IdentifiabilityOptions,
+        out: &mut Vec<usize>,
+    ) -> Result<(), IdentifyError> {
+        *out = match self {
+            ParamSet::Paper => {
+                out.clear();
+                out.extend(0..robot.n_params());
+                return Ok(());
+            }
             ParamSet::Minimal => {
                 let all: Vec<usize> = (0..robot.n_params()).collect();
-                Ok(analyze(robot, poses_rad, weights, &all, opts)?.identifiable_indices)
+                analyze(robot, poses_rad, weights, &all, opts)?.identifiable_indices
             }
             ParamSet::Names(names) => {
                 if names.is_empty() {
                     return Err(IdentifyError::NoFreeParameters);
                 }
-                Ok(robot.layout().select(names)?)
+                robot.layout().select(names)?
             }
-        }
+        };
+        Ok(())
     }
 }

@@ -453,7 +453,7 @@ impl LmSolution {
         scratch::give_back_trace(trace);
         scratch::give_back(column_scale);
         scratch::give_back_indices(held);
-        drop(system);
+        give_back_system(system);
     }
 
     /// The free parameters of `problem` that were solved (all but [`LmSolution::held`]),
@@ -485,6 +485,51 @@ pub(crate) struct FinalSystem {
     pub free: Vec<usize>,
     pub weights: Option<Vec<f64>>,
     pub poses: Vec<f64>,
+}
+
+thread_local! {
+    /// Emptied final systems' shared boxes, refilled by the thread's next solves (issue 43).
+    static SYSTEMS: kinematics::kept::Pool<Arc<FinalSystem>> =
+        const { kinematics::kept::Pool::new() };
+}
+
+impl FinalSystem {
+    /// A system without buffers (nothing allocated).
+    fn empty() -> Self {
+        FinalSystem {
+            trig: PoseTrig::default(),
+            a: DMatrix::zeros(0, 0),
+            free: Vec::new(),
+            weights: None,
+            poses: Vec::new(),
+        }
+    }
+
+    /// `self` in a shared box, one the thread kept if it has one ([`give_back_system`]).
+    fn shared(self) -> Arc<FinalSystem> {
+        match kinematics::kept::take_pooled(&SYSTEMS) {
+            Some(mut arc) => match Arc::get_mut(&mut arc) {
+                Some(slot) => {
+                    *slot = self;
+                    arc
+                }
+                None => Arc::new(self),
+            },
+            None => Arc::new(self),
+        }
+    }
+}
+
+/// Gives a solution's final system back: its buffers to the thread's pools and, when no one
+/// else holds it, its shared box for the next solve's ([`FinalSystem::shared`]).
+pub(crate) fn give_back_system(system: Option<Arc<FinalSystem>>) {
+    if let Some(mut arc) = system
+        && let Some(fs) = Arc::get_mut(&mut arc)
+    {
+        // (The old contents drop here: their buffers go back to the pools.)
+        *fs = FinalSystem::empty();
+        kinematics::kept::give_pooled(&SYSTEMS, 4, || arc);
+    }
 }
 
 impl Drop for FinalSystem {
@@ -1184,13 +1229,14 @@ fn solve_free(
         // Without an accepted step the normal matrix is still the start system (on a subset
         // of the free parameters, a block of the one assembled on all of them: the same
         // bits, each entry being its own sum).
-        Arc::new(FinalSystem {
+        FinalSystem {
             trig: std::mem::take(&mut asm.trig),
             a: sol.normal_matrix,
             free: scratch::copy_indices(free),
             weights: problem.weights().map(scratch::copy),
             poses: scratch::copy(problem.poses_rad()),
-        })
+        }
+        .shared()
     });
     let mut params = scratch::with_capacity(sol.model.n_params());
     sol.model.params_into(&mut params);

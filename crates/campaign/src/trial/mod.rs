@@ -167,6 +167,8 @@ struct PoseBuffers {
     measured_points: Vec<nalgebra::Vector3<f64>>,
     /// Table 4's series ([`evaluate::Table4::from_errors_in`]).
     series: Vec<f64>,
+    /// The identification's free set.
+    free: Vec<usize>,
 }
 
 impl PoseBuffers {
@@ -177,6 +179,7 @@ impl PoseBuffers {
             .max(self.validation.capacity() * f)
             .max(self.measured_poses.capacity() * f)
             .max(self.series.capacity() * f)
+            .max(self.free.capacity() * std::mem::size_of::<usize>())
             .max(self.measured_points.capacity() * std::mem::size_of::<nalgebra::Vector3<f64>>())
     }
 }
@@ -250,6 +253,7 @@ pub fn run_trial(ctx: &Context, trial: u64) -> Result<TrialResult, CampaignError
             (
                 std::mem::take(&mut bufs.measured_poses),
                 std::mem::take(&mut bufs.measured_points),
+                std::mem::take(&mut bufs.free),
             ),
             trial,
         )?))
@@ -370,6 +374,7 @@ pub fn run_trial(ctx: &Context, trial: u64) -> Result<TrialResult, CampaignError
     if let TrialFit::Points(p) = &mut fit {
         bufs.measured_poses = std::mem::take(&mut p.poses_rad);
         bufs.measured_points = std::mem::take(&mut p.points_mm);
+        bufs.free = std::mem::take(&mut p.free);
     }
     fit.recycle();
     if bufs.largest_bytes() <= kinematics::KEPT_BUFFER_MAX_BYTES {

@@ -31,12 +31,13 @@ pub(super) struct PointIdentification {
 }
 
 /// Measures `poses_rad` (flat) one point per pose and identifies; the measured poses and
-/// points are written into `(id_poses, id_points)` (cleared first), which the result holds.
+/// points and the free set are written into `(id_poses, id_points, free)` (cleared first),
+/// which the result holds.
 pub(super) fn identify_points(
     ctx: &Context,
     world: &mut World,
     poses_rad: &[f64],
-    (mut id_poses, mut id_points): (Vec<f64>, Vec<Vector3<f64>>),
+    (mut id_poses, mut id_points, mut free): (Vec<f64>, Vec<Vector3<f64>>, Vec<usize>),
     trial: u64,
 ) -> Result<PointIdentification, CampaignError> {
     let scenario = &ctx.loaded.scenario;
@@ -56,14 +57,15 @@ pub(super) fn identify_points(
             Err(_) => unmeasurable += 1,
         }
     }
-    let free = scenario
+    scenario
         .identification
         .params
-        .resolve(
+        .resolve_into(
             &ctx.id_nominal,
             &id_poses,
             None,
             &scenario.identification.identifiability,
+            &mut free,
         )
         .map_err(ident)?;
     let problem =
