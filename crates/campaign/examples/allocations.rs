@@ -26,12 +26,12 @@ fn main() {
         loaded.scenario.iso.enabled = iso;
         let ctx = Context::new(loaded).expect("context");
         for trial in 0..20 {
-            run_trial(&ctx, trial).expect("trial");
+            run_trial(&ctx, trial).expect("trial").recycle();
         }
         let (a0, b0) = counting::counts();
         let trials = 200;
         for trial in 20..20 + trials {
-            std::hint::black_box(run_trial(&ctx, trial).expect("trial"));
+            std::hint::black_box(run_trial(&ctx, trial).expect("trial")).recycle();
         }
         let (a1, b1) = counting::counts();
         let (a, b) = (a1 - a0, b1 - b0);

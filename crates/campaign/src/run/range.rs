@@ -325,7 +325,11 @@ pub fn run_range_until(
         // panic propagates out of `for_each` and the slots are dropped.
         let mut agg = slots[slot].lock().unwrap_or_else(|e| e.into_inner());
         match result {
-            Ok(r) => agg.add(&r),
+            Ok(r) => {
+                agg.add(&r);
+                // Its series back to the thread for its next trial.
+                r.recycle();
+            }
             Err(e) => {
                 // Count by cause, not by trial: drop the "trial N: " prefix.
                 let msg = e.to_string();

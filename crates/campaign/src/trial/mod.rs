@@ -97,7 +97,7 @@ fn compensated_errors(
     let scenario = &ctx.loaded.scenario;
     let nominal = ctx.nominal();
     let ik = scenario.compensation.ik_options();
-    let (mut after, mut failures, mut unmeasurable) = (Vec::with_capacity(measured.len()), 0, 0);
+    let (mut after, mut failures, mut unmeasurable) = (result::error_series(measured.len()), 0, 0);
     if !scenario.compensation.enabled {
         let predicted = match model {
             Some(m) => {
@@ -278,7 +278,7 @@ pub fn run_trial(ctx: &Context, trial: u64) -> Result<TrialResult, CampaignError
     let val = &bufs.validation[..];
     // Sines and cosines of the validation poses, once for the four models evaluated there.
     let val_trig = PoseTrig::for_robot(nominal, val);
-    let mut before = Vec::with_capacity(val.len() / n);
+    let mut before = result::error_series(val.len() / n);
     let mut measured_val = Vec::with_capacity(val.len() / n);
     for (j, q) in val.chunks_exact(n).enumerate() {
         match world.measure(q) {

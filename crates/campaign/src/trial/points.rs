@@ -256,11 +256,9 @@ fn recovery(
     };
     let rows = match cov {
         None => Vec::new(),
-        Some(cov) => cov
-            .indices
-            .iter()
-            .zip(&cov.std_errors)
-            .map(|(&k, &se)| {
+        Some(cov) => {
+            let mut rows = super::result::recovery_rows(cov.indices.len());
+            rows.extend(cov.indices.iter().zip(&cov.std_errors).map(|(&k, &se)| {
                 let info = layout.get(k);
                 let t = info.to_display(truth_min.params[k]);
                 let e = info.to_display(est_min[k]);
@@ -273,8 +271,9 @@ fn recovery(
                     std_error: se,
                     z: if se > 0.0 { (e - t) / se } else { f64::NAN },
                 }
-            })
-            .collect(),
+            }));
+            rows
+        }
     };
     // The solutions' buffers back to the thread for the next trial.
     truth_min.recycle();

@@ -3,6 +3,7 @@
 
 use evaluate::{AxisStats, IsoReport, ParameterRecovery, Table4};
 use identify::{Observability, StopReason};
+use kinematics::kept::{Pool, give_pooled, take_pooled};
 use serde::{Deserialize, Serialize};
 
 /// A stop on a small step or a small cost change with the gradient cosine at the solution
@@ -82,6 +83,52 @@ pub struct TrialResult {
     /// The learned residual model's outcome (scenario `residual_model`; absent without it).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub residual: Option<ResidualTrial>,
+}
+
+thread_local! {
+    /// Error series of recycled trial results ([`TrialResult::recycle`]).
+    static ERRORS: Pool<Vec<[f64; 3]>> = const { Pool::new() };
+    /// Recovery rows of recycled trial results.
+    static RECOVERY: Pool<Vec<ParameterRecovery>> = const { Pool::new() };
+}
+
+/// Error series and recovery row lists a thread keeps (a trial's result holds three).
+const RESULT_POOL_SIZE: usize = 4;
+
+/// An empty error series with room for `len` (one a recycled result gave back, if the thread
+/// has one).
+pub(super) fn error_series(len: usize) -> Vec<[f64; 3]> {
+    let mut v = take_pooled(&ERRORS).unwrap_or_default();
+    v.clear();
+    v.reserve(len);
+    v
+}
+
+/// An empty list of recovery rows (as [`error_series`]).
+pub(super) fn recovery_rows(len: usize) -> Vec<ParameterRecovery> {
+    let mut v = take_pooled(&RECOVERY).unwrap_or_default();
+    v.clear();
+    v.reserve(len);
+    v
+}
+
+impl TrialResult {
+    /// Gives the result's series (errors before and after, recovery rows) back to the thread
+    /// for its next trial, once the caller has taken what it needs (a campaign's aggregate
+    /// does); dropping the result instead stays correct.
+    pub fn recycle(self) {
+        let keep = |v: &Vec<[f64; 3]>| kinematics::keep_buffer::<[f64; 3]>(v.capacity());
+        for v in [self.before_mm, self.after_mm] {
+            if keep(&v) {
+                give_pooled(&ERRORS, RESULT_POOL_SIZE, || v);
+            }
+        }
+        let mut rows = self.recovery;
+        if kinematics::keep_buffer::<ParameterRecovery>(rows.capacity()) {
+            rows.clear();
+            give_pooled(&RECOVERY, RESULT_POOL_SIZE, || rows);
+        }
+    }
 }
 
 /// What the learned residual model did in one trial (scenario `residual_model`,
