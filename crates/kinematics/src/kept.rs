@@ -34,8 +34,10 @@ use std::thread::LocalKey;
 /// trial of about 2,700 poses of six joints. Larger ones are freed as before: their
 /// allocation is negligible next to the work that fills them, and keeping them would raise
 /// the peak memory of large identifications (a 200,000-pose trial's sines and cosines are
-/// tens of MB). With about seventy buffers kept (`identify`'s pools of 24 and 24, four
-/// `PoseTrig`s of four, a few more), a thread holds at most about 18 MB this way. The normal
+/// tens of MB). With about 150 buffers kept (`identify`'s pools of 24 and 24 and its typed
+/// pools of 8, four `PoseTrig`s of four, a campaign's world and pose buffers, its results'
+/// series, a few more), a thread holds at most about 40 MB this way, and in practice a
+/// trial's sizes (hundreds of kB for the paper's scenario). The normal
 /// equations' block buffers are the exception: kept at any size, four a thread, as before (a
 /// large pose set's is reused by its next solve rather than allocated again).
 pub const KEPT_BUFFER_MAX_BYTES: usize = 1 << 18;

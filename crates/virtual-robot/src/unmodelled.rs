@@ -547,10 +547,17 @@ impl Clone for Unmodelled {
     /// The shared parts by reference count, the gear terms into `self`'s vector (no
     /// allocation once it has the room).
     fn clone_from(&mut self, source: &Self) {
-        self.compliance.clone_from(&source.compliance);
-        self.gears.clone_from(&source.gears);
-        self.scatter_sigma_mm = source.scatter_sigma_mm;
-        self.drift_per_move.clone_from(&source.drift_per_move);
+        // (Every field named: a new one is a compile error here, not a stale copy.)
+        let Unmodelled {
+            compliance,
+            gears,
+            scatter_sigma_mm,
+            drift_per_move,
+        } = source;
+        self.compliance.clone_from(compliance);
+        self.gears.clone_from(gears);
+        self.scatter_sigma_mm = *scatter_sigma_mm;
+        self.drift_per_move.clone_from(drift_per_move);
     }
 }
 

@@ -146,7 +146,8 @@ fn compensated_errors(
 thread_local! {
     /// The virtual robot of the thread's last trial, refilled by its next one
     /// ([`virtual_robot::Setup::world_into`]: every part overwritten, so a world of another
-    /// campaign serves as well).
+    /// campaign serves as well; until then it holds that campaign's shared configuration and
+    /// scaling poses).
     static KEPT_WORLD: Kept<World> = const { Kept::new() };
     /// The pose buffers of the thread's last trial ([`PoseBuffers`]).
     static POSE_BUFFERS: Kept<PoseBuffers> = const { Kept::new() };

@@ -134,20 +134,35 @@ fn reexpress(
                 .chunks_exact(model.n_joints())
                 .map(|q| model.point(q)),
         );
-        let problem = Problem::from_slices(&ctx.id_nominal, poses_rad, points, &ctx.recovery_free)?;
-        let sol = identify::solve(&problem, &ctx.id_options.lm)?;
-        let cov = match measured {
-            Some(measured) => identify::covariance_at_solution(
-                &problem,
-                &sol,
-                measured,
-                &ctx.id_options.identifiability,
-                ctx.id_options.correlation_flag,
-            )?,
-            None => None,
-        };
-        Ok((sol, cov))
+        let result = solve_on_points(ctx, poses_rad, points, measured);
+        // (A large pose set's buffer is not kept: `kinematics::KEPT_BUFFER_MAX_BYTES`.)
+        if !kinematics::keep_buffer::<Vector3<f64>>(points.capacity()) {
+            *points = Vec::new();
+        }
+        result
     })
+}
+
+/// [`reexpress`]'s solve (and covariance, with `measured`) on the model's `points`.
+fn solve_on_points(
+    ctx: &Context,
+    poses_rad: &[f64],
+    points: &[Vector3<f64>],
+    measured: Option<&[Vector3<f64>]>,
+) -> Result<(identify::LmSolution, Option<Covariance>), identify::IdentifyError> {
+    let problem = Problem::from_slices(&ctx.id_nominal, poses_rad, points, &ctx.recovery_free)?;
+    let sol = identify::solve(&problem, &ctx.id_options.lm)?;
+    let cov = match measured {
+        Some(measured) => identify::covariance_at_solution(
+            &problem,
+            &sol,
+            measured,
+            &ctx.id_options.identifiability,
+            ctx.id_options.correlation_flag,
+        )?,
+        None => None,
+    };
+    Ok((sol, cov))
 }
 
 thread_local! {
