@@ -13,7 +13,7 @@
 use std::cell::RefCell;
 use std::thread::LocalKey;
 
-use kinematics::kept::{Pool as Pool2, give_pooled, take_pooled};
+use kinematics::kept::{Pool as Pool2, give_pooled, take_pooled, take_vec};
 use kinematics::{ParamName, Robot, Unit};
 use nalgebra::{DMatrix, DVector};
 
@@ -142,19 +142,9 @@ thread_local! {
     static ESTIMATES: Pool2<Vec<ParamEstimate>> = const { Pool2::new() };
 }
 
-/// An empty vector from `pool` (its room kept), or a new one.
-fn empty_vec<T: 'static>(pool: &'static LocalKey<Pool2<Vec<T>>>) -> Vec<T> {
-    let mut v = take_pooled(pool).unwrap_or_default();
-    v.clear();
-    v
-}
-
-/// Gives `v` back to `pool` (dropped when it is full or gone, or `v` is empty or larger
-/// than [`kinematics::KEPT_BUFFER_MAX_BYTES`]).
+/// Gives `v` back to `pool` (of [`TYPED_POOL_SIZE`]).
 fn give_vec<T: 'static>(pool: &'static LocalKey<Pool2<Vec<T>>>, v: Vec<T>) {
-    if kinematics::keep_buffer::<T>(v.capacity()) {
-        give_pooled(pool, TYPED_POOL_SIZE, || v);
-    }
+    kinematics::kept::give_vec(pool, TYPED_POOL_SIZE, v);
 }
 
 /// A copy of `src` in a robot the thread kept ([`Robot`]'s `clone_from`: no allocation when
@@ -176,7 +166,7 @@ pub(crate) fn give_back_robot(r: Robot) {
 
 /// An empty list of parameter names.
 pub(crate) fn names() -> Vec<ParamName> {
-    empty_vec(&NAMES)
+    take_vec(&NAMES)
 }
 
 /// Gives a list of names back.
@@ -186,7 +176,7 @@ pub(crate) fn give_back_names(v: Vec<ParamName>) {
 
 /// An empty list of units.
 pub(crate) fn units() -> Vec<Unit> {
-    empty_vec(&UNITS)
+    take_vec(&UNITS)
 }
 
 /// Gives a list of units back.
@@ -196,7 +186,7 @@ pub(crate) fn give_back_units(v: Vec<Unit>) {
 
 /// An empty trace.
 pub(crate) fn trace() -> Vec<TraceEntry> {
-    empty_vec(&TRACES)
+    take_vec(&TRACES)
 }
 
 /// Gives a trace back.
@@ -206,7 +196,7 @@ pub(crate) fn give_back_trace(v: Vec<TraceEntry>) {
 
 /// An empty list of estimates.
 pub(crate) fn estimates() -> Vec<ParamEstimate> {
-    empty_vec(&ESTIMATES)
+    take_vec(&ESTIMATES)
 }
 
 /// Gives a list of estimates back.

@@ -137,6 +137,22 @@ pub fn give_pooled<T: 'static>(
     });
 }
 
+/// An empty vector from a pool of vectors (its room kept; cleared: what it held never
+/// shows), or a new one.
+pub fn take_vec<T: 'static>(pool: &'static LocalKey<Pool<Vec<T>>>) -> Vec<T> {
+    let mut v = take_pooled(pool).unwrap_or_default();
+    v.clear();
+    v
+}
+
+/// Gives `v` to a pool of vectors holding at most `max` ([`give_pooled`]), unless it is
+/// empty or larger than [`KEPT_BUFFER_MAX_BYTES`] ([`keep_buffer`]).
+pub fn give_vec<T: 'static>(pool: &'static LocalKey<Pool<Vec<T>>>, max: usize, v: Vec<T>) {
+    if keep_buffer::<T>(v.capacity()) {
+        give_pooled(pool, max, || v);
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -162,6 +178,22 @@ mod tests {
         assert!(inner.is_empty());
         assert_eq!(take_kept(&SLOT), Some(vec![]));
         assert_eq!(take_kept(&SLOT), None);
+    }
+
+    /// A pooled vector comes back empty with its room; an empty or an oversized one is
+    /// not kept.
+    #[test]
+    fn a_pool_of_vectors_keeps_room_not_contents_nor_oversized_ones() {
+        thread_local! {
+            static VECS: Pool<Vec<u64>> = const { Pool::new() };
+        }
+        give_vec(&VECS, 2, Vec::new());
+        give_vec(&VECS, 2, vec![0; KEPT_BUFFER_MAX_BYTES / 8 + 1]);
+        assert_eq!(take_pooled(&VECS), None);
+        give_vec(&VECS, 2, vec![7; 10]);
+        let v = take_vec(&VECS);
+        assert!(v.is_empty() && v.capacity() >= 10);
+        assert_eq!(take_vec(&VECS).capacity(), 0);
     }
 
     /// A pool gives back the last value first and holds at most `max`.

@@ -3,7 +3,7 @@
 
 use evaluate::{AxisStats, IsoReport, ParameterRecovery, Table4};
 use identify::{Observability, StopReason};
-use kinematics::kept::{Pool, give_pooled, take_pooled};
+use kinematics::kept::{Pool, give_vec, take_vec};
 use serde::{Deserialize, Serialize};
 
 /// A stop on a small step or a small cost change with the gradient cosine at the solution
@@ -98,16 +98,14 @@ const RESULT_POOL_SIZE: usize = 4;
 /// An empty error series with room for `len` (one a recycled result gave back, if the thread
 /// has one).
 pub(super) fn error_series(len: usize) -> Vec<[f64; 3]> {
-    let mut v = take_pooled(&ERRORS).unwrap_or_default();
-    v.clear();
+    let mut v = take_vec(&ERRORS);
     v.reserve(len);
     v
 }
 
 /// An empty list of recovery rows (as [`error_series`]).
 pub(super) fn recovery_rows(len: usize) -> Vec<ParameterRecovery> {
-    let mut v = take_pooled(&RECOVERY).unwrap_or_default();
-    v.clear();
+    let mut v = take_vec(&RECOVERY);
     v.reserve(len);
     v
 }
@@ -117,17 +115,9 @@ impl TrialResult {
     /// for its next trial, once the caller has taken what it needs (a campaign's aggregate
     /// does); dropping the result instead stays correct.
     pub fn recycle(self) {
-        let keep = |v: &Vec<[f64; 3]>| kinematics::keep_buffer::<[f64; 3]>(v.capacity());
-        for v in [self.before_mm, self.after_mm] {
-            if keep(&v) {
-                give_pooled(&ERRORS, RESULT_POOL_SIZE, || v);
-            }
-        }
-        let mut rows = self.recovery;
-        if kinematics::keep_buffer::<ParameterRecovery>(rows.capacity()) {
-            rows.clear();
-            give_pooled(&RECOVERY, RESULT_POOL_SIZE, || rows);
-        }
+        give_vec(&ERRORS, RESULT_POOL_SIZE, self.before_mm);
+        give_vec(&ERRORS, RESULT_POOL_SIZE, self.after_mm);
+        give_vec(&RECOVERY, RESULT_POOL_SIZE, self.recovery);
     }
 }
 
