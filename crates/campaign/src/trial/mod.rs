@@ -8,6 +8,7 @@
 //! ([`iso`]); what a trial gives back ([`result`]).
 
 mod context;
+mod eigenvalues;
 mod frames;
 mod hybrid;
 mod iso;

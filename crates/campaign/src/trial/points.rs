@@ -13,6 +13,7 @@ use nalgebra::{DMatrix, DVector, Vector3};
 use virtual_robot::World;
 
 use super::context::Context;
+use super::eigenvalues::symmetric_eigenvalues_into;
 use super::result::FitSummary;
 use crate::error::CampaignError;
 
@@ -183,8 +184,8 @@ fn observability(
 ) -> Option<Observability> {
     let problem = Problem::from_slices(nominal, poses_rad, points_mm, free).ok()?;
     // The normal equations, the scaled matrix and the singular values in this thread's
-    // buffers of the last trial (the same size every trial of a campaign; what still
-    // allocates: nalgebra's copies inside the eigenvalues).
+    // buffers of the last trial (the same size every trial of a campaign); the eigenvalues
+    // on the stack for a minimal set's size (`eigenvalues::FIXED_SIZES`).
     thread_local! {
         static BUFFERS: Kept<ObservabilityBuffers> = const { Kept::new() };
     }
@@ -211,13 +212,10 @@ fn observability(
                 scaled[(i, j)] = a[(i, j)] / (d[i] * d[j]);
             }
         }
-        sv.clear();
-        sv.extend(
-            scaled
-                .symmetric_eigenvalues()
-                .iter()
-                .map(|&l| l.max(0.0).sqrt()),
-        );
+        symmetric_eigenvalues_into(scaled, sv);
+        for l in sv.iter_mut() {
+            *l = l.max(0.0).sqrt();
+        }
         sv.sort_by(|x, y| y.total_cmp(x));
         Observability::from_singular_values(sv, problem.n_poses())
     };
