@@ -87,6 +87,7 @@ impl Covariance {
             covariance,
             std_errors,
             correlation,
+            high_correlations,
             ..
         } = self;
         crate::scratch::give_back_names(parameters);
@@ -96,6 +97,7 @@ impl Covariance {
         crate::scratch::give_back_matrix(covariance);
         crate::scratch::give_back(std_errors);
         crate::scratch::give_back_matrix(correlation);
+        crate::scratch::give_back_correlations(high_correlations);
     }
 
     /// Standard error of the named parameter (display units), if covered.
@@ -379,7 +381,7 @@ fn covariance_on(
     }
     let mut names = crate::scratch::names();
     names.extend(indices.iter().map(|&k| layout.get(k).name));
-    let mut high = Vec::new();
+    let mut high = crate::scratch::correlations();
     for i in 0..r {
         for j in i + 1..r {
             if correlation[(i, j)].abs() > correlation_flag {

@@ -17,7 +17,7 @@ use kinematics::kept::{Pool as Pool2, give_pooled, take_pooled, take_vec};
 use kinematics::{ParamName, Robot, Unit};
 use nalgebra::{DMatrix, DVector};
 
-use crate::{ParamEstimate, TraceEntry};
+use crate::{CorrelatedPair, ParamEstimate, TraceEntry};
 
 /// Buffers a pool keeps at most (a trial's solves hold about ten at once).
 const POOL_SIZE: usize = 24;
@@ -130,7 +130,7 @@ pub(crate) fn give_back_vector(v: DVector<f64>) {
     give(&F64, v.data.into());
 }
 
-/// Robots, names, units, traces and estimates a thread keeps at most, each (what a trial's
+/// Robots, names, units, traces, estimates and correlation lists a thread keeps at most, each (what a trial's
 /// results hold at once: the fit's, the recovery's two solves', their covariances').
 const TYPED_POOL_SIZE: usize = 8;
 
@@ -140,6 +140,7 @@ thread_local! {
     static UNITS: Pool2<Vec<Unit>> = const { Pool2::new() };
     static TRACES: Pool2<Vec<TraceEntry>> = const { Pool2::new() };
     static ESTIMATES: Pool2<Vec<ParamEstimate>> = const { Pool2::new() };
+    static CORRELATIONS: Pool2<Vec<CorrelatedPair>> = const { Pool2::new() };
 }
 
 /// Gives `v` back to `pool` (of [`TYPED_POOL_SIZE`]).
@@ -202,4 +203,14 @@ pub(crate) fn estimates() -> Vec<ParamEstimate> {
 /// Gives a list of estimates back.
 pub(crate) fn give_back_estimates(v: Vec<ParamEstimate>) {
     give_vec(&ESTIMATES, v);
+}
+
+/// An empty list of correlated pairs.
+pub(crate) fn correlations() -> Vec<CorrelatedPair> {
+    take_vec(&CORRELATIONS)
+}
+
+/// Gives a list of correlated pairs back.
+pub(crate) fn give_back_correlations(v: Vec<CorrelatedPair>) {
+    give_vec(&CORRELATIONS, v);
 }

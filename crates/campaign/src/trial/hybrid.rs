@@ -101,8 +101,32 @@ pub(super) fn compensate(
         && calibrate::residual::fixed_point(fit_robot, target, q_rad, ik, model).is_ok()
 }
 
-/// A measured validation pose: its index, commanded joints (rad) and measured point (mm).
-pub(super) type MeasuredPose<'a> = (usize, &'a [f64], Vector3<f64>);
+/// The validation poses the tracker measured: the trial's validation poses and, for each
+/// measured one, its index and measured point (mm).
+#[derive(Clone, Copy)]
+pub(super) struct MeasuredValidation<'a> {
+    /// The validation poses, flat, rad.
+    pub poses_rad: &'a [f64],
+    /// Joints a pose.
+    pub n_joints: usize,
+    /// The measured poses' indices and points, mm.
+    pub measured: &'a [(usize, Vector3<f64>)],
+}
+
+impl<'a> MeasuredValidation<'a> {
+    /// How many poses were measured.
+    pub fn len(&self) -> usize {
+        self.measured.len()
+    }
+
+    /// Each measured pose: its index, commanded joints (rad) and measured point (mm).
+    pub fn iter(&self) -> impl Iterator<Item = (usize, &'a [f64], Vector3<f64>)> + 'a {
+        let (poses, n) = (self.poses_rad, self.n_joints);
+        self.measured
+            .iter()
+            .map(move |&(j, p)| (j, &poses[j * n..(j + 1) * n], p))
+    }
+}
 
 /// What the hybrid's validation gives the trial.
 pub(super) struct HybridValidation {
@@ -132,17 +156,17 @@ impl Hybrid {
         ctx: &Context,
         world: &mut World,
         (fit_robot, val_trig): (&Robot, &PoseTrig),
-        measured: &[MeasuredPose<'_>],
+        measured: MeasuredValidation<'_>,
         geometry_after_mm: &[[f64; 3]],
         trial: u64,
     ) -> Result<HybridValidation, CampaignError> {
         let eval = |source| CampaignError::Evaluate { trial, source };
         let gp = |source| CampaignError::Residual { trial, source };
         // Coverage of the sd on the validation poses' residuals before compensation.
-        let q_deg: Vec<Vec<f64>> = measured.iter().map(|&(_, q, _)| to_deg(q)).collect();
+        let q_deg: Vec<Vec<f64>> = measured.iter().map(|(_, q, _)| to_deg(q)).collect();
         let e: Vec<[f64; 3]> = measured
             .iter()
-            .map(|&(j, _, p)| (p - fit_robot.point_trig(val_trig.pose(j))).into())
+            .map(|(j, _, p)| (p - fit_robot.point_trig(val_trig.pose(j))).into())
             .collect();
         let coverage = held_out(&self.model, &q_deg, &e).map_err(gp)?.coverage();
         let (after_mm, failures, unmeasurable) = super::compensated_errors(

@@ -34,11 +34,15 @@ use points::PointIdentification;
 
 /// The identification of one trial: from one point per pose (the paper's measurement) or
 /// from frames / several targets per pose (`measurement` of the scenario).
+///
+/// Unboxed: one value on a trial's stack (about 1.7 kB), never stored in a collection, and a
+/// box would be the trial's one allocation (issue 43).
+#[allow(clippy::large_enum_variant)]
 enum TrialFit {
     /// A point fit.
-    Points(Box<PointIdentification>),
+    Points(PointIdentification),
     /// A frame or multi-target fit.
-    Frames(Box<FrameIdentification>),
+    Frames(FrameIdentification),
 }
 
 impl TrialFit {
@@ -91,7 +95,7 @@ fn compensated_errors(
     ctx: &Context,
     world: &mut World,
     (fit_robot, val_trig): (&Robot, &PoseTrig),
-    measured: &[hybrid::MeasuredPose<'_>],
+    measured: hybrid::MeasuredValidation<'_>,
     model: Option<&calibrate::residual::ResidualModel>,
     trial: u64,
 ) -> Result<(Vec<[f64; 3]>, usize, usize), CampaignError> {
@@ -102,16 +106,14 @@ fn compensated_errors(
     if !scenario.compensation.enabled {
         let predicted = match model {
             Some(m) => {
-                let q_deg: Vec<Vec<f64>> = measured
-                    .iter()
-                    .map(|&(_, q, _)| hybrid::to_deg(q))
-                    .collect();
+                let q_deg: Vec<Vec<f64>> =
+                    measured.iter().map(|(_, q, _)| hybrid::to_deg(q)).collect();
                 m.predict(&q_deg)
                     .map_err(|source| CampaignError::Residual { trial, source })?
             }
             None => Vec::new(),
         };
-        for (k, &(j, _, p_meas)) in measured.iter().enumerate() {
+        for (k, (j, _, p_meas)) in measured.iter().enumerate() {
             let e = p_meas - fit_robot.point_trig(val_trig.pose(j));
             after.push(if model.is_some() {
                 // One prediction a pose (`predict` returns a row per row asked).
@@ -125,7 +127,7 @@ fn compensated_errors(
     }
     let mut q_c = [0.0; kinematics::MAX_JOINTS];
     let q_c = &mut q_c[..nominal.n_joints()];
-    for &(j, q, _) in measured {
+    for (j, q, _) in measured.iter() {
         let target = identify::compensation_target_trig(nominal, fit_robot, val_trig.pose(j));
         q_c.copy_from_slice(q);
         let reached = match model {
@@ -167,6 +169,8 @@ struct PoseBuffers {
     measured_poses: Vec<f64>,
     /// Their measured points, mm.
     measured_points: Vec<nalgebra::Vector3<f64>>,
+    /// The validation poses measured: index and point, mm ([`hybrid::MeasuredValidation`]).
+    measured_validation: Vec<(usize, nalgebra::Vector3<f64>)>,
     /// Table 4's series ([`evaluate::Table4::from_errors_in`]).
     series: Vec<f64>,
     /// The identification's free set.
@@ -183,6 +187,10 @@ impl PoseBuffers {
             .max(self.series.capacity() * f)
             .max(self.free.capacity() * std::mem::size_of::<usize>())
             .max(self.measured_points.capacity() * std::mem::size_of::<nalgebra::Vector3<f64>>())
+            .max(
+                self.measured_validation.capacity()
+                    * std::mem::size_of::<(usize, nalgebra::Vector3<f64>)>(),
+            )
     }
 }
 
@@ -248,7 +256,7 @@ pub fn run_trial(ctx: &Context, trial: u64) -> Result<TrialResult, CampaignError
     let all_id = &bufs.identification[..];
     // A point fit (the paper's measurement), or a frame / multi-target fit.
     let mut fit = if scenario.measurement.kind == design::Measure::Point {
-        TrialFit::Points(Box::new(points::identify_points(
+        TrialFit::Points(points::identify_points(
             ctx,
             &mut world,
             all_id,
@@ -258,11 +266,9 @@ pub fn run_trial(ctx: &Context, trial: u64) -> Result<TrialResult, CampaignError
                 std::mem::take(&mut bufs.free),
             ),
             trial,
-        )?))
+        )?)
     } else {
-        TrialFit::Frames(Box::new(frames::identify_frames(
-            ctx, &mut world, all_id, trial,
-        )?))
+        TrialFit::Frames(frames::identify_frames(ctx, &mut world, all_id, trial)?)
     };
     let mut unmeasurable = fit.unmeasurable();
     let fit_robot = fit.robot();
@@ -281,21 +287,27 @@ pub fn run_trial(ctx: &Context, trial: u64) -> Result<TrialResult, CampaignError
     // Sines and cosines of the validation poses, once for the four models evaluated there.
     let val_trig = PoseTrig::for_robot(nominal, val);
     let mut before = result::error_series(val.len() / n);
-    let mut measured_val = Vec::with_capacity(val.len() / n);
+    let measured_val = &mut bufs.measured_validation;
+    measured_val.clear();
     for (j, q) in val.chunks_exact(n).enumerate() {
         match world.measure(q) {
             Ok(p) => {
                 before.push(to_arr(p - nominal.point_trig(val_trig.pose(j))));
-                measured_val.push((j, q, p));
+                measured_val.push((j, p));
             }
             Err(_) => unmeasurable += 1,
         }
     }
+    let measured_val = hybrid::MeasuredValidation {
+        poses_rad: val,
+        n_joints: n,
+        measured: &bufs.measured_validation,
+    };
     let (mut after, mut compensation_failures, lost) = compensated_errors(
         ctx,
         &mut world,
         (fit_robot, &val_trig),
-        &measured_val,
+        measured_val,
         None,
         trial,
     )?;
@@ -308,7 +320,7 @@ pub fn run_trial(ctx: &Context, trial: u64) -> Result<TrialResult, CampaignError
                 ctx,
                 &mut world,
                 (fit_robot, &val_trig),
-                &measured_val,
+                measured_val,
                 &after,
                 trial,
             )?;
