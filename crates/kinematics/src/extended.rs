@@ -39,7 +39,7 @@ use crate::params::ExtendedKind;
 /// (`c_j` centres of mass, `ẑ_{i−1}`, `o_{i−1}` axis and origin of joint i, `g = −g ẑ_0`:
 /// gravity along −z of the robot base), N·m. The one implementation of it: the virtual
 /// robot's compliance truth and the compliance parameter family both call it.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Debug, PartialEq)]
 pub struct Gravity {
     /// (mass kg, centre of mass mm in link frame i+1) per joint i.
     links: Vec<(f64, Vector3<f64>)>,
@@ -113,13 +113,74 @@ pub fn expand_family(item: &str, n_joints: usize) -> Vec<String> {
 /// The non-geometric part of an extended model: which parameters, their values, and the
 /// gravity model compliance needs. [`crate::Robot::with_extended`] carries one and evaluates the
 /// chain with it; the weights and offsets below are the one implementation it calls.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Debug, PartialEq)]
 pub struct ExtendedModel {
     kinds: Vec<ExtendedKind>,
     /// Values in internal units (rad/(N·m), rad), in `kinds` order.
     values: Vec<f64>,
     gravity: Option<Gravity>,
     n_joints: usize,
+}
+
+// `clone_from` copies into the vectors the target has (the derived one would allocate new
+// ones): an extended robot refilled by `Robot::clone_from` (a solver's trial point, a
+// campaign's kept robots) allocates nothing. Every field is named, so a new one is a
+// compile error here rather than a stale copy.
+impl Clone for Gravity {
+    fn clone(&self) -> Self {
+        let Gravity {
+            links,
+            payload,
+            gravity_m_per_s2,
+        } = self;
+        Gravity {
+            links: links.clone(),
+            payload: *payload,
+            gravity_m_per_s2: *gravity_m_per_s2,
+        }
+    }
+
+    fn clone_from(&mut self, source: &Self) {
+        let Gravity {
+            links,
+            payload,
+            gravity_m_per_s2,
+        } = source;
+        self.links.clone_from(links);
+        self.payload = *payload;
+        self.gravity_m_per_s2 = *gravity_m_per_s2;
+    }
+}
+
+impl Clone for ExtendedModel {
+    fn clone(&self) -> Self {
+        let ExtendedModel {
+            kinds,
+            values,
+            gravity,
+            n_joints,
+        } = self;
+        ExtendedModel {
+            kinds: kinds.clone(),
+            values: values.clone(),
+            gravity: gravity.clone(),
+            n_joints: *n_joints,
+        }
+    }
+
+    fn clone_from(&mut self, source: &Self) {
+        let ExtendedModel {
+            kinds,
+            values,
+            gravity,
+            n_joints,
+        } = source;
+        self.kinds.clone_from(kinds);
+        self.values.clone_from(values);
+        // (`Option::clone_from` refills a `Some` with `Gravity::clone_from`.)
+        self.gravity.clone_from(gravity);
+        self.n_joints = *n_joints;
+    }
 }
 
 impl ExtendedModel {

@@ -23,6 +23,12 @@ pub use fast::{POSE_LANES, PoseLanes, PoseTrig};
 /// both) plus base and tool.
 pub const MAX_PARAMS: usize = 6 * MAX_JOINTS + 9;
 
+/// Chains of up to this many joints have their Jacobian's condition number
+/// ([`Robot::singularity_condition`]) computed on a fixed-size matrix, without allocating:
+/// serial arms and an arm on a track or two (each size is a copy of nalgebra's SVD in the
+/// binary).
+pub const FIXED_JACOBIAN_JOINTS: usize = 8;
+
 /// Millimetres of a prismatic joint's variable per internal unit.
 ///
 /// A joint vector crosses every interface in per-joint units (degrees for a revolute joint,
@@ -272,7 +278,7 @@ struct Described {
 }
 
 /// The non-geometric part of an extended robot.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Debug, PartialEq)]
 struct ExtendedPart {
     /// Parameters, values (internal units) and the gravity model.
     model: ExtendedModel,
@@ -291,6 +297,56 @@ struct ExtendedPart {
     /// What the weights depend on (parameter kinds, mass model, torque geometry), hashed:
     /// the lane kernels check that the weights of a [`PoseTrig`] are this model's. Never 0.
     fingerprint: u64,
+}
+
+// `clone_from` into the target's vectors and robot (see `Robot`'s): every field named.
+impl Clone for ExtendedPart {
+    fn clone(&self) -> Self {
+        let ExtendedPart {
+            model,
+            torque_robot,
+            first,
+            theta_index,
+            joints,
+            by_joint,
+            fingerprint,
+        } = self;
+        ExtendedPart {
+            model: model.clone(),
+            torque_robot: torque_robot.clone(),
+            first: *first,
+            theta_index: theta_index.clone(),
+            joints: *joints,
+            by_joint: by_joint.clone(),
+            fingerprint: *fingerprint,
+        }
+    }
+
+    fn clone_from(&mut self, source: &Self) {
+        let ExtendedPart {
+            model,
+            torque_robot,
+            first,
+            theta_index,
+            joints,
+            by_joint,
+            fingerprint,
+        } = source;
+        self.model.clone_from(model);
+        self.torque_robot.clone_from(torque_robot);
+        self.first = *first;
+        self.theta_index.clone_from(theta_index);
+        self.joints = *joints;
+        // Element by element: a tuple's `clone_from` would copy its vector anew.
+        self.by_joint.truncate(by_joint.len());
+        let kept = self.by_joint.len();
+        for ((j, ks), (sj, sks)) in self.by_joint.iter_mut().zip(by_joint) {
+            *j = *sj;
+            ks.clone_from(sks);
+        }
+        self.by_joint.extend_from_slice(&by_joint[kept..]);
+        self.fingerprint = *fingerprint;
+    }
 }
 
 impl ExtendedPart {
@@ -1237,20 +1293,34 @@ impl Robot {
     /// Condition number σ_max/σ_min of [`Robot::geometric_jacobian`] for the flange origin
     /// (∞ at a singularity). Pose samplers use it to keep away from singular configurations.
     ///
-    /// A six-joint arm's Jacobian is a fixed-size 6 × 6 matrix (the same SVD on the stack: no
-    /// heap allocation per pose screened, issue 43); other joint counts take the allocating
-    /// [`Robot::geometric_jacobian`].
+    /// The Jacobian of a chain of up to [`FIXED_JACOBIAN_JOINTS`] joints is a fixed-size
+    /// 6 × N matrix (nalgebra's SVD instantiated for that size: the same operations on the
+    /// stack, the same bits, no heap allocation per pose screened, issue 43); longer chains
+    /// take the allocating [`Robot::geometric_jacobian`].
     pub fn singularity_condition(&self, q_rad: &[f64], orientation_scale_mm: f64) -> f64 {
-        let (max, min) = if self.n_joints() == 6 {
-            let entry =
-                self.geometric_jacobian_entries(q_rad, &Vector3::zeros(), orientation_scale_mm);
-            let sv = Matrix6::from_fn(entry).singular_values();
-            (sv.max(), sv.min())
-        } else {
-            let j = self.geometric_jacobian(q_rad, &Vector3::zeros(), orientation_scale_mm);
-            let sv = j.singular_values();
-            (sv.max(), sv.min())
-        };
+        macro_rules! on_the_stack {
+            ($($n:literal)*) => {
+                match self.n_joints() {
+                    $($n => {
+                        let entry = self.geometric_jacobian_entries(
+                            q_rad,
+                            &Vector3::zeros(),
+                            orientation_scale_mm,
+                        );
+                        let sv = nalgebra::SMatrix::<f64, 6, $n>::from_fn(entry).singular_values();
+                        (sv.max(), sv.min())
+                    })*
+                    n => {
+                        debug_assert!(n > FIXED_JACOBIAN_JOINTS, "{n} joints have no arm");
+                        let j =
+                            self.geometric_jacobian(q_rad, &Vector3::zeros(), orientation_scale_mm);
+                        let sv = j.singular_values();
+                        (sv.max(), sv.min())
+                    }
+                }
+            };
+        }
+        let (max, min) = on_the_stack!(1 2 3 4 5 6 7 8);
         if min > 0.0 { max / min } else { f64::INFINITY }
     }
 

@@ -531,3 +531,40 @@ fn pose_trig_dropped_at_thread_exit() {
         .unwrap()
     });
 }
+
+/// `clone_from` (which refills the target's vectors instead of allocating new ones) gives
+/// the source robot, whatever the target was: geometric or extended, with more or fewer
+/// joints, extended parameters or gear harmonics; equal as a value and in its points, bit
+/// for bit. A field left out of a `clone_from` (a stale vector of the last robot) fails it.
+#[test]
+fn a_refilled_robot_is_its_source() {
+    let mut s = 43;
+    let kr = robot("kr1000-titan.json");
+    let track = robot("kr1000-track.json");
+    let (_, kr_ext) = extended_robot("kr1000-titan.json", &mut s);
+    let (_, kr_ext2) = extended_robot("kr1000-titan.json", &mut s);
+    let ur_gears = robot("ur10.json")
+        .with_extended(&["gear_1_h1_sin", "gear_1_h2_cos"], "ur10")
+        .unwrap();
+    let kr_gears = kr
+        .with_extended(&["gear_2_h1_sin", "gear_2_h1_cos", "compliance_3"], "kr")
+        .unwrap();
+    let robots = [kr, track, kr_ext, kr_ext2, ur_gears, kr_gears];
+    for source in &robots {
+        for start in &robots {
+            let mut target = start.clone();
+            target.clone_from(source);
+            assert!(target == *source, "{} over {}", source.name(), start.name());
+            for _ in 0..3 {
+                let q = pose(source, &mut s);
+                assert_eq!(
+                    target.point(&q).map(f64::to_bits),
+                    source.point(&q).map(f64::to_bits),
+                    "{} over {}",
+                    source.name(),
+                    start.name()
+                );
+            }
+        }
+    }
+}

@@ -67,7 +67,13 @@ fn spec_round_trip_preserves_parameters() {
 /// A 7-joint chain with random geometry; twists drawn from {0, ±90°, arbitrary} so that
 /// some joints get a β parameter.
 fn random_chain(u: &[f64]) -> Robot {
-    let joints = (0..7)
+    random_chain_of(7, u)
+}
+
+/// [`random_chain`] with `n` joints (`u`: 6n + 9 draws).
+fn random_chain_of(n: usize, u: &[f64]) -> Robot {
+    let b = &u[6 * n..];
+    let joints = (0..n)
         .map(|i| {
             let w = &u[6 * i..6 * i + 6];
             let alpha_deg = match (w[3] * 4.0) as usize {
@@ -93,17 +99,17 @@ fn random_chain(u: &[f64]) -> Robot {
         })
         .collect();
     let spec = RobotSpec {
-        name: "random 7R".into(),
+        name: format!("random {n}R"),
         joints,
         base: BaseSpec {
-            rx_deg: 40.0 * u[42] - 20.0,
-            ry_deg: 40.0 * u[43] - 20.0,
-            rz_deg: 360.0 * u[44] - 180.0,
-            dx_mm: 2000.0 * u[45] - 1000.0,
-            dy_mm: 2000.0 * u[46] - 1000.0,
-            dz_mm: 500.0 * u[47],
+            rx_deg: 40.0 * b[0] - 20.0,
+            ry_deg: 40.0 * b[1] - 20.0,
+            rz_deg: 360.0 * b[2] - 180.0,
+            dx_mm: 2000.0 * b[3] - 1000.0,
+            dy_mm: 2000.0 * b[4] - 1000.0,
+            dz_mm: 500.0 * b[5],
         },
-        tool_mm: [200.0 * u[48] - 100.0, 200.0 * u[49] - 100.0, 300.0 * u[50]],
+        tool_mm: [200.0 * b[6] - 100.0, 200.0 * b[7] - 100.0, 300.0 * b[8]],
         joint_names: None,
         mass_model: None,
         extended: None,
@@ -505,6 +511,31 @@ fn a_csv_given_as_a_robot_file_is_named_as_such() {
         .unwrap_err()
         .to_string();
     assert!(e.contains("the file is empty"), "{e}");
+}
+
+/// The condition number of every chain length with a fixed-size Jacobian (1 to
+/// `FIXED_JACOBIAN_JOINTS`, nalgebra's SVD instantiated per size) and one beyond it is bit
+/// for bit the SVD of the allocating Jacobian: an arm whose literal mismatched its size, or
+/// another decomposition, fails it.
+#[test]
+fn every_fixed_size_condition_is_the_allocating_svds() {
+    let mut u = Uniform(0x9E37_79B9_7F4A_7C15);
+    for n in 1..=kinematics::FIXED_JACOBIAN_JOINTS + 1 {
+        for k in 0..40 {
+            let r = random_chain_of(n, &u.vec(6 * n + 9));
+            let q = in_limit_pose(&r, &u.vec(n));
+            let sv = r
+                .geometric_jacobian(&q, &Vector3::zeros(), 1000.0)
+                .singular_values();
+            let expected = if sv.min() > 0.0 {
+                sv.max() / sv.min()
+            } else {
+                f64::INFINITY
+            };
+            let got = r.singularity_condition(&q, 1000.0);
+            assert_eq!(got.to_bits(), expected.to_bits(), "{n} joints, pose {k}");
+        }
+    }
 }
 
 /// The six-joint condition number (a fixed-size SVD on the stack, issue 43) is bit for bit
