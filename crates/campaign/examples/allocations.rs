@@ -1,6 +1,7 @@
 //! Heap allocations of a campaign trial (issue 43, item 2): a counting global allocator
-//! around the system's, the paper scenario (or the scenario files given) with and without
-//! the ISO test, 20 trials of warm-up, then the allocations and bytes of 200 trials.
+//! around the system's, the paper scenario (or the scenario files given) without the ISO
+//! test and, where the scenario has it, with it; 20 trials of warm-up, then the allocations
+//! and bytes of 200 trials, in all and a trial.
 //!
 //! `cargo run --release -p campaign --example allocations [-- SCENARIO.json ...]`; the
 //! figures are in `docs/profile.md`.
@@ -51,10 +52,11 @@ fn main() {
             let (a1, b1) = counting::counts();
             let (a, b) = (a1 - a0, b1 - b0);
             println!(
-                "{name}, ISO test {}: {a} allocations and {:.1} kB in {trials} trials after 20 of warm-up ({:.2} a trial)",
+                "{name}, ISO test {}: {a} allocations and {:.1} kB in {trials} trials after 20 of warm-up ({:.2} and {:.2} kB a trial)",
                 if iso { "on" } else { "off" },
                 b as f64 / 1024.0,
                 a as f64 / trials as f64,
+                b as f64 / 1024.0 / trials as f64,
             );
         }
     }

@@ -130,8 +130,9 @@ pub(crate) fn give_back_vector(v: DVector<f64>) {
     give(&F64, v.data.into());
 }
 
-/// Robots, names, units, traces, estimates and correlation lists a thread keeps at most, each (what a trial's
-/// results hold at once: the fit's, the recovery's two solves', their covariances').
+/// Robots, names, units, traces, estimates and correlation lists a thread keeps at most,
+/// each (what a trial's results hold at once: the fit's, the recovery's two solves', their
+/// covariances').
 const TYPED_POOL_SIZE: usize = 8;
 
 thread_local! {

@@ -1320,6 +1320,8 @@ impl Robot {
                 }
             };
         }
+        // The sizes 1..=FIXED_JACOBIAN_JOINTS (keep the list and the constant in step; a
+        // size of the constant without its arm fails the debug assertion and the test).
         let (max, min) = on_the_stack!(1 2 3 4 5 6 7 8);
         if min > 0.0 { max / min } else { f64::INFINITY }
     }

@@ -515,8 +515,9 @@ fn a_csv_given_as_a_robot_file_is_named_as_such() {
 
 /// The condition number of every chain length with a fixed-size Jacobian (1 to
 /// `FIXED_JACOBIAN_JOINTS`, nalgebra's SVD instantiated per size) and one beyond it is bit
-/// for bit the SVD of the allocating Jacobian: an arm whose literal mismatched its size, or
-/// another decomposition, fails it.
+/// for bit the SVD of the allocating Jacobian, on random revolute chains and on the track's
+/// prismatic joint: an arm whose literal mismatched its size, or another decomposition,
+/// fails it.
 #[test]
 fn every_fixed_size_condition_is_the_allocating_svds() {
     let mut u = Uniform(0x9E37_79B9_7F4A_7C15);
@@ -535,6 +536,25 @@ fn every_fixed_size_condition_is_the_allocating_svds() {
             let got = r.singularity_condition(&q, 1000.0);
             assert_eq!(got.to_bits(), expected.to_bits(), "{n} joints, pose {k}");
         }
+    }
+    // A prismatic joint's columns (zeros in the orientation rows): the seven-joint track.
+    let track = Robot::from_file(std::path::Path::new(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../scenarios/robots/kr1000-track.json"
+    )))
+    .unwrap();
+    for k in 0..100 {
+        let q = in_limit_pose(&track, &u.vec(7));
+        let sv = track
+            .geometric_jacobian(&q, &Vector3::zeros(), 1000.0)
+            .singular_values();
+        let expected = if sv.min() > 0.0 {
+            sv.max() / sv.min()
+        } else {
+            f64::INFINITY
+        };
+        let got = track.singularity_condition(&q, 1000.0);
+        assert_eq!(got.to_bits(), expected.to_bits(), "track, pose {k}");
     }
 }
 

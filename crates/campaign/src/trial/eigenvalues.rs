@@ -5,18 +5,21 @@
 //! vectors (five allocations a call, the most of a trial's steady state; issue 43). The same
 //! algorithm instantiated for a compile-time size (`SMatrix<f64, N, N>`) keeps everything on
 //! the stack and performs the same floating-point operations in the same order, so it gives
-//! the same bits ([`tests::the_fixed_sizes_give_the_dynamic_bits`]); a different
+//! the same bits (the test `the_fixed_sizes_give_the_dynamic_bits`); a different
 //! decomposition (or one with a workspace) would change the last bits of O1–O5 in the
 //! committed results.
 //!
-//! Each size is a copy of the algorithm in the binary (about 0.2 s of release build a size),
-//! so only [`FIXED_SIZES`] are instantiated: the minimal sets of serial arms of four to
-//! eight joints (the committed scenarios' are 27 and 30). Other sizes take the dynamic
-//! matrix and allocate.
+//! Each size is a copy of the algorithm in the binary (about 0.2 s of release build a size,
+//! 6 s for the 31), so only [`FIXED_SIZES`] are instantiated: from a small free set up to
+//! the full minimal set of an eight-joint arm (4N + 6 = 38 for N revolute joints measured
+//! by points) and a few to spare; the committed scenarios' are 27 and 30. Other sizes take
+//! the dynamic matrix and allocate.
 
 use nalgebra::{DMatrix, SMatrix};
 
-/// The sizes computed on the stack: a minimal set of 12 to 42 parameters.
+/// The sizes computed on the stack: a minimal set of 12 to 42 parameters (the match arms of
+/// [`symmetric_eigenvalues_into`] list them: keep the two in step; a size here without its
+/// arm fails a debug assertion and the test).
 pub(super) const FIXED_SIZES: std::ops::RangeInclusive<usize> = 12..=42;
 
 /// Writes the eigenvalues of the symmetric matrix `a` (n × n; both triangles read, as

@@ -37,7 +37,10 @@ use points::PointIdentification;
 ///
 /// Unboxed: one value on a trial's stack (about 1.7 kB), never stored in a collection, and a
 /// box would be the trial's one allocation (issue 43).
-#[allow(clippy::large_enum_variant)]
+#[expect(
+    clippy::large_enum_variant,
+    reason = "one value on a trial's stack; a box would be the trial's one allocation"
+)]
 enum TrialFit {
     /// A point fit.
     Points(PointIdentification),
@@ -289,6 +292,8 @@ pub fn run_trial(ctx: &Context, trial: u64) -> Result<TrialResult, CampaignError
     let mut before = result::error_series(val.len() / n);
     let measured_val = &mut bufs.measured_validation;
     measured_val.clear();
+    // (Room for every pose, so that no later trial grows it.)
+    measured_val.reserve(val.len() / n);
     for (j, q) in val.chunks_exact(n).enumerate() {
         match world.measure(q) {
             Ok(p) => {
