@@ -124,19 +124,14 @@ pub struct ExtendedModel {
 
 // `clone_from` copies into the vectors the target has (the derived one would allocate new
 // ones): an extended robot refilled by `Robot::clone_from` (a solver's trial point, a
-// campaign's kept robots) allocates nothing. Every field is named, so a new one is a
-// compile error here rather than a stale copy.
+// campaign's kept robots) allocates nothing. Every field is named in both (a struct literal
+// and a destructuring), so a new one is a compile error here rather than a stale copy.
 impl Clone for Gravity {
     fn clone(&self) -> Self {
-        let Gravity {
-            links,
-            payload,
-            gravity_m_per_s2,
-        } = self;
         Gravity {
-            links: links.clone(),
-            payload: *payload,
-            gravity_m_per_s2: *gravity_m_per_s2,
+            links: self.links.clone(),
+            payload: self.payload,
+            gravity_m_per_s2: self.gravity_m_per_s2,
         }
     }
 
@@ -154,17 +149,11 @@ impl Clone for Gravity {
 
 impl Clone for ExtendedModel {
     fn clone(&self) -> Self {
-        let ExtendedModel {
-            kinds,
-            values,
-            gravity,
-            n_joints,
-        } = self;
         ExtendedModel {
-            kinds: kinds.clone(),
-            values: values.clone(),
-            gravity: gravity.clone(),
-            n_joints: *n_joints,
+            kinds: self.kinds.clone(),
+            values: self.values.clone(),
+            gravity: self.gravity.clone(),
+            n_joints: self.n_joints,
         }
     }
 

@@ -299,26 +299,18 @@ struct ExtendedPart {
     fingerprint: u64,
 }
 
-// `clone_from` into the target's vectors and robot (see `Robot`'s): every field named.
+// `clone_from` into the target's vectors and robot (see `Robot`'s); every field named in
+// both (a struct literal and a destructuring), so a new one is a compile error.
 impl Clone for ExtendedPart {
     fn clone(&self) -> Self {
-        let ExtendedPart {
-            model,
-            torque_robot,
-            first,
-            theta_index,
-            joints,
-            by_joint,
-            fingerprint,
-        } = self;
         ExtendedPart {
-            model: model.clone(),
-            torque_robot: torque_robot.clone(),
-            first: *first,
-            theta_index: theta_index.clone(),
-            joints: *joints,
-            by_joint: by_joint.clone(),
-            fingerprint: *fingerprint,
+            model: self.model.clone(),
+            torque_robot: self.torque_robot.clone(),
+            first: self.first,
+            theta_index: self.theta_index.clone(),
+            joints: self.joints,
+            by_joint: self.by_joint.clone(),
+            fingerprint: self.fingerprint,
         }
     }
 

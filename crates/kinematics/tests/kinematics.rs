@@ -513,6 +513,19 @@ fn a_csv_given_as_a_robot_file_is_named_as_such() {
     assert!(e.contains("the file is empty"), "{e}");
 }
 
+/// σ_max/σ_min of the allocating (dynamic) Jacobian's SVD, ∞ at a singularity: what
+/// `Robot::singularity_condition` computes on a fixed-size matrix.
+fn allocating_condition(r: &Robot, q: &[f64]) -> f64 {
+    let sv = r
+        .geometric_jacobian(q, &Vector3::zeros(), 1000.0)
+        .singular_values();
+    if sv.min() > 0.0 {
+        sv.max() / sv.min()
+    } else {
+        f64::INFINITY
+    }
+}
+
 /// The condition number of every chain length with a fixed-size Jacobian (1 to
 /// `FIXED_JACOBIAN_JOINTS`, nalgebra's SVD instantiated per size) and one beyond it is bit
 /// for bit the SVD of the allocating Jacobian, on random revolute chains and on the track's
@@ -525,14 +538,7 @@ fn every_fixed_size_condition_is_the_allocating_svds() {
         for k in 0..40 {
             let r = random_chain_of(n, &u.vec(6 * n + 9));
             let q = in_limit_pose(&r, &u.vec(n));
-            let sv = r
-                .geometric_jacobian(&q, &Vector3::zeros(), 1000.0)
-                .singular_values();
-            let expected = if sv.min() > 0.0 {
-                sv.max() / sv.min()
-            } else {
-                f64::INFINITY
-            };
+            let expected = allocating_condition(&r, &q);
             let got = r.singularity_condition(&q, 1000.0);
             assert_eq!(got.to_bits(), expected.to_bits(), "{n} joints, pose {k}");
         }
@@ -545,14 +551,7 @@ fn every_fixed_size_condition_is_the_allocating_svds() {
     .unwrap();
     for k in 0..100 {
         let q = in_limit_pose(&track, &u.vec(7));
-        let sv = track
-            .geometric_jacobian(&q, &Vector3::zeros(), 1000.0)
-            .singular_values();
-        let expected = if sv.min() > 0.0 {
-            sv.max() / sv.min()
-        } else {
-            f64::INFINITY
-        };
+        let expected = allocating_condition(&track, &q);
         let got = track.singularity_condition(&q, 1000.0);
         assert_eq!(got.to_bits(), expected.to_bits(), "track, pose {k}");
     }
@@ -571,14 +570,7 @@ fn six_joint_condition_is_the_allocating_svds_and_param_reads_params() {
         if k % 4 == 0 {
             q[4] = 1e-7 * k as f64;
         }
-        let sv = r
-            .geometric_jacobian(&q, &Vector3::zeros(), 1000.0)
-            .singular_values();
-        let expected = if sv.min() > 0.0 {
-            sv.max() / sv.min()
-        } else {
-            f64::INFINITY
-        };
+        let expected = allocating_condition(&r, &q);
         let got = r.singularity_condition(&q, 1000.0);
         assert_eq!(
             got.to_bits(),
