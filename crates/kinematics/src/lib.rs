@@ -40,8 +40,8 @@ pub use params::{
     BETA_ALPHA_TOL_DEG, ExtendedKind, ParamInfo, ParamKind, ParamLayout, ParamName, Unit,
 };
 pub use robot::{
-    FIXED_JACOBIAN_JOINTS, MAX_PARAMS, POSE_LANES, PRISMATIC_SLOT, PoseLanes, PoseTrig, Robot,
-    gram_of_axes, prismatic_internal, prismatic_mm,
+    MAX_PARAMS, POSE_LANES, PRISMATIC_SLOT, PoseLanes, PoseTrig, Robot, gram_of_axes,
+    prismatic_internal, prismatic_mm,
 };
 pub use sampling::PoseSampler;
 pub use trig::joint_sin_cos;

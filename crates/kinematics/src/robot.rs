@@ -23,12 +23,6 @@ pub use fast::{POSE_LANES, PoseLanes, PoseTrig};
 /// both) plus base and tool.
 pub const MAX_PARAMS: usize = 6 * MAX_JOINTS + 9;
 
-/// Chains of up to this many joints have their Jacobian's condition number
-/// ([`Robot::singularity_condition`]) computed on a fixed-size matrix, without allocating:
-/// serial arms and an arm on a track or two (each size is a copy of nalgebra's SVD in the
-/// binary).
-pub const FIXED_JACOBIAN_JOINTS: usize = 8;
-
 /// Millimetres of a prismatic joint's variable per internal unit.
 ///
 /// A joint vector crosses every interface in per-joint units (degrees for a revolute joint,
@@ -1285,36 +1279,17 @@ impl Robot {
     /// Condition number σ_max/σ_min of [`Robot::geometric_jacobian`] for the flange origin
     /// (∞ at a singularity). Pose samplers use it to keep away from singular configurations.
     ///
-    /// The Jacobian of a chain of up to [`FIXED_JACOBIAN_JOINTS`] joints is a fixed-size
-    /// 6 × N matrix (nalgebra's SVD instantiated for that size: the same operations on the
-    /// stack, the same bits, no heap allocation per pose screened, issue 43); longer chains
-    /// take the allocating [`Robot::geometric_jacobian`].
+    /// The singular values of the 6 × N Jacobian on the stack for N in
+    /// `stack_linalg::SVD_COLUMNS` (nalgebra's SVD for that size: the dynamic matrix's bits,
+    /// no heap allocation per pose screened, issue 43); longer chains allocate.
     pub fn singularity_condition(&self, q_rad: &[f64], orientation_scale_mm: f64) -> f64 {
-        macro_rules! on_the_stack {
-            ($($n:literal)*) => {
-                match self.n_joints() {
-                    $($n => {
-                        let entry = self.geometric_jacobian_entries(
-                            q_rad,
-                            &Vector3::zeros(),
-                            orientation_scale_mm,
-                        );
-                        let sv = nalgebra::SMatrix::<f64, 6, $n>::from_fn(entry).singular_values();
-                        (sv.max(), sv.min())
-                    })*
-                    n => {
-                        debug_assert!(n > FIXED_JACOBIAN_JOINTS, "{n} joints have no arm");
-                        let j =
-                            self.geometric_jacobian(q_rad, &Vector3::zeros(), orientation_scale_mm);
-                        let sv = j.singular_values();
-                        (sv.max(), sv.min())
-                    }
-                }
-            };
+        let n = self.n_joints();
+        let entry = self.geometric_jacobian_entries(q_rad, &Vector3::zeros(), orientation_scale_mm);
+        let mut columns = [0.0; 6 * MAX_JOINTS];
+        for (k, v) in columns[..6 * n].iter_mut().enumerate() {
+            *v = entry(k % 6, k / 6);
         }
-        // The sizes 1..=FIXED_JACOBIAN_JOINTS (keep the list and the constant in step; a
-        // size of the constant without its arm fails the debug assertion and the test).
-        let (max, min) = on_the_stack!(1 2 3 4 5 6 7 8);
+        let (max, min) = stack_linalg::singular_value_range_6xn(&columns[..6 * n], n);
         if min > 0.0 { max / min } else { f64::INFINITY }
     }
 

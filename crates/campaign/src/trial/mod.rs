@@ -8,7 +8,6 @@
 //! ([`iso`]); what a trial gives back ([`result`]).
 
 mod context;
-mod eigenvalues;
 mod frames;
 mod hybrid;
 mod iso;

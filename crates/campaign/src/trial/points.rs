@@ -13,7 +13,6 @@ use nalgebra::{DMatrix, DVector, Vector3};
 use virtual_robot::World;
 
 use super::context::Context;
-use super::eigenvalues::symmetric_eigenvalues_into;
 use super::result::FitSummary;
 use crate::error::CampaignError;
 
@@ -185,7 +184,7 @@ fn observability(
     let problem = Problem::from_slices(nominal, poses_rad, points_mm, free).ok()?;
     // The normal equations, the scaled matrix and the singular values in this thread's
     // buffers of the last trial (the same size every trial of a campaign); the eigenvalues
-    // on the stack for a minimal set's size (`eigenvalues::FIXED_SIZES`).
+    // on the stack for a minimal set's size (`stack_linalg::EIGEN_SIZES`).
     thread_local! {
         static BUFFERS: Kept<ObservabilityBuffers> = const { Kept::new() };
     }
@@ -212,7 +211,7 @@ fn observability(
                 scaled[(i, j)] = a[(i, j)] / (d[i] * d[j]);
             }
         }
-        symmetric_eigenvalues_into(scaled, sv);
+        stack_linalg::symmetric_eigenvalues_into(scaled, sv);
         for l in sv.iter_mut() {
             *l = l.max(0.0).sqrt();
         }
