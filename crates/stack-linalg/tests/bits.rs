@@ -1,5 +1,6 @@
 //! The fixed-size decompositions give the dynamic matrices' bits at every size of their
-//! ranges and one on each side (where the dynamic path runs): a mistyped match arm (a
+//! ranges and one beyond (one on each side for the eigenvalues; 0 columns is refused),
+//! where the dynamic path runs: a mistyped match arm (a
 //! literal that is not the matrix's size panics in the fixed-size constructor), a size of a
 //! range left without its arm (a debug assertion), or another algorithm fails these.
 
